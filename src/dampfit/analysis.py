@@ -1,0 +1,310 @@
+"""The main job: :func:`analyze` a free-decay recording into c, k, u₀ with a posterior.
+
+Fixed pipeline (each stage its own module):
+``preprocess`` → ``baselines`` (initial guess, reported) → ``fit`` (least squares) →
+``noise`` (calibration) → ``posterior`` (emcee) → :class:`Analysis` (plain-data summary).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import warnings as _warnings
+from dataclasses import dataclass, field
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import baselines, fit, noise, posterior, preprocess
+from .errors import InputError
+from .recording import Recording
+
+__all__ = ["Analysis", "analyze", "PARAMETER_UNITS"]
+
+#: Unit of every reported parameter.
+PARAMETER_UNITS = {
+    "c": "N s/m", "k": "N/m", "u0": "m", "zeta": "1", "f_n": "Hz",
+    "p": "1/s", "f_d": "Hz", "delta": "1",
+}
+#: A PSD ratio r above this signals residual structure worth a warning.
+R_WARN = 3.0
+
+
+def _version() -> str:
+    try:
+        return metadata.version("dampfit")
+    except metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "unknown"
+
+
+def _check_mass(mass: float | None, mass_sd: float | None) -> tuple[float | None, float]:
+    sd = 0.0 if mass_sd is None else float(mass_sd)
+    if mass is None:
+        if sd:
+            raise InputError("--mass-sd was given without --mass")
+        return None, 0.0
+    m = float(mass)
+    if not np.isfinite(m) or m <= 0:
+        raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
+    if not np.isfinite(sd) or sd < 0:
+        raise InputError(f"mass standard deviation must be ≥ 0 kg, got {mass_sd!r}")
+    if sd > 0.5 * m:
+        raise InputError(f"mass standard deviation {sd:g} kg is more than half the mass {m:g} kg")
+    return m, sd
+
+
+@dataclass
+class Analysis:
+    """Everything :func:`analyze` computed. ``summary()`` is the plain-data view of it."""
+
+    recording: Recording
+    prepared: preprocess.Prepared
+    fit_data: preprocess.FitData
+    least_squares: fit.LeastSquaresResult
+    noise: noise.NoiseModel
+    sampling: posterior.PosteriorResult
+    baselines: dict[str, baselines.BaselineResult | None]
+    mass: float | None
+    mass_sd: float
+    seed: int
+    options: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+
+    # --------------------------------------------------------------- views
+    @property
+    def posterior(self):
+        """The posterior as arviz ``InferenceData``."""
+        return self.sampling.idata
+
+    @property
+    def converged(self) -> bool:
+        """Least squares and posterior both converged."""
+        return bool(self.least_squares.converged and self.sampling.converged)
+
+    def draws(self, name: str) -> np.ndarray:
+        """All posterior draws of one quantity, flattened."""
+        return np.asarray(self.posterior.posterior[name]).ravel()
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON-safe summary (schema in the README)."""
+        rec, prep, fd = self.recording, self.prepared, self.fit_data
+        post = self.posterior.posterior
+        params: dict[str, Any] = {}
+        for name in ("c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta"):
+            params[name] = _param_summary(self.posterior, name) if name in post else None
+        missing = {}
+        if self.mass is None:
+            why = ("no mass given: a free decay identifies only the decay rate p and the "
+                   "frequency f_n; c = 2·m·p and k = m·(2π·f_n)² need the mass (--mass KG)")
+            missing = {"c": why, "k": why}
+        ls = self.least_squares
+        lsd = _ls_physical(ls, self.mass)
+        lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
+        s = self.sampling
+        return _jsonable({
+            "dampfit_version": _version(),
+            "input": {
+                "path": rec.path, "format": rec.format, "sha256": rec.sha256,
+                "n_samples": rec.n_samples, "sample_rate_hz": prep.fs,
+                "duration_s": rec.duration, "timing_jitter": prep.jitter,
+                "axis": prep.axis, "axis_direction": prep.direction,
+                "gravity_removed": rec.gravity_removed, "notes": list(rec.notes),
+            },
+            "window": {"start_s": prep.window[0], "end_s": prep.window[1],
+                       "auto": prep.window_auto,
+                       "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0},
+            "band": {"low_hz": prep.band[0], "high_hz": prep.band[1], "auto": prep.band_auto},
+            "dominant_frequency_hz": prep.f0,
+            "mass": {"value": self.mass, "sd": self.mass_sd if self.mass is not None else None,
+                     "unit": "kg"},
+            "parameters": params,
+            "missing": missing,
+            "least_squares": lsd,
+            "baselines": {k: (v.summary() if v is not None else None)
+                          for k, v in self.baselines.items()},
+            "noise_model": self.noise.summary(),
+            "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
+                    "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
+                    "t0_s": fd.t0},
+            "preprocessing": {"n_stale_dropped": prep.n_stale, "n_clipped": prep.n_clipped,
+                              "n_spikes": prep.n_spikes,
+                              "noise_density": prep.noise_density,
+                              "noise_density_unit": "m/s^2/sqrt(Hz)",
+                              "notes": list(prep.notes)},
+            "diagnostics": {
+                "converged": self.converged,
+                "posterior_converged": s.converged,
+                "max_r_hat": s.max_r_hat, "min_ess_bulk": s.min_ess_bulk,
+                "n_steps": s.n_steps, "burn_in": s.burn_in, "thin": s.thin,
+                "n_walkers": posterior.N_WALKERS,
+                "autocorr_time_steps": [float(x) for x in s.autocorr_time],
+                "acceptance_fraction": s.acceptance,
+                "warnings": list(self.warnings),
+            },
+            "provenance": {"seed": self.seed, "options": self.options,
+                           "python": platform.python_version(), "versions": _versions()},
+        })
+
+    def to_json(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`summary` as JSON to ``path`` (atomically)."""
+        return _atomic_write(Path(path), json.dumps(self.summary(), indent=2) + "\n")
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write the posterior (arviz InferenceData) to a NetCDF file."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".part")
+        self.posterior.to_netcdf(str(tmp), engine="h5netcdf")
+        os.replace(tmp, path)
+        return path
+
+
+# --------------------------------------------------------------------- the job
+def analyze(
+    recording: Recording,
+    mass: float | None = None,
+    mass_sd: float | None = None,
+    *,
+    axis: str = "auto",
+    window: tuple[float, float] | None = None,
+    band: tuple[float, float] | None = None,
+    seed: int = 0,
+    progress: bool = False,
+    max_steps: int = 20000,
+    min_ess: float = 1000.0,
+) -> Analysis:
+    """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
+
+    ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
+    the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
+    (start, end) [s] and ``band`` (low, high) [Hz] override the automatic choices. ``seed``
+    makes the posterior reproducible; ``progress`` shows a progress bar.
+    """
+    if not isinstance(recording, Recording):
+        raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
+    m, sd = _check_mass(mass, mass_sd)
+    warns: list[str] = []
+    prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
+    warns.extend(prep.warnings)
+
+    # baselines on the uniform grid inside the window (also the initial guess)
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    base: dict[str, baselines.BaselineResult | None] = {}
+    for name, fn in (("log_decrement", baselines.log_decrement),
+                     ("envelope_pipeline", baselines.envelope_pipeline)):
+        try:
+            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=m)
+        except InputError as exc:
+            base[name] = None
+            warns.append(f"baseline {name} not computed: {exc}")
+    p0 = _initial_decay_rate(base)
+
+    fd = preprocess.fit_data(prep)
+    ls = fit.least_squares(fd, p0, prep.f0)
+    if not ls.converged:
+        warns.append(f"least squares did not converge ({ls.message})")
+    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)
+    if nm.psd_ratio > R_WARN:
+        warns.append(
+            f"residuals near f0 are {nm.psd_ratio:.1f}x the white-noise level (coloured noise, "
+            "amplitude-dependent damping or a second mode?); intervals were widened to match"
+        )
+    post = posterior.sample(
+        fd, ls, band=prep.band, temper=1.0 / nm.psd_ratio, mass=m, mass_sd=sd, seed=seed,
+        progress=progress, max_steps=max_steps, min_ess=min_ess,
+    )
+    warns.extend(post.warnings)
+    options = {"axis": axis, "window": list(window) if window else None,
+               "band": list(band) if band else None, "max_steps": max_steps,
+               "min_ess": min_ess}
+    return Analysis(
+        recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
+        sampling=post, baselines=base, mass=m, mass_sd=sd, seed=int(seed), options=options,
+        warnings=warns,
+    )
+
+
+# --------------------------------------------------------------------- helpers
+def _initial_decay_rate(base: dict) -> float:
+    for name in ("log_decrement", "envelope_pipeline"):
+        b = base.get(name)
+        if b is not None:
+            p = b.details.get("p_regression", b.p) if name == "log_decrement" else b.p
+            if p is not None and np.isfinite(p) and p > 0:
+                return float(p)
+    return float("nan")
+
+
+def _param_summary(idata, name: str) -> dict[str, Any]:
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        import arviz as az
+
+        x = np.asarray(idata.posterior[name])
+        rhat = float(az.rhat(x)) if x.shape[1] > 4 else float("nan")
+        ess = float(az.ess(x, method="bulk")) if x.shape[1] > 4 else float("nan")
+    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+    return {"unit": PARAMETER_UNITS[name], "mean": float(x.mean()), "sd": float(x.std(ddof=1)),
+            "q05": float(q05), "q50": float(q50), "q95": float(q95),
+            "r_hat": rhat, "ess_bulk": ess}
+
+
+def _ls_physical(ls: fit.LeastSquaresResult, mass: float | None) -> dict[str, Any]:
+    p, wd = ls.p, ls.omega_d
+    wn = float(np.hypot(p, wd))
+    out = {"p": p, "zeta": p / wn, "f_n": wn / (2 * np.pi), "u0": float(ls.u0()),
+           "c": 2 * mass * p if mass is not None else None,
+           "k": mass * wn**2 if mass is not None else None}
+    # 1-σ from the Jacobian covariance, by the delta method in (ln p, ln ω_d)
+    cov = ls.cov[:2, :2]
+    if np.all(np.isfinite(cov)):
+        sd_lnp = float(np.sqrt(cov[0, 0]))
+        out["c_sd"] = out["c"] * sd_lnp if mass is not None else None
+        out["zeta_sd"] = out["zeta"] * sd_lnp
+    return out
+
+
+def _versions() -> dict[str, str]:
+    out = {}
+    for pkg in ("numpy", "scipy", "jax", "optimistix", "emcee", "arviz"):
+        try:
+            out[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            out[pkg] = "missing"
+    return out
+
+
+def _jsonable(obj):
+    """Recursively turn numpy scalars/arrays into JSON-safe Python; non-finite → None."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if np.isfinite(obj) else None
+    return obj
+
+
+def _atomic_write(path: Path, text: str) -> Path:
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 of a file's bytes (provenance)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()

@@ -1,0 +1,132 @@
+r"""Forward model of the viscous free decay, as pure ``jax.numpy`` functions.
+
+Physics
+-------
+For ``m·ü + c·u̇ + k·u = 0`` (seed paper eq. 22 with F = 0) and ζ < 1 the displacement is
+``u(τ) = Re[U·e^{sτ}]`` with the complex pole ``s = −p + iω_d`` (p = c/2m, ω_d = √(k/m − p²)),
+τ = t − t₀ measured from the start of the analysed window. Differentiating twice,
+
+    a(τ) = ü(τ) = Re[s²·U·e^{sτ}] = e^{−pτ}·(A·cos ω_dτ + B·sin ω_dτ),      (M1)
+
+with acceleration quadratures ``A − iB = s²·U``. Because ``|s|² = p² + ω_d² = ω_n²``, the
+displacement envelope amplitude at τ = 0 is
+
+    u₀ = |U| = √(A² + B²) / ω_n²   [m].                                     (M2)
+
+The quadratures enter (M1) linearly, so they are solved for (or marginalised) exactly given
+the two nonlinear parameters θ = (ln p, ln ω_d); the solver and the sampler only see θ.
+
+Nuisance
+--------
+Phone and MEMS accelerometers add a constant bias (or gravity) and a slow bias drift. They
+enter as a Legendre polynomial basis ``P_0..P_d(2τ/T − 1)`` whose coefficients are also
+linear. With ``d ≪ f·T`` the basis is nearly orthogonal to the oscillation.
+
+Every function here is pure and shape-static, so callers jit/vmap them once; nothing here
+touches global JAX configuration (callers enable float64 where they enter, see
+:func:`dampfit.fit.least_squares`).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+import numpy as np
+
+__all__ = [
+    "acceleration",
+    "velocity",
+    "displacement",
+    "drift_basis",
+    "design_matrix",
+    "profile",
+    "log_marginal_likelihood",
+]
+
+
+def acceleration(tau, p, omega_d, a_cos, a_sin):
+    """Acceleration (M1) [m/s²] at times ``tau`` [s] after the window start.
+
+    ``p`` decay rate [1/s], ``omega_d`` damped angular frequency [rad/s],
+    ``a_cos``, ``a_sin`` acceleration quadratures at τ = 0 [m/s²].
+    """
+    ph = omega_d * tau
+    return jnp.exp(-p * tau) * (a_cos * jnp.cos(ph) + a_sin * jnp.sin(ph))
+
+
+def _complex_amplitude(p, omega_d, a_cos, a_sin, power):
+    # a = Re[C e^{sτ}] with C = A − iB; the n-th antiderivative is Re[C s^{-n} e^{sτ}].
+    s = -p + 1j * omega_d
+    return (a_cos - 1j * a_sin) / s**power, s
+
+
+def velocity(tau, p, omega_d, a_cos, a_sin):
+    """Velocity [m/s] of the free decay whose acceleration is (M1)."""
+    cc, s = _complex_amplitude(p, omega_d, a_cos, a_sin, 1)
+    return jnp.real(cc * jnp.exp(s * tau))
+
+
+def displacement(tau, p, omega_d, a_cos, a_sin):
+    """Displacement [m] of the free decay whose acceleration is (M1)."""
+    cc, s = _complex_amplitude(p, omega_d, a_cos, a_sin, 2)
+    return jnp.real(cc * jnp.exp(s * tau))
+
+
+def drift_basis(tau: np.ndarray, degree: int) -> np.ndarray:
+    """Legendre basis ``P_0..P_degree`` on the window, shape (n, degree + 1) [1].
+
+    ``tau`` [s] are the sample times from the window start; the basis is evaluated on
+    x = 2τ/T − 1 ∈ [−1, 1] so its columns are well conditioned.
+    """
+    tau = np.asarray(tau, dtype=float)
+    span = max(float(tau[-1] - tau[0]), 1e-12)
+    x = 2.0 * (tau - tau[0]) / span - 1.0
+    return np.polynomial.legendre.legvander(x, degree)
+
+
+def design_matrix(theta, tau, drift):
+    """Columns ``[e^{−pτ}cos ω_dτ, e^{−pτ}sin ω_dτ, drift…]`` for θ = (ln p, ln ω_d)."""
+    p, omega_d = jnp.exp(theta[0]), jnp.exp(theta[1])
+    env = jnp.exp(-p * tau)
+    ph = omega_d * tau
+    osc = jnp.stack([env * jnp.cos(ph), env * jnp.sin(ph)], axis=1)
+    return jnp.concatenate([osc, drift], axis=1)
+
+
+def profile(theta, tau, y, drift):
+    """Linear least squares of ``y`` [m/s²] on the design matrix at fixed θ.
+
+    Returns ``(beta, rss, logdet, chol)``: the linear coefficients (A, B, drift…), the
+    residual sum of squares [(m/s²)²], ``log det XᵀX`` and the Cholesky factor of ``XᵀX``.
+    The columns are rescaled to unit norm before factorising, which keeps the normal
+    equations well conditioned for any p.
+    """
+    x = design_matrix(theta, tau, drift)
+    scale = jnp.sqrt(jnp.sum(x * x, axis=0))
+    xs = x / scale
+    gram = xs.T @ xs
+    chol = jnp.linalg.cholesky(gram)
+    rhs = xs.T @ y
+    beta_s = jsl.cho_solve((chol, True), rhs)
+    resid = y - xs @ beta_s
+    rss = jnp.sum(resid * resid)
+    logdet = 2.0 * jnp.sum(jnp.log(jnp.diag(chol))) + 2.0 * jnp.sum(jnp.log(scale))
+    return beta_s / scale, rss, logdet, (chol, scale)
+
+
+def log_marginal_likelihood(theta, tau, y, drift, temper):
+    r"""Log likelihood of θ with the linear coefficients and the noise level marginalised.
+
+    With Gaussian noise of unknown σ, flat priors on the q linear coefficients and a
+    Jeffreys prior 1/σ, integrating them out gives (up to a constant)
+
+        ln L(θ) = −½·ln det(XᵀX) − ½·(n − q)·ln RSS(θ).
+
+    ``temper`` = 1/r divides the information by the ratio r of the noise power spectral
+    density at the oscillation frequency to its mean (r = 1 for white noise; see
+    :mod:`dampfit.noise`), which keeps the posterior calibrated for coloured noise and for
+    filtered, decimated samples.
+    """
+    _, rss, logdet, _ = profile(theta, tau, y, drift)
+    n, q = y.shape[0], drift.shape[1] + 2
+    return temper * (-0.5 * logdet - 0.5 * (n - q) * jnp.log(rss))

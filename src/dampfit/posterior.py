@@ -1,0 +1,238 @@
+r"""Posterior of c, k, u₀ (and ζ, f_n) with emcee, diagnosed and stored with arviz.
+
+Model and priors
+----------------
+* Likelihood: the decay model (:mod:`dampfit.model`) with Gaussian noise of unknown σ; the
+  linear coefficients (acceleration quadratures A, B and the drift terms) have flat priors
+  and σ a Jeffreys prior 1/σ, all marginalised analytically
+  (:func:`dampfit.model.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.noise`).
+* Decay rate p [1/s]: log-uniform on [10⁻⁶·ω_d, ω_d] (ζ up to ≈ 0.7).
+* Damped frequency ω_d [rad/s]: log-uniform over the analysis pass band.
+* Mass m [kg]: normal(m, sd) truncated to m > 0, independent of the data — the recording
+  identifies only p and ω_n, so c = 2·m·p and k = m·ω_n² take the mass uncertainty by
+  drawing m for every posterior sample (exact, since m does not enter the likelihood).
+* u₀ [m]: for every posterior sample of θ, (A, B) are drawn from their conditional Gaussian
+  N(β̂(θ), s²·r·(XᵀX)⁻¹) and u₀ = √(A² + B²)/(ω_n²·|G|) (eq. M2, G the filter gain).
+
+Sampling
+--------
+emcee's affine-invariant ensemble (32 walkers) over θ = (ln p, ln ω_d), vectorised: one
+jitted, vmapped JAX call evaluates a half-ensemble. Walkers start in a small ball drawn from
+the least-squares covariance. The chain runs in blocks until (a) its length exceeds 50
+integrated autocorrelation times, (b) arviz's rank-normalised R-hat < 1.01 and (c) the bulk
+effective sample size of every reported quantity exceeds ``min_ess`` — or until
+``max_steps``; then ``converged`` is False and the reason is in ``warnings``.
+"""
+
+from __future__ import annotations
+
+import warnings as _warnings
+from dataclasses import dataclass, field
+
+import emcee
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import model
+from .fit import LeastSquaresResult
+from .preprocess import FitData
+
+with _warnings.catch_warnings():
+    _warnings.simplefilter("ignore", FutureWarning)
+    import arviz as az
+
+__all__ = ["PosteriorResult", "sample", "N_WALKERS"]
+
+N_WALKERS = 32
+PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
+
+
+@dataclass(frozen=True)
+class PosteriorResult:
+    """Posterior draws as arviz ``InferenceData`` plus convergence facts."""
+
+    idata: az.InferenceData
+    converged: bool
+    n_steps: int
+    burn_in: int
+    thin: int
+    autocorr_time: np.ndarray  # integrated autocorrelation time of (ln p, ln ω_d) [steps]
+    acceptance: float
+    max_r_hat: float
+    min_ess_bulk: float
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+
+def _make_log_prob(fd: FitData, band: tuple[float, float], temper: float):
+    tau = jnp.asarray(fd.tau)
+    y = jnp.asarray(fd.y)
+    drift = jnp.asarray(model.drift_basis(fd.tau, fd.drift_degree))
+    lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
+
+    def one(theta):
+        lnp, lnw = theta[0], theta[1]
+        inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(1e-6))
+        ll = model.log_marginal_likelihood(theta, tau, y, drift, temper)
+        return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf)
+
+    batched = jax.jit(jax.vmap(one))
+
+    def log_prob(thetas: np.ndarray) -> np.ndarray:
+        with jax.enable_x64(True):
+            return np.asarray(batched(jnp.asarray(thetas, dtype=jnp.float64)))
+
+    return log_prob
+
+
+def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng) -> np.ndarray:
+    """Draw (A, B) [m/s²] given each θ from N(β̂(θ), s²·r·(XᵀX)⁻¹)."""
+    tau = jnp.asarray(fd.tau)
+    y = jnp.asarray(fd.y)
+    drift = jnp.asarray(model.drift_basis(fd.tau, fd.drift_degree))
+    n, q = fd.y.size, fd.drift_degree + 3
+
+    @jax.jit
+    def mean_and_chol(th):
+        beta, rss, _, (chol, scale) = model.profile(th, tau, y, drift)
+        return beta[:2], rss, chol, scale
+
+    out = np.empty((len(thetas), 2))
+    z = rng.standard_normal((len(thetas), q))
+    with jax.enable_x64(True):
+        beta, rss, chol, scale = jax.vmap(mean_and_chol)(jnp.asarray(thetas))
+        beta, rss, chol, scale = map(np.asarray, (beta, rss, chol, scale))
+    s = np.sqrt(rss / (n - q) / temper)
+    for i in range(len(thetas)):
+        # scaled coefficients have covariance (LLᵀ)⁻¹: draw L⁻ᵀ z, then unscale
+        dev = np.linalg.solve(chol[i].T, z[i]) / scale[i]
+        out[i] = beta[i] + s[i] * dev[:2]
+    return out
+
+
+def _mass_draws(mass: float | None, mass_sd: float, size, rng) -> np.ndarray | None:
+    if mass is None:
+        return None
+    if not mass_sd:
+        return np.full(size, float(mass))
+    draws = rng.normal(mass, mass_sd, size)
+    bad = draws <= 0
+    while bad.any():  # truncate at m > 0
+        draws[bad] = rng.normal(mass, mass_sd, int(bad.sum()))
+        bad = draws <= 0
+    return draws
+
+
+def sample(
+    fd: FitData,
+    ls: LeastSquaresResult,
+    *,
+    band: tuple[float, float],
+    temper: float,
+    mass: float | None = None,
+    mass_sd: float = 0.0,
+    seed: int = 0,
+    min_ess: float = 1000.0,
+    max_steps: int = 20000,
+    block: int = 500,
+    progress: bool = False,
+) -> PosteriorResult:
+    """Sample the posterior; see the module docstring for the model, priors and stopping rule.
+
+    ``temper`` = 1/r; ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
+    """
+    rng = np.random.default_rng(seed)
+    log_prob = _make_log_prob(fd, band, temper)
+    cov = np.asarray(ls.cov[:2, :2]) / temper
+    if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov).min() <= 0:
+        cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
+    start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
+    sampler = emcee.EnsembleSampler(N_WALKERS, 2, log_prob, vectorize=True)
+    state = start
+    warns: list[str] = []
+    bar = _progress(max_steps, progress)
+    steps, tau = 0, np.full(2, np.nan)
+    rhat, ess, converged, reason = np.inf, 0.0, False, ""
+    try:
+        while steps < max_steps:
+            n = min(block, max_steps - steps)
+            state = sampler.run_mcmc(state, n, progress=False)
+            steps += n
+            bar.update(n)
+            tau = sampler.get_autocorr_time(tol=0)
+            if steps < 50 * np.nanmax(tau):
+                reason = f"chain shorter than 50 autocorrelation times ({np.nanmax(tau):.0f} steps)"
+                continue
+            burn, thin = _burn_thin(tau)
+            rhat, ess = _diagnose(sampler.get_chain(discard=burn, thin=thin))
+            if rhat < 1.01 and ess >= min_ess:
+                converged = True
+                break
+            reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
+    finally:
+        bar.close()
+    if not converged:
+        warns.append(f"posterior NOT converged after {steps} steps: {reason}")
+    burn, thin = _burn_thin(tau)
+    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, 2)
+    lp = sampler.get_log_prob(discard=burn, thin=thin)
+    idata = _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng)
+    summ = az.summary(idata, var_names=[v for v in PARAMETERS if v in idata.posterior],
+                      kind="diagnostics", round_to="none")
+    max_rhat = float(summ["r_hat"].max())
+    min_ess = float(summ["ess_bulk"].min())
+    return PosteriorResult(
+        idata=idata, converged=converged, n_steps=steps, burn_in=burn, thin=thin,
+        autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
+        max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns),
+    )
+
+
+def _burn_thin(tau: np.ndarray) -> tuple[int, int]:
+    t = float(np.nanmax(tau)) if np.all(np.isfinite(tau)) else 50.0
+    return int(np.ceil(3 * t)), max(1, int(t / 4))
+
+
+def _diagnose(chain: np.ndarray) -> tuple[float, float]:
+    """Worst R-hat and bulk ESS over (ln p, ln ω_d) of a (draw, walker, 2) chain."""
+    if chain.shape[0] < 8:
+        return np.inf, 0.0
+    x = np.transpose(chain, (1, 0, 2))  # (chain, draw, dim)
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        rh = [float(az.rhat(x[..., i])) for i in range(2)]
+        es = [float(az.ess(x[..., i], method="bulk")) for i in range(2)]
+    return max(rh), min(es)
+
+
+def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> az.InferenceData:
+    n_draw, n_walk, _ = chain.shape
+    flat = chain.reshape(-1, 2)
+    p, wd = np.exp(flat[:, 0]), np.exp(flat[:, 1])
+    ab = _conditional_amplitudes(fd, flat, temper, rng)
+    wn2 = wd**2 + p**2
+    u0 = np.hypot(ab[:, 0], ab[:, 1]) / (wn2 * abs(ls.gain))
+    post = {
+        "p": p, "omega_d": wd, "zeta": p / np.sqrt(wn2), "f_n": np.sqrt(wn2) / (2 * np.pi),
+        "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "u0": u0,
+    }
+    m = _mass_draws(mass, mass_sd, p.size, rng)
+    if m is not None:
+        post.update({"mass": m, "c": 2 * m * p, "k": m * wn2})
+
+    def shape(v):  # emcee: (draw, walker) → arviz: (chain, draw)
+        return v.reshape(n_draw, n_walk).T
+
+    return az.from_dict(
+        posterior={k: shape(v) for k, v in post.items()},
+        sample_stats={"lp": lp.T},
+        attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
+               "likelihood_temper": float(temper)},
+    )
+
+
+def _progress(total: int, enabled: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc="posterior (emcee steps)", unit="step", disable=not enabled,
+                leave=False, dynamic_ncols=True)

@@ -1,0 +1,426 @@
+"""From a raw :class:`~dampfit.recording.Recording` to the samples the decay model is fitted to.
+
+Steps (each one reported in :class:`Prepared` so the user can see what was done):
+
+1. **Stale samples** — a sensor polled faster than its output data rate repeats the previous
+   value (e.g. an ADXL345 at 400 Hz read at 533 Hz). If more than 10 % of consecutive samples
+   repeat exactly on every axis, the repeats are dropped: their true sample time is unknown.
+2. **Offset / gravity** — the per-axis median is subtracted (gravity or bias); the slow drift
+   that remains is modelled later as nuisance terms (:func:`dampfit.model.drift_basis`).
+3. **Uniform grid** — irregular phone timestamps are interpolated (cubic) onto a uniform grid at
+   the median rate, for the spectrum, filters and window detection only. The model itself is
+   fitted at the *recorded* sample times when no decimation is needed.
+4. **Axis** — ``x|y|z`` picks a column; ``auto`` projects the axes on the first principal
+   direction of the band-passed signal (the oscillation direction, whatever the tilt).
+5. **Clipping and impact spikes** — samples at a saturated level and isolated spikes
+   (> 8 robust σ above a running median) are masked, never fitted.
+6. **Spectrum and dominant frequency** — periodogram peak refined by parabolic interpolation.
+7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` (capped below Nyquist), overridable.
+8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
+   the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
+   or rises again (a catch), overridable.
+9. **Fit samples** — if the rate is far above what the band needs, a zero-phase low-pass at the
+   band's upper edge and decimation to ≈2.5× that edge (near-white samples); otherwise the raw
+   samples in the window.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import interpolate, ndimage, signal
+
+from . import filters
+from .errors import InputError
+from .recording import Recording
+
+__all__ = ["Prepared", "FitData", "prepare", "fit_data", "dominant_frequency", "auto_band"]
+
+#: Fraction of exactly repeated samples above which repeats are treated as stale reads.
+STALE_FRACTION = 0.10
+#: Robust z-score above which a sample deviating from its running median is a spike.
+SPIKE_SIGMA = 8.0
+#: Band edges relative to the dominant frequency for the automatic band.
+BAND_FACTOR = 1.5
+#: Fewest oscillation cycles a free-decay window must hold.
+MIN_CYCLES = 3.0
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A recording prepared for analysis. Times [s] are in the recording's time base."""
+
+    time: np.ndarray  # raw sample times [s] (stale samples removed)
+    signal: np.ndarray  # selected axis, offset removed [m/s²]
+    usable: np.ndarray  # bool, False for clipped / spike samples
+    axis: str  # requested axis ("x", "y", "z", "auto", …)
+    direction: dict[str, float]  # weight of each recording axis in the signal
+    fs: float  # median sample rate [Hz]
+    jitter: float  # coefficient of variation of the sample interval [1]
+    grid: np.ndarray  # uniform time grid [s]
+    grid_signal: np.ndarray  # selected signal on the grid [m/s²]
+    grid_raw: np.ndarray  # all axes on the grid, offsets removed, shape (n, n_axes) [m/s²]
+    bandpassed: np.ndarray  # band-passed grid signal [m/s²]
+    envelope: np.ndarray  # Hilbert envelope of the band-passed signal [m/s²]
+    freqs: np.ndarray  # spectrum frequencies [Hz]
+    amplitude: np.ndarray  # single-sided amplitude spectrum [m/s²]
+    f0: float  # dominant frequency [Hz]
+    band: tuple[float, float]  # pass band [Hz]
+    band_auto: bool
+    window: tuple[float, float]  # free-decay window [s]
+    window_auto: bool
+    noise_density: float  # white-noise level near the band, one-sided [(m/s²)/√Hz]
+    noise_floor: float  # envelope level of in-band noise [m/s²]
+    n_stale: int
+    n_clipped: int
+    n_spikes: int
+    notes: tuple[str, ...] = field(default_factory=tuple)
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+
+@dataclass(frozen=True)
+class FitData:
+    """Samples the decay model is fitted to.
+
+    ``tau`` [s] counts from the window start ``t0`` [s]; ``y`` [m/s²]. ``lowpass_sos`` is the
+    zero-phase low-pass applied before decimation (None on the raw path) at rate ``fs_filter``;
+    its complex gain on the decay is divided out of the amplitude.
+    """
+
+    t0: float
+    tau: np.ndarray
+    y: np.ndarray
+    drift_degree: int
+    path: str  # "raw" or "decimated"
+    fs: float  # rate of the fitted samples [Hz] (median for raw)
+    lowpass_sos: np.ndarray | None
+    fs_filter: float
+    n_excluded: int
+
+
+# ----------------------------------------------------------------------------- helpers
+def _stale_mask(accel: np.ndarray) -> np.ndarray:
+    """True for samples identical on every axis to the previous one."""
+    rep = np.zeros(len(accel), dtype=bool)
+    rep[1:] = np.all(accel[1:] == accel[:-1], axis=1)
+    return rep
+
+
+def _to_grid(t: np.ndarray, y: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
+    """Cubic interpolation of ``y`` (n, …) at times ``t`` [s] onto a uniform grid at ``fs`` [Hz]."""
+    n = int(np.floor((t[-1] - t[0]) * fs)) + 1
+    grid = t[0] + np.arange(n) / fs
+    grid = grid[grid <= t[-1]]
+    spline = interpolate.make_interp_spline(t, y, k=3, axis=0) if len(t) > 3 else None
+    yg = spline(grid) if spline is not None else np.interp(grid, t, y)
+    return grid, yg
+
+
+def _parabolic_peak(y: np.ndarray, i: int) -> float:
+    """Sub-bin offset of a peak at ``i`` from a parabola through its neighbours."""
+    if i <= 0 or i >= len(y) - 1:
+        return 0.0
+    a, b, c = y[i - 1], y[i], y[i + 1]
+    den = a - 2 * b + c
+    return 0.0 if den == 0 else float(0.5 * (a - c) / den)
+
+
+def dominant_frequency(
+    y: np.ndarray, fs: float, fmin: float, fmax: float
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Dominant frequency [Hz] of uniformly sampled ``y`` between ``fmin`` and ``fmax`` [Hz].
+
+    Returns ``(f0, freqs, amplitude)``: the Hann-windowed, 4× zero-padded periodogram peak
+    refined by parabolic interpolation of the log power, and the single-sided amplitude
+    spectrum [m/s²] of the unpadded signal for display.
+    """
+    n = len(y)
+    win = signal.windows.hann(n)
+    nfft = int(2 ** np.ceil(np.log2(4 * n)))
+    spec = np.abs(np.fft.rfft((y - y.mean()) * win, nfft))
+    f = np.fft.rfftfreq(nfft, 1.0 / fs)
+    sel = np.flatnonzero((f >= fmin) & (f <= fmax))
+    if sel.size < 3:
+        raise InputError(f"no frequency range to search between {fmin:.3g} and {fmax:.3g} Hz")
+    i = sel[np.argmax(spec[sel])]
+    logp = np.log(spec**2 + 1e-300)
+    f0 = f[i] + _parabolic_peak(logp, i) * (f[1] - f[0])
+    freqs = np.fft.rfftfreq(n, 1.0 / fs)
+    amp = 2.0 * np.abs(np.fft.rfft(y - y.mean())) / n
+    return float(f0), freqs, amp
+
+
+def auto_band(f0: float, fs: float) -> tuple[float, float]:
+    """Default pass band [Hz]: ``[f₀/1.5, 1.5·f₀]``, upper edge capped at 0.45·fs."""
+    hi = min(BAND_FACTOR * f0, 0.45 * fs)
+    lo = f0 / BAND_FACTOR
+    if hi <= f0 * 1.02:
+        raise InputError(
+            f"the dominant frequency {f0:.4g} Hz is too close to the Nyquist frequency "
+            f"{fs / 2:.4g} Hz of this recording; record at a higher sample rate"
+        )
+    return float(lo), float(hi)
+
+
+def _clipped(a: np.ndarray) -> np.ndarray:
+    """True for samples stuck at the extreme value of their axis (saturation)."""
+    out = np.zeros(a.shape[0], dtype=bool)
+    for col in a.T:
+        for level in (col.max(), col.min()):
+            at = np.isclose(col, level, rtol=0, atol=1e-9 * max(1.0, abs(level)))
+            # saturation: the extreme value held on consecutive samples, in two or more runs
+            held = at[1:] & at[:-1]
+            n_runs = int(np.sum(held[1:] & ~held[:-1]) + held[0]) if held.size else 0
+            if n_runs >= 2:
+                out |= at
+    return out
+
+
+def _spikes(y: np.ndarray, fs: float, f0: float) -> np.ndarray:
+    """True for impact spikes: deviations > SPIKE_SIGMA local robust σ from a local cubic.
+
+    The local cubic (Savitzky–Golay over ~1/6 period) follows a well-sampled oscillation;
+    the robust scale (MAD of the deviations over two periods) follows its amplitude, so
+    only isolated outliers stand out. With fewer than 12 samples per period the test
+    would flag the oscillation itself and is skipped.
+    """
+    per = fs / f0
+    if per < 12 or len(y) < 4 * per:
+        return np.zeros(len(y), dtype=bool)
+    k = max(5, int(per / 6) | 1)
+    r = y - signal.savgol_filter(y, k, 3)
+    local = 1.4826 * ndimage.median_filter(np.abs(r), size=int(2 * per) | 1, mode="nearest")
+    scale = np.maximum(local, 1e-3 * np.max(local) + 1e-15)
+    hit = np.abs(r) > SPIKE_SIGMA * scale
+    return ndimage.binary_dilation(hit, iterations=2)
+
+
+def _inpaint_on_grid(grid: np.ndarray, t: np.ndarray, y: np.ndarray, usable: np.ndarray) -> np.ndarray:
+    """``y`` on the grid with unusable samples bridged by linear interpolation (filters only)."""
+    return np.interp(grid, t[usable], y[usable])
+
+
+def _principal_direction(yb: np.ndarray) -> np.ndarray:
+    """Unit vector of the largest variance of band-passed axes ``yb`` (n, n_axes)."""
+    cov = yb.T @ yb
+    w, v = np.linalg.eigh(cov)
+    d = v[:, -1]
+    return d if d[np.argmax(np.abs(d))] > 0 else -d
+
+
+def _noise_density(y: np.ndarray, fs: float, f0: float, band: tuple[float, float]) -> float:
+    """White-noise density [(m/s²)/√Hz] near the band, from the median Welch PSD off the peak."""
+    nper = int(min(len(y), max(256, 8 * fs / band[0])))
+    f, pxx = signal.welch(y, fs=fs, nperseg=nper)
+    lo, hi = band
+    off_peak = np.abs(f - f0) > 0.25 * f0
+    near = off_peak & (f >= lo / 2) & (f <= min(4 * hi, 0.9 * fs / 2))
+    if near.sum() < 5:
+        near = off_peak & (f > 0)
+    return float(np.sqrt(np.median(pxx[near]))) if near.any() else 0.0
+
+
+def _detect_window(
+    grid: np.ndarray, env: np.ndarray, f0: float, floor: float
+) -> tuple[float, float, list[str]]:
+    """Free-decay window [s] from the smoothed envelope; see the module docstring, step 8."""
+    fs = 1.0 / (grid[1] - grid[0])
+    per = max(1, int(round(fs / f0)))
+    sm = ndimage.uniform_filter1d(env, per)
+    edge = min(per, len(sm) // 10)
+    inner = sm[edge : len(sm) - edge] if len(sm) > 2 * edge + 1 else sm
+    i_pk = int(np.argmax(inner)) + (edge if len(sm) > 2 * edge + 1 else 0)
+    notes = []
+    # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck)
+    run_min = np.minimum.accumulate(sm[i_pk:])
+    low = np.flatnonzero(sm[i_pk:] < 3.0 * floor)
+    rise = np.flatnonzero((sm[i_pk:] > 1.5 * run_min) & (sm[i_pk:] > 5.0 * floor))
+    i_end = len(sm) - 1 - edge
+    if low.size:
+        i_end = min(i_end, i_pk + int(low[0]))
+        notes.append("window ends where the decay reaches 3x the noise floor")
+    if rise.size:
+        i_rise = i_pk + int(rise[0]) - per
+        if i_rise < i_end:
+            i_end = i_rise
+            notes.append("window ends before the envelope rises again (catch or new excitation)")
+    return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
+
+
+# ----------------------------------------------------------------------------- public
+def prepare(
+    rec: Recording,
+    axis: str = "auto",
+    window: tuple[float, float] | None = None,
+    band: tuple[float, float] | None = None,
+) -> Prepared:
+    """Run steps 1–8 of the module docstring on ``rec``.
+
+    ``axis`` is ``"auto"`` or an axis name of the recording; ``window`` = (start, end) [s] and
+    ``band`` = (low, high) [Hz] override the automatic choices.
+    """
+    notes: list[str] = []
+    warnings: list[str] = []
+    t, a = rec.time, rec.accel
+    clipped = _clipped(a)  # before dropping repeats: a saturated run repeats exactly
+    stale = _stale_mask(a)
+    n_stale = 0
+    if stale.mean() > STALE_FRACTION:
+        n_stale = int(stale.sum())
+        t, a, clipped = t[~stale], a[~stale], clipped[~stale]
+        notes.append(
+            f"dropped {n_stale} repeated samples ({100 * stale.mean():.0f} %): the sensor was "
+            "polled faster than its output rate"
+        )
+    if len(t) < 16:
+        raise InputError("the recording has too few distinct samples to analyse")
+    fs = float(1.0 / np.median(np.diff(t)))
+    jitter = float(np.std(np.diff(t)) / np.mean(np.diff(t)))
+    a = a - np.median(a, axis=0)
+    if axis != "auto" and axis not in rec.axes:
+        raise InputError(
+            f"axis {axis!r} is not in this recording; it has {', '.join(rec.axes)} (or auto)"
+        )
+
+    grid, graw = _to_grid(t, a, fs)
+    fmin = max(0.1, 4.0 / max(t[-1] - t[0], 1e-9))
+    fmax = 0.45 * fs
+    if band is not None:
+        lo, hi = float(band[0]), float(band[1])
+        filters.bandpass_sos((lo, hi), fs)  # validates the band against Nyquist
+        fmin, fmax = lo, hi
+    if fmin >= fmax:
+        raise InputError(
+            f"the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) is too short to hold an oscillation"
+        )
+
+    # dominant frequency on the axis with the strongest peak, then the axis, then refine
+    detr = signal.detrend(graw, axis=0)
+    f0 = _dominant_multi(detr, fs, fmin, fmax)
+    bnd = (float(band[0]), float(band[1])) if band is not None else auto_band(f0, fs)
+    if axis == "auto":
+        if graw.shape[1] == 1:
+            d = np.ones(1)
+        else:
+            d = _principal_direction(filters.bandpass(detr, fs, bnd))
+    else:
+        d = np.zeros(len(rec.axes))
+        d[rec.axes.index(axis)] = 1.0
+    direction = {name: float(w) for name, w in zip(rec.axes, d)}
+    if axis == "auto" and len(d) > 1:
+        notes.append(
+            "axis auto: projected on the oscillation direction "
+            + ", ".join(f"{k}={v:+.3f}" for k, v in direction.items())
+        )
+    y = a @ d
+    yg = graw @ d
+
+    # refine f0 on the selected signal, then fix the band
+    f0, freqs, amp = dominant_frequency(signal.detrend(yg), fs, *bnd)
+    if band is None:
+        bnd = auto_band(f0, fs)
+
+    spikes = _spikes(y, fs, f0)
+    usable = ~(clipped | spikes)
+    n_clipped, n_spikes = int(clipped.sum()), int((spikes & ~clipped).sum())
+    if n_clipped:
+        warnings.append(f"{n_clipped} samples are clipped (sensor saturation); they are not fitted")
+    if n_spikes:
+        notes.append(f"{n_spikes} samples in impact spikes are masked and not fitted")
+    if usable.sum() < 16:
+        raise InputError("almost every sample is clipped or a spike; nothing left to analyse")
+    if not usable.all():
+        yg = _inpaint_on_grid(grid, t, y, usable)
+    bp = filters.bandpass(yg, fs, bnd)
+    env = np.abs(signal.hilbert(bp))
+
+    nd = _noise_density(signal.detrend(yg), fs, f0, bnd)
+    floor = 1.25 * nd * np.sqrt(bnd[1] - bnd[0])
+    peak_env = float(np.percentile(env, 99))
+    if peak_env < 8.0 * floor or peak_env <= 0:
+        raise InputError(
+            "no free-decay oscillation found: the strongest component "
+            f"({f0:.3g} Hz) is not clearly above the noise; check the axis, band or file"
+        )
+
+    if window is None:
+        w0, w1, wnotes = _detect_window(grid, env, f0, floor)
+        notes.extend(wnotes)
+        guard = max(0.5 / f0, 3.0 / bnd[1])
+        w0 = min(w0 + guard, w1)
+        window_auto = True
+    else:
+        w0, w1 = float(window[0]), float(window[1])
+        if not (w1 > w0):
+            raise InputError(f"window end {w1:g} s must be after its start {w0:g} s")
+        if w0 < t[0] - 1e-9 or w1 > t[-1] + 1e-9:
+            raise InputError(
+                f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
+            )
+        window_auto = False
+    if (w1 - w0) * f0 < MIN_CYCLES:
+        raise InputError(
+            f"the free-decay window {w0:.3f}–{w1:.3f} s holds only {(w1 - w0) * f0:.1f} cycles "
+            f"of {f0:.3g} Hz; at least {MIN_CYCLES:g} are needed (give --window START END?)"
+        )
+    return Prepared(
+        time=t, signal=y, usable=usable, axis=axis, direction=direction, fs=fs, jitter=jitter,
+        grid=grid, grid_signal=yg, grid_raw=graw, bandpassed=bp, envelope=env, freqs=freqs,
+        amplitude=amp, f0=f0, band=bnd, band_auto=band is None, window=(w0, w1),
+        window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
+        n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
+    )
+
+
+def _dominant_multi(detr: np.ndarray, fs: float, fmin: float, fmax: float) -> float:
+    """Dominant frequency of several axes: that of the axis with the strongest peak."""
+    best_f, best_h = 0.0, -1.0
+    for col in detr.T:
+        f0, freqs, amp = dominant_frequency(col, fs, fmin, fmax)
+        sel = (freqs >= fmin) & (freqs <= fmax)
+        height = amp[sel].max() if sel.any() else 0.0
+        if height > best_h:
+            best_f, best_h = f0, height
+    return best_f
+
+
+def fit_data(prep: Prepared) -> FitData:
+    """Step 9 of the module docstring: the samples to fit, on the raw or decimated path."""
+    w0, w1 = prep.window
+    lo, hi = prep.band
+    q = int(np.floor(prep.fs / (2.5 * hi)))
+    span = (w1 - w0) * prep.f0
+    degree = int(np.clip(span / 8.0, 1, 10))
+    if q >= 3:
+        sos = filters.lowpass_sos(hi, prep.fs)
+        yl = filters.lowpass(prep.grid_signal, prep.fs, hi)
+        i0 = int(np.ceil((w0 - prep.grid[0]) * prep.fs))
+        i1 = int(np.floor((w1 - prep.grid[0]) * prep.fs))
+        idx = np.arange(i0, i1 + 1, q)
+        # exclude decimated samples whose filter support touched a masked raw sample
+        bad_t = prep.time[~prep.usable]
+        keep = np.ones(idx.size, dtype=bool)
+        if bad_t.size:
+            reach = 3.0 / hi
+            tg = prep.grid[idx]
+            j = np.searchsorted(bad_t, tg)
+            near_l = np.abs(tg - bad_t[np.clip(j - 1, 0, bad_t.size - 1)]) < reach
+            near_r = np.abs(bad_t[np.clip(j, 0, bad_t.size - 1)] - tg) < reach
+            keep = ~(near_l | near_r)
+        idx_k = idx[keep]
+        tau = prep.grid[idx_k] - w0
+        y = yl[idx_k]
+        path, fs_fit, n_excl = "decimated", prep.fs / q, int((~keep).sum())
+    else:
+        sel = (prep.time >= w0) & (prep.time <= w1)
+        keep = sel & prep.usable
+        tau = prep.time[keep] - w0
+        y = prep.signal[keep]
+        sos, path, fs_fit, n_excl = None, "raw", prep.fs, int((sel & ~prep.usable).sum())
+    if tau.size < 2 * (degree + 3) + 8:
+        raise InputError("the free-decay window holds too few usable samples to fit")
+    return FitData(
+        t0=w0, tau=np.asarray(tau, float), y=np.asarray(y, float), drift_degree=degree,
+        path=path, fs=fs_fit, lowpass_sos=sos, fs_filter=prep.fs, n_excluded=n_excl,
+    )

@@ -1,0 +1,535 @@
+"""Simulated free-decay accelerometer recordings with known truth.
+
+The mass–spring–damper ``m·ü + c·u̇ + k·u = 0`` is released at ``t_r`` from ``u(t_r) = u0``,
+``u̇(t_r) = 0``. With ``τ = t − t_r``, ``p = c/(2m)``, ``ω_n = √(k/m)`` and
+``ω_d = √(ω_n² − p²)`` (underdamped, c < 2√(k·m)) the exact solution is
+
+    u(τ) = u0·e^{−pτ}·(cos ω_d τ + (p/ω_d)·sin ω_d τ) = U·e^{−pτ}·cos(ω_d τ − φ),
+    u̇(τ) = −u0·(ω_n²/ω_d)·e^{−pτ}·sin ω_d τ,
+    ü(τ) = −(c·u̇ + k·u)/m,
+
+with envelope amplitude ``U = u0·ω_n/ω_d`` and phase ``φ = atan(p/ω_d)``. (Derivation: the
+ansatz ``u = e^{−pτ}(A cos ω_d τ + B sin ω_d τ)`` solves the ODE; ``u(0) = u0`` gives
+``A = u0`` and ``u̇(0) = −pA + ω_d B = 0`` gives ``B = p·u0/ω_d``.) It is evaluated exactly at
+the irregular sample times, so jitter and gaps are in the time stamps, not in the physics.
+
+A phone/MEMS recording adds, in the phone frame (axes x, y, z):
+
+* **direction** — the motion runs along the unit vector ``d`` that makes the angle
+  ``tilt_deg`` with ``main_axis``, tilted towards ``azimuth_deg`` (measured from the next
+  axis in cyclic order x→y→z→x towards the one after: for main axis z from x towards y,
+  for y from z towards x, for x from y towards z); ``d`` points vertically *up* and ``u``
+  is positive along ``d``;
+* **hand-held segment** ``0 ≤ t < t_r`` (``t_r = handheld``): the hand slowly pulls the
+  mass from equilibrium to ``u0`` (a cycloidal ramp with zero velocity and acceleration at
+  both ends) and holds it there; hand tremor is a band-limited random acceleration
+  (3–12 Hz, 0.1 m/s² rms per axis);
+* **catch** at ``t_c = t_end − 1.5 s``: a half-sine impact pulse (8 m/s², ~15 ms) opposing
+  the velocity, then the held state (tremor only);
+* **gravity** (phyphox "with g"): the specific force ``+g·d`` [m/s²];
+* **bias** per axis, slow random **drift** (content below f_n/10, zero mean, given rms),
+  white **noise** with σ = noise_density·1e-6·g·√(fs/2) per sample, and finally
+  **quantization** to multiples of the LSB.
+
+Each random ingredient has its own stream spawned from ``seed``, so switching one on or
+off does not change the others.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.metadata
+import json
+import math
+import os
+import re
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+from .physics import critical_damping, from_decay, to_decay
+from .recording import STANDARD_GRAVITY, Recording
+
+__all__ = [
+    "SimulationConfig",
+    "PRESETS",
+    "preset",
+    "from_modal",
+    "free_decay",
+    "simulate",
+    "envelope_at",
+    "write_phyphox_csv",
+    "write_truth",
+    "DIALECTS",
+]
+
+TWO_PI = 2.0 * math.pi
+_AXES = ("x", "y", "z")
+#: Hand-tremor band [Hz] and rms per axis [m/s²].
+_TREMOR_BAND = (3.0, 12.0)
+_TREMOR_RMS = 0.1
+_TREMOR_COMPONENTS = 64
+#: Longest pull from equilibrium to u0 [s]; the pull takes at most 60 % of the hand-held time.
+_PULL_TIME = 2.0
+#: Catch: time before the end [s], pulse peak [m/s²] and shortest pulse width [s].
+_CATCH_BEFORE_END = 1.5
+_CATCH_PEAK = 8.0
+_CATCH_WIDTH = 0.015
+#: Drift content: highest frequency as a fraction of f_n, number of components.
+_DRIFT_FRACTION = 0.1
+_DRIFT_COMPONENTS = 8
+#: Missing samples per gap (inclusive range).
+_GAP_LENGTH = (2, 10)
+_PAPER_K = 5.3 * (TWO_PI * 1.72) ** 2
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """Parameters of one simulated recording; validated on construction (:class:`InputError`).
+
+    Attributes
+    ----------
+    mass : float
+        Oscillating mass [kg].
+    k : float
+        Spring stiffness [N/m] (default: the seed paper's 5.3 kg at 1.72 Hz, ≈ 619 N/m).
+    c : float
+        Viscous damping coefficient [N·s/m]; underdamped, ``0 ≤ c < 2√(k·m)``.
+    u0 : float
+        Displacement at release [m]; the velocity is 0 there.
+    duration : float
+        Total record length [s], hand-held segment included.
+    sample_rate : float
+        Nominal sample rate [Hz].
+    jitter : float
+        Coefficient of variation of the sample interval [1].
+    gaps : int
+        Number of gaps of a few (2–10) missing samples each.
+    noise_density : float
+        White noise density [µg/√Hz], one-sided, independent per axis.
+    bias : float or (float, float, float)
+        Constant offset [m/s²], one for all axes or one per axis (x, y, z); stored as a 3-tuple.
+    drift : float
+        Rms [m/s²] of a slow zero-mean random bias drift per axis (content below f_n/10).
+    quantization : float
+        LSB step [m/s²]; 0 for none.
+    tilt_deg, azimuth_deg : float
+        Angle [deg] between the motion and ``main_axis``, and direction [deg] of that tilt.
+    main_axis : str
+        Phone axis ``"x"``, ``"y"`` or ``"z"`` the motion mostly runs along.
+    gravity : bool
+        Add g along the vertical (phyphox "Acceleration with g" instead of "Linear Acceleration").
+    handheld : float
+        Duration [s] of the hand-held segment before release; the release is at ``t = handheld``.
+    catch : bool
+        End with a catch (impact, then held) 1.5 s before the end.
+    seed : int
+        Seed of all random ingredients.
+    """
+
+    mass: float = 5.3
+    k: float = _PAPER_K
+    c: float = 0.2
+    u0: float = 0.04
+    duration: float = 60.0
+    sample_rate: float = 500.0
+    jitter: float = 0.0
+    gaps: int = 0
+    noise_density: float = 150.0
+    bias: tuple[float, float, float] | float = 0.0
+    drift: float = 0.0
+    quantization: float = 0.0
+    tilt_deg: float = 0.0
+    azimuth_deg: float = 0.0
+    main_axis: str = "y"
+    gravity: bool = False
+    handheld: float = 0.0
+    catch: bool = False
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "k", "sample_rate", "duration"):
+            _require_number(self, name, positive=True)
+        for name in ("c", "u0", "jitter", "noise_density", "drift", "quantization", "handheld"):
+            _require_number(self, name, positive=False)
+        for name in ("tilt_deg", "azimuth_deg"):
+            _require_number(self, name, positive=None)
+        for name in ("gaps", "seed"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 0:
+                raise InputError(
+                    f"simulation option {name} must be a non-negative integer, got {value!r}"
+                )
+        c_crit = float(critical_damping(self.k, self.mass))
+        if self.c >= c_crit:
+            raise InputError(
+                f"c = {self.c:g} N·s/m is critically damped or overdamped (c >= 2*sqrt(k*m) = {c_crit:g} N·s/m); "
+                "a free decay needs c < 2*sqrt(k*m)"
+            )
+        if self.handheld >= self.duration:
+            raise InputError(
+                f"handheld = {self.handheld:g} s leaves no free decay in a {self.duration:g} s recording"
+            )
+        if self.main_axis not in _AXES:
+            raise InputError(f"main_axis must be one of x, y, z, got {self.main_axis!r}")
+        object.__setattr__(self, "bias", _bias_tuple(self.bias))
+        if self.catch and _catch_time(self) <= self.handheld:
+            raise InputError(
+                f"a catch {_CATCH_BEFORE_END:g} s before the end of a {self.duration:g} s recording "
+                f"comes before the release at {self.handheld:g} s; lengthen duration or shorten handheld"
+            )
+
+
+def _require_number(cfg: SimulationConfig, name: str, positive: bool | None) -> None:
+    """Raise unless option ``name`` is a finite real; ``positive`` True → > 0, False → ≥ 0."""
+    value = getattr(cfg, name)
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise InputError(f"simulation option {name} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"simulation option {name} must be finite, got {value!r}")
+    if positive and value <= 0:
+        raise InputError(f"simulation option {name} must be positive, got {value:g}")
+    if positive is False and value < 0:
+        raise InputError(f"simulation option {name} must not be negative, got {value:g}")
+
+
+def _bias_tuple(bias: Any) -> tuple[float, float, float]:
+    """Bias [m/s²] as one float per axis (x, y, z)."""
+    try:
+        values = np.asarray(bias, dtype=float)
+    except (TypeError, ValueError):
+        values = np.array([np.nan])
+    if values.ndim == 0:
+        values = np.full(3, float(values))
+    if values.shape != (3,) or not np.all(np.isfinite(values)):
+        raise InputError(f"bias must be one finite number or three (x, y, z) [m/s²], got {bias!r}")
+    return tuple(float(v) for v in values)
+
+
+def _catch_time(cfg: SimulationConfig) -> float:
+    """Time of the catch [s]."""
+    return cfg.duration - _CATCH_BEFORE_END
+
+
+def _build(**fields: Any) -> SimulationConfig:
+    """A :class:`SimulationConfig`, turning an unknown option into an :class:`InputError`."""
+    known = {f.name for f in dataclasses.fields(SimulationConfig)}
+    unknown = sorted(set(fields) - known)
+    if unknown:
+        raise InputError(
+            f"unknown simulation option(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+        )
+    return SimulationConfig(**fields)
+
+
+def from_modal(mass: float, f_n: float, zeta: float, **kw: Any) -> SimulationConfig:
+    """Config from mass [kg], natural frequency ``f_n`` [Hz] and damping ratio ``zeta`` [1].
+
+    ``k = m·(2π·f_n)²`` [N/m] and ``c = 2·ζ·√(k·m)`` [N·s/m]; ``kw`` sets the other options.
+    """
+    for name, value in (("mass", mass), ("f_n", f_n)):
+        if not (math.isfinite(value) and value > 0):
+            raise InputError(f"{name} must be positive, got {value!r}")
+    if not (math.isfinite(zeta) and 0 <= zeta < 1):
+        raise InputError(f"damping ratio zeta must be in [0, 1) for a free decay, got {zeta!r}")
+    if {"k", "c"} & set(kw):
+        raise InputError("from_modal sets k and c itself; pass f_n and zeta instead")
+    k = mass * (TWO_PI * f_n) ** 2
+    return _build(mass=mass, k=k, c=zeta * float(critical_damping(k, mass)), **kw)
+
+
+#: Named realistic configurations (see :func:`preset`).
+PRESETS: dict[str, SimulationConfig] = {
+    # Seed paper: 5.3 kg on a spring at 1.72 Hz, u0 = 4 cm, c ≈ 0.2 N·s/m, phone at 500 Hz, 60 s.
+    "paper": SimulationConfig(
+        mass=5.3, k=_PAPER_K, c=0.2, u0=0.04, duration=60.0, sample_rate=500.0,
+        jitter=0.01, gaps=0, noise_density=150.0, bias=(0.012, -0.021, 0.034), drift=0.005,
+        quantization=0.0012, tilt_deg=5.0, azimuth_deg=30.0, main_axis="y", gravity=False,
+        handheld=3.0, catch=False, seed=0,
+    ),
+    # A phone lying on a light plate on a soft spring, phyphox "with g" at 100 Hz.
+    "phone": from_modal(
+        0.33, 0.9, 0.01, u0=0.03, duration=45.0, sample_rate=100.0, jitter=0.07, gaps=4,
+        noise_density=250.0, bias=(0.08, -0.12, 0.15), drift=0.02, quantization=0.0024,
+        tilt_deg=12.0, azimuth_deg=60.0, main_axis="z", gravity=True, handheld=4.0,
+        catch=True, seed=0,
+    ),
+}
+
+
+def preset(name: str, **overrides: Any) -> SimulationConfig:
+    """The preset ``name`` from :data:`PRESETS` with ``overrides`` applied (physical k, c stay as set)."""
+    try:
+        base = PRESETS[name]
+    except KeyError:
+        choices = ", ".join(sorted(PRESETS))
+        raise InputError(f"unknown preset {name!r}; choose one of {choices}") from None
+    return _build(**{**dataclasses.asdict(base), **overrides})
+
+
+# -- physics ----------------------------------------------------------------------------
+
+
+def free_decay(
+    tau, mass: float, c: float, k: float, u0: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Displacement [m], velocity [m/s] and acceleration [m/s²] of the free decay.
+
+    ``tau`` [s] is the time since release from ``u0`` [m] at rest; ``mass`` [kg], ``c`` [N·s/m],
+    ``k`` [N/m]. Closed form of the module docstring.
+    """
+    p, omega_d = (float(x) for x in to_decay(c, k, mass))
+    tau = np.asarray(tau, dtype=float)
+    decay = np.exp(-p * tau)
+    cos, sin = np.cos(omega_d * tau), np.sin(omega_d * tau)
+    u = u0 * decay * (cos + (p / omega_d) * sin)
+    v = -u0 * ((p**2 + omega_d**2) / omega_d) * decay * sin
+    return u, v, -(c * v + k * u) / mass
+
+
+def _direction(cfg: SimulationConfig) -> np.ndarray:
+    """Unit vector (x, y, z) of the motion in the phone frame."""
+    i = _AXES.index(cfg.main_axis)
+    tilt, az = math.radians(cfg.tilt_deg), math.radians(cfg.azimuth_deg)
+    d = np.zeros(3)
+    d[i] = math.cos(tilt)
+    d[(i + 1) % 3] = math.sin(tilt) * math.cos(az)
+    d[(i + 2) % 3] = math.sin(tilt) * math.sin(az)
+    return d
+
+
+def _noise_sigma(cfg: SimulationConfig) -> float:
+    """White-noise standard deviation per sample [m/s²]."""
+    return cfg.noise_density * 1e-6 * STANDARD_GRAVITY * math.sqrt(cfg.sample_rate / 2.0)
+
+
+def _truth(cfg: SimulationConfig, t_catch: float | None, direction: np.ndarray) -> dict[str, Any]:
+    """JSON-safe truth of ``cfg``."""
+    p, omega_d = to_decay(cfg.c, cfg.k, cfg.mass)
+    with np.errstate(divide="ignore"):  # Q = 1/(2ζ) is infinite for c = 0; it is not reported
+        derived = {name: float(v) for name, v in from_decay(p, omega_d, cfg.mass).items()}
+    config = {k: v.item() if isinstance(v, np.generic) else v for k, v in dataclasses.asdict(cfg).items()}
+    config["bias"] = list(cfg.bias)
+    return {
+        "mass": float(cfg.mass),
+        "c": float(cfg.c),
+        "k": float(cfg.k),
+        "u0": float(cfg.u0),
+        "zeta": derived["zeta"],
+        "f_n": derived["f_n"],
+        "f_d": derived["f_d"],
+        "p": derived["p"],
+        "omega_n": derived["omega_n"],
+        "omega_d": float(omega_d),
+        "delta": derived["delta"],
+        "envelope_amplitude": float(cfg.u0 * derived["omega_n"] / omega_d),
+        "phase": float(math.atan2(derived["p"], omega_d)),
+        "t_release": float(cfg.handheld),
+        "t_catch": t_catch,
+        "direction": [float(x) for x in direction],
+        "noise_sigma": _noise_sigma(cfg),
+        "config": config,
+        "dampfit_version": _version(),
+    }
+
+
+def _version() -> str:
+    """Installed dampfit version, or ``"unknown"``."""
+    try:
+        return importlib.metadata.version("dampfit")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def envelope_at(truth: dict[str, Any], t) -> float | np.ndarray:
+    """Displacement envelope ``U·e^{−p(t − t_release)}`` [m] at time ``t`` [s] (valid between release and catch)."""
+    elapsed = np.asarray(t, dtype=float) - truth["t_release"]
+    env = truth["envelope_amplitude"] * np.exp(-truth["p"] * elapsed)
+    return float(env) if np.ndim(env) == 0 else env
+
+
+# -- random ingredients -------------------------------------------------------------------
+
+
+def _sample_times(rng: np.random.Generator, cfg: SimulationConfig) -> np.ndarray:
+    """Sample times [s] from 0 to before ``duration`` with jittered intervals."""
+    dt0 = 1.0 / cfg.sample_rate
+    n = int(math.ceil(cfg.duration * cfg.sample_rate)) + 1
+    if cfg.jitter == 0:
+        t = np.arange(n) * dt0
+    else:
+        chunks, total = [], 0.0
+        while total < cfg.duration:
+            dt = np.maximum(dt0 * (1.0 + cfg.jitter * rng.standard_normal(n)), 0.2 * dt0)
+            chunks.append(dt)
+            total += float(dt.sum())
+        t = np.concatenate([[0.0], np.cumsum(np.concatenate(chunks))])
+    return t[t < cfg.duration - 1e-6 * dt0]
+
+
+def _remove_gaps(rng: np.random.Generator, t: np.ndarray, gaps: int) -> np.ndarray:
+    """``t`` [s] with ``gaps`` runs of a few samples removed (never the first or last ones)."""
+    if gaps == 0:
+        return t
+    lo, hi = _GAP_LENGTH
+    if gaps * (hi + 1) > t.size // 2:
+        raise InputError(f"{gaps} gaps do not fit into a recording of {t.size} samples")
+    starts = rng.choice(np.arange(1, t.size - hi - 1), size=gaps, replace=False)
+    keep = np.ones(t.size, dtype=bool)
+    for start, length in zip(starts, rng.integers(lo, hi + 1, size=gaps)):
+        keep[start : start + length] = False
+    return t[keep]
+
+
+def _band_limited(
+    rng: np.random.Generator, t: np.ndarray, band: tuple[float, float], rms: float, n_components: int
+) -> np.ndarray:
+    """Random zero-mean signal of shape (len(t), 3) with content in ``band`` [Hz] and exact ``rms`` per column.
+
+    A sum of sinusoids at random frequencies in ``band`` with Gaussian amplitudes, evaluated at
+    the (irregular) times ``t`` [s].
+    """
+    if t.size == 0 or rms == 0:
+        return np.zeros((t.size, 3))
+    freq = rng.uniform(band[0], band[1], size=(n_components, 3))
+    phase = rng.uniform(0.0, TWO_PI, size=(n_components, 3))
+    amp = rng.standard_normal((n_components, 3))
+    x = np.einsum("kj,nkj->nj", amp, np.cos(TWO_PI * freq[None] * t[:, None, None] + phase[None]))
+    x -= x.mean(axis=0)
+    scale = np.sqrt(np.mean(x**2, axis=0))
+    return x * np.where(scale > 0, rms / np.where(scale > 0, scale, 1.0), 0.0)
+
+
+def _pull(t: np.ndarray, cfg: SimulationConfig) -> np.ndarray:
+    """Acceleration [m/s²] of the slow cycloidal pull from 0 to ``u0`` during the hand-held segment.
+
+    ``u = u0·(x − sin(2πx)/(2π))``, ``x = (t − t0)/T`` on [0, 1], so ``ü = 2π·u0/T²·sin(2πx)``.
+    """
+    duration = min(_PULL_TIME, 0.6 * cfg.handheld)
+    start = 0.2 * cfg.handheld
+    x = (t - start) / duration
+    inside = (x >= 0) & (x <= 1)
+    return np.where(inside, TWO_PI * cfg.u0 / duration**2 * np.sin(TWO_PI * x), 0.0)
+
+
+def _catch_pulse(t: np.ndarray, t_catch: float, cfg: SimulationConfig, sign: float) -> np.ndarray:
+    """Half-sine impact acceleration [m/s²] starting at ``t_catch`` [s]."""
+    width = max(_CATCH_WIDTH, 3.5 / cfg.sample_rate)
+    x = (t - t_catch) / width
+    return np.where((x >= 0) & (x <= 1), sign * _CATCH_PEAK * np.sin(math.pi * x), 0.0)
+
+
+# -- simulator -----------------------------------------------------------------------------
+
+
+def simulate(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
+    """A simulated recording (axes x, y, z [m/s²]) and its JSON-safe truth dict for ``config``."""
+    if not isinstance(config, SimulationConfig):
+        raise InputError(f"simulate needs a SimulationConfig, got {type(config).__name__}")
+    cfg = config
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(5)]
+    rng_time, rng_gaps, rng_tremor, rng_drift, rng_noise = streams
+
+    t = _remove_gaps(rng_gaps, _sample_times(rng_time, cfg), cfg.gaps)
+    t_release = cfg.handheld
+    t_catch = _catch_time(cfg) if cfg.catch else None
+    end_free = t_catch if t_catch is not None else math.inf
+    free = (t >= t_release) & (t < end_free)
+    held = ~free
+
+    # acceleration along the motion direction
+    along = np.zeros(t.size)
+    along[free] = free_decay(t[free] - t_release, cfg.mass, cfg.c, cfg.k, cfg.u0)[2]
+    if t_release > 0:
+        before = t < t_release
+        along[before] = _pull(t[before], cfg)
+    if t_catch is not None:
+        v_catch = free_decay(t_catch - t_release, cfg.mass, cfg.c, cfg.k, cfg.u0)[1]
+        along += _catch_pulse(t, t_catch, cfg, sign=-1.0 if v_catch >= 0 else 1.0)
+
+    direction = _direction(cfg)
+    accel = along[:, None] * direction[None, :]
+    accel[held] += _band_limited(rng_tremor, t[held], _TREMOR_BAND, _TREMOR_RMS, _TREMOR_COMPONENTS)
+    if cfg.gravity:
+        accel += STANDARD_GRAVITY * direction
+    accel += np.asarray(cfg.bias)
+    f_n = math.sqrt(cfg.k / cfg.mass) / TWO_PI
+    f_drift = _DRIFT_FRACTION * f_n
+    accel += _band_limited(rng_drift, t, (f_drift / 50.0, f_drift), cfg.drift, _DRIFT_COMPONENTS)
+    accel += _noise_sigma(cfg) * rng_noise.standard_normal(accel.shape)
+    if cfg.quantization > 0:
+        accel = np.round(accel / cfg.quantization) * cfg.quantization
+
+    recording = Recording(
+        time=t,
+        accel=accel,
+        axes=_AXES,
+        format="simulated",
+        gravity_removed=not cfg.gravity,
+        notes=(
+            f"simulated free decay: m = {cfg.mass:g} kg, c = {cfg.c:g} N·s/m, k = {cfg.k:g} N/m, "
+            f"u0 = {cfg.u0:g} m, seed {cfg.seed}",
+        ),
+    )
+    return recording, _truth(cfg, t_catch, direction)
+
+
+# -- writers --------------------------------------------------------------------------------
+
+#: CSV dialects of phyphox's export: separator and decimal mark.
+DIALECTS: dict[str, tuple[str, str]] = {"comma": (",", "."), "tab": ("\t", "."), "semicolon": (";", ",")}
+_EXPONENT = re.compile(r"E\+?(-?)0*(\d)")
+
+
+def _atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` to ``path`` via a temporary file in the same directory and ``os.replace``."""
+    path = Path(path)
+    if not path.parent.is_dir():
+        raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _phyphox_numbers(values: np.ndarray, sep: str, decimal: str) -> str:
+    """Rows of ``values`` in phyphox's number format (``0.000000000E0``), one line per row."""
+    values = np.asarray(values, dtype=float) + 0.0  # turns −0.0 into 0.0
+    row = sep.join(["%.9E"] * values.shape[1]) + "\n"
+    text = _EXPONENT.sub(r"E\1\2", (row * values.shape[0]) % tuple(values.ravel().tolist()))
+    return text.replace(".", decimal) if decimal != "." else text
+
+
+def write_phyphox_csv(recording: Recording, path: str | os.PathLike, dialect: str = "comma") -> Path:
+    """Write ``recording`` like phyphox's CSV export of the accelerometer; returns the path.
+
+    ``dialect``: ``"comma"`` (comma, decimal point), ``"tab"`` (tab, decimal point) or
+    ``"semicolon"`` (semicolon, decimal comma). Columns: time [s], x, y, z and absolute
+    acceleration [m/s²]; "Linear Acceleration" when ``recording.gravity_removed`` is True.
+    """
+    try:
+        sep, decimal = DIALECTS[dialect]
+    except KeyError:
+        choices = ", ".join(DIALECTS)
+        raise InputError(f"unknown CSV dialect {dialect!r}; choose one of {choices}") from None
+    xyz = np.column_stack([recording.axis(name) for name in _AXES])
+    label = "Linear Acceleration" if recording.gravity_removed else "Acceleration"
+    names = ["Time (s)", *(f"{label} {a} (m/s^2)" for a in _AXES), "Absolute acceleration (m/s^2)"]
+    header = sep.join(f'"{n}"' for n in names) + "\n"
+    table = np.column_stack([recording.time, xyz, np.sqrt(np.sum(xyz**2, axis=1))])
+    return _atomic_write_text(path, header + _phyphox_numbers(table, sep, decimal))
+
+
+def write_truth(truth: dict[str, Any], path: str | os.PathLike) -> Path:
+    """Write the truth dict of :func:`simulate` as JSON (indent 2); returns the path."""
+    return _atomic_write_text(path, json.dumps(truth, indent=2, allow_nan=False) + "\n")
