@@ -170,7 +170,7 @@ def test_phyphox_xlsx(tmp_path, linear):
     assert rec.format == "phyphox-xlsx" == detect_format(path)
     assert rec.gravity_removed is linear and rec.axes == ("x", "y", "z")
     np.testing.assert_allclose(rec.accel, accel, rtol=1e-12)
-    assert read(path, sheet=1).format == "phyphox-xlsx"
+    assert read(path, sheet=1).format == "phyphox-xlsx" == read(path, sheet="1").format
     assert read(path, sheet="Raw Data").n_samples == N
     with pytest.raises(InputError, match=r"no sheet 'Nope'; sheets: 'Metadata Device', 'Raw Data'"):
         read(path, sheet="Nope")
@@ -309,6 +309,30 @@ def test_irregular_time_and_repeated_values_are_kept(tmp_path):
     rec = read(_write(tmp_path / "a.csv", _table_text("time,acc", [t, a])))
     np.testing.assert_allclose(rec.time, t)
     np.testing.assert_allclose(rec.accel[:, 0], a)
+
+
+def test_trailing_delimiters_do_not_shift_columns(tmp_path):
+    t, accel = _signal()
+    text = _table_text("time,acc", [t, accel[:, 1]]).replace("\n", ",\n")
+    rec = read(_write(tmp_path / "trailing.csv", "time,acc\n" + text.split("\n", 1)[1]))
+    np.testing.assert_allclose(rec.time, t)
+    np.testing.assert_allclose(rec.accel[:, 0], accel[:, 1])
+
+
+def test_whitespace_separated_with_header(tmp_path):
+    t, accel = _signal()
+    rec = read(_write(tmp_path / "log.dat", _table_text("time  ax  ay  az", [t, *accel.T], sep="   ")))
+    assert rec.format == "generic-csv" and rec.axes == ("x", "y", "z")
+    np.testing.assert_allclose(rec.accel, accel)
+
+
+def test_sensor_logger_zip(tmp_path):
+    t, accel = _signal()
+    acc = _table_text("time,seconds_elapsed,z,y,x", [np.arange(N) * 10**7, t, *accel.T[::-1]])
+    gyro = _table_text("time,seconds_elapsed,z,y,x", [np.arange(N) * 10**7, t, *accel.T])
+    rec = read(_zip(tmp_path / "sl.zip", {"Gyroscope.csv": gyro, "Accelerometer.csv": acc, "Metadata.csv": "a,b\n1,2\n"}))
+    assert rec.format == "sensor-logger" and rec.gravity_removed is True
+    np.testing.assert_allclose(rec.accel, accel)
 
 
 def test_adxl345_like_micros_g_with_bom(tmp_path):

@@ -294,7 +294,7 @@ def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> _
     if data.startswith(_ZIP_MAGICS):
         return _container_table(data, path.name, ext, opts, nrows)
     if data.startswith(_OLE_MAGIC) or ext == ".xls":
-        return _xls_table(data, path.name, opts, nrows)
+        return _xls_table(data, opts, nrows)
     if ext not in _TEXT_EXTS:
         raise InputError(f"is not a valid {ext} file (corrupt, truncated or wrongly named)")
     return _text_table(_decode(data), path.name, "text", nrows)
@@ -416,6 +416,7 @@ def _text_table(text: str, name: str, source: str, nrows: int | None) -> _Table:
             decimal=dialect.decimal,
             header=0 if dialect.header else None,
             skipinitialspace=True,
+            index_col=False,
             nrows=nrows,
             engine="c",
         )
@@ -445,12 +446,14 @@ def _container_table(data: bytes, name: str, ext: str, opts: _Options, nrows: in
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
             members = zf.namelist()
             if "[Content_Types].xml" in members and any(m.startswith("xl/") for m in members):
-                return _xlsx_table(data, name, opts, nrows)
+                return _xlsx_table(data, opts, nrows)
             if ext == ".npz" or (members and all(m.endswith(".npy") for m in members)):
                 return _npz_table(data, name)
             return _zip_table(zf, nrows)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError):
         raise InputError(f"is not a valid {ext or 'zip'} archive (corrupt or truncated); export it again") from None
+    except (NotImplementedError, RuntimeError) as exc:  # unsupported compression, encryption
+        raise InputError(f"cannot be unpacked ({' '.join(str(exc).split())}); export it again without a password") from None
 
 
 def _zip_table(zf: zipfile.ZipFile, nrows: int | None) -> _Table:
@@ -511,6 +514,8 @@ def _choose_sheet(names: list[str], opts: _Options, parse) -> str:
                 return names[opts.sheet]
         elif str(opts.sheet) in names:
             return str(opts.sheet)
+        elif str(opts.sheet).strip().isdigit() and int(opts.sheet) < len(names):
+            return names[int(opts.sheet)]
         listing = ", ".join(repr(n) for n in names)
         raise InputError(f"has no sheet {opts.sheet!r}; sheets: {listing}")
     by_name = {n.strip().lower(): n for n in names}
@@ -526,7 +531,7 @@ def _choose_sheet(names: list[str], opts: _Options, parse) -> str:
     raise InputError(f"has no single acceleration sheet (sheets: {listing}); choose one with --sheet")
 
 
-def _excel_table(data: bytes, name: str, opts: _Options, nrows: int | None, engine: str) -> _Table:
+def _excel_table(data: bytes, opts: _Options, nrows: int | None, engine: str) -> _Table:
     """A worksheet of an Excel workbook as a table (header row = column names)."""
     book = pd.ExcelFile(io.BytesIO(data), engine=engine)
 
@@ -548,17 +553,19 @@ def _excel_table(data: bytes, name: str, opts: _Options, nrows: int | None, engi
     return table
 
 
-def _xlsx_table(data: bytes, name: str, opts: _Options, nrows: int | None) -> _Table:
+def _xlsx_table(data: bytes, opts: _Options, nrows: int | None) -> _Table:
     """An .xlsx workbook via openpyxl."""
     from openpyxl.utils.exceptions import InvalidFileException
 
     try:
-        return _excel_table(data, name, opts, nrows, "openpyxl")
-    except (zipfile.BadZipFile, InvalidFileException, KeyError, OSError, EOFError) as exc:
+        return _excel_table(data, opts, nrows, "openpyxl")
+    except InputError:
+        raise
+    except (zipfile.BadZipFile, InvalidFileException, KeyError, ValueError, OSError, EOFError) as exc:
         raise InputError(f"is not a readable xlsx workbook ({type(exc).__name__}); export it again") from None
 
 
-def _xls_table(data: bytes, name: str, opts: _Options, nrows: int | None) -> _Table:
+def _xls_table(data: bytes, opts: _Options, nrows: int | None) -> _Table:
     """A legacy .xls workbook; needs the optional xlrd package."""
     try:
         import xlrd  # noqa: F401
@@ -567,7 +574,9 @@ def _xls_table(data: bytes, name: str, opts: _Options, nrows: int | None) -> _Ta
             "is a legacy .xls workbook, which needs the xlrd package; export as .xlsx or CSV instead"
         ) from None
     try:
-        return _excel_table(data, name, opts, nrows, "xlrd")
+        return _excel_table(data, opts, nrows, "xlrd")
+    except InputError:
+        raise
     except (ValueError, KeyError, OSError, EOFError) as exc:
         raise InputError(f"is not a readable .xls workbook ({type(exc).__name__})") from None
 
@@ -620,9 +629,10 @@ def _npz_table(data: bytes, name: str) -> _Table:
     """An .npz archive: named arrays (t/time, a/acc/x/y/z…) or the first two arrays."""
     with _load_numpy(data, ".npz") as npz:
         try:
-            arrays = {key: _numeric_array(npz[key], f"array {key!r}") for key in npz.files}
-        except (ValueError, OSError, zipfile.BadZipFile) as exc:
+            loaded = {key: npz[key] for key in npz.files}
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile) as exc:
             raise InputError(f"has an unreadable array ({' '.join(str(exc).split())})") from None
+    arrays = {key: _numeric_array(arr, f"array {key!r}") for key, arr in loaded.items()}
     if not arrays:
         raise InputError("is an .npz archive without arrays")
     if len(arrays) == 1:
@@ -923,7 +933,10 @@ def _infer_accel_unit(block: np.ndarray, default: str) -> tuple[str, str]:
     peak = float(np.abs(finite).max())
     override = "; pass --accel-unit to override"
     if peak > _MAX_G or float(np.abs(mean).max()) > 2.0:
-        return "m/s2", f"acceleration unit not given; assumed m/s² (peak {peak:.3g} is too large for g){override}"
+        return "m/s2", (
+            f"acceleration unit not given; assumed m/s² (mean {float(np.abs(mean).max()):.3g}, "
+            f"peak {peak:.3g}: too large for g){override}"
+        )
     if finite.shape[1] >= 3 and 0.7 <= float(np.linalg.norm(mean)) <= 1.3:
         return "g", f"acceleration unit not given; assumed g (the mean vector has magnitude {np.linalg.norm(mean):.3g}, gravity in g){override}"
     if finite.shape[1] < 3 and np.any((np.abs(mean) >= 0.5) & (np.abs(mean) <= 1.5)):
@@ -994,7 +1007,7 @@ def _to_recording(table: _Table, opts: _Options, path: Path, sha256: str) -> Rec
     time, time_notes = _time_axis(table, layout, time_col, opts)
     accel, accel_notes = _accel_block(table, layout, accel_cols, opts)
     notes = list(table.notes) + list(layout.notes)
-    if layout.kind == "generic":
+    if layout.kind == "generic" and table.header:
         notes.append(f"time from column {str(time_col)!r}; acceleration from {', '.join(repr(str(c)) for c in accel_cols)}")
     return Recording(
         time=time,

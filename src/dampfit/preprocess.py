@@ -45,6 +45,10 @@ SPIKE_SIGMA = 8.0
 BAND_FACTOR = 1.5
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
+#: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
+RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
+#: Fewest samples the decimated path must leave; below it the raw samples are fitted.
+MIN_DECIMATED = 200
 
 
 @dataclass(frozen=True)
@@ -221,6 +225,22 @@ def _noise_density(y: np.ndarray, fs: float, f0: float, band: tuple[float, float
     return float(np.sqrt(np.median(pxx[near]))) if near.any() else 0.0
 
 
+def _noise_floor(env: np.ndarray, y: np.ndarray, fs: float, f0: float, band) -> float:
+    """Mean envelope [m/s²] of the in-band noise alone.
+
+    Two estimates, the smaller wins: (a) spectral — white density off the peak times the band
+    width (a Rayleigh envelope has mean 1.25·σ); it is accurate for long records but overstated
+    when a short, strongly damped line leaks into every bin; (b) temporal — the 10th
+    percentile of the envelope, scaled to the Rayleigh mean (×2.7); it is accurate when part of
+    the record is quiet (before release, after the decay) and overstated otherwise.
+    """
+    spectral = RAYLEIGH_MEAN * _noise_density(y, fs, f0, band) * np.sqrt(band[1] - band[0])
+    edge = min(len(env) // 10, int(fs / f0))
+    inner = env[edge : len(env) - edge] if len(env) > 2 * edge + 10 else env
+    temporal = RAYLEIGH_MEAN / RAYLEIGH_P10 * float(np.percentile(inner, 10))
+    return float(min(spectral, temporal)) if temporal > 0 else float(spectral)
+
+
 def _detect_window(
     grid: np.ndarray, env: np.ndarray, f0: float, floor: float
 ) -> tuple[float, float, list[str]]:
@@ -335,8 +355,8 @@ def prepare(
     bp = filters.bandpass(yg, fs, bnd)
     env = np.abs(signal.hilbert(bp))
 
-    nd = _noise_density(signal.detrend(yg), fs, f0, bnd)
-    floor = 1.25 * nd * np.sqrt(bnd[1] - bnd[0])
+    floor = _noise_floor(env, signal.detrend(yg), fs, f0, bnd)
+    nd = floor / (RAYLEIGH_MEAN * np.sqrt(bnd[1] - bnd[0]))
     peak_env = float(np.percentile(env, 99))
     if peak_env < 8.0 * floor or peak_env <= 0:
         raise InputError(
@@ -392,7 +412,8 @@ def fit_data(prep: Prepared) -> FitData:
     q = int(np.floor(prep.fs / (2.5 * hi)))
     span = (w1 - w0) * prep.f0
     degree = int(np.clip(span / 8.0, 1, 10))
-    if q >= 3:
+    # decimate only when the rate is well above the band and enough samples remain
+    if q >= 3 and (w1 - w0) * prep.fs / q >= MIN_DECIMATED:
         sos = filters.lowpass_sos(hi, prep.fs)
         yl = filters.lowpass(prep.grid_signal, prep.fs, hi)
         i0 = int(np.ceil((w0 - prep.grid[0]) * prep.fs))
