@@ -4,16 +4,14 @@ Every figure has its own function returning a :class:`matplotlib.figure.Figure` 
 the object API (no pyplot, no global state), so a report can reuse it; :func:`save_figures`
 writes them all:
 
-=================  ====================  ===============================================
-name               function              content
-=================  ====================  ===============================================
-``signal``         :func:`signal_figure`        raw axes, selected signal, window, masked samples
-``spectrum``       :func:`spectrum_figure`      amplitude spectrum (linear, dB), band, f₀, |H|²
-``fit``            :func:`fit_figure`           fitted samples, least-squares model, zooms, residuals
-``displacement``   :func:`displacement_figure`  the paper's envelope pipeline vs. the LS envelope
-``posterior``      :func:`posterior_figure`     corner plot of (c, k, u₀) or (ζ, f_n, u₀)
-``trace``          :func:`trace_figure`         walker traces and marginal densities
-=================  ====================  ===============================================
+* ``signal`` — :func:`signal_figure`: raw axes, selected signal, window, masked samples;
+* ``spectrum`` — :func:`spectrum_figure`: amplitude spectrum (linear and dB), band, f₀, |H|²;
+* ``fit`` — :func:`fit_figure`: fitted samples, least-squares model, zooms, residuals;
+* ``displacement`` — :func:`displacement_figure`: the paper's envelope pipeline (its Fig. 20)
+  against the least-squares envelope;
+* ``posterior`` — :func:`posterior_figure`: corner plot of (c, k, u₀), or (ζ, f_n, u₀)
+  without a mass;
+* ``trace`` — :func:`trace_figure`: walker traces and marginal densities.
 
 matplotlib is imported inside the functions only: the numeric core never needs it.
 """
@@ -119,7 +117,11 @@ def _fmt_interval(q05: float, q50: float, q95: float) -> str:
     if not (np.isfinite(width) and np.isfinite(scale)) or width <= 0 or scale <= 0:
         return f"{_fmt(q50)}  [{_fmt(q05)}, {_fmt(q95)}]"
     d = int(np.clip(np.ceil(np.log10(scale / width)) + 1, 3, 12))
-    return f"{q50:.{d}g}  [{q05:.{d}g}, {q95:.{d}g}]"
+
+    def g(x: float) -> str:  # keep trailing zeros (1.72000), but not a bare point (619.)
+        return f"{x:#.{d}g}".replace(".e", "e").rstrip(".")
+
+    return f"{g(q50)}  [{g(q05)}, {g(q95)}]"
 
 
 def _ls_values(an: "Analysis") -> dict[str, float]:
@@ -171,6 +173,11 @@ def _compact_ticks(ax, which: str = "both", n: int = 4) -> None:
         fmt = ScalarFormatter(useOffset=True, useMathText=True)
         fmt.set_powerlimits((-3, 4))
         axis.set_major_formatter(fmt)
+
+
+def _bins(n: int) -> int:
+    """Histogram bins for ``n`` draws (Rice rule, 15–50)."""
+    return int(np.clip(2.0 * max(n, 1) ** (1 / 3), 15, 50))
 
 
 def _interval(x: np.ndarray) -> tuple[float, float, float]:
@@ -352,11 +359,16 @@ def fit_figure(an: "Analysis") -> "Figure":
     ax_res = fig.add_subplot(gs[2, :], sharex=ax_all)
 
     many = t_fit.size > 3000
-    dot = dict(ls="none", marker=".", ms=2.0 if many else 4.0, color="tab:blue")
+    # dense samples (raw path) would hide the model: draw them small and faint, model on top
+    per_cycle = fd.fs / max(f0, 1e-12)
+    dense = per_cycle > 25
+    dot = dict(ls="none", marker=".", color="tab:blue", zorder=2,
+               ms=1.5 if dense else 4.0, alpha=0.35 if dense else 1.0)
+    line = dict(color="tab:red", zorder=3)
     tr, yr = _reduce(t_fit, fd.y) if many else (t_fit, fd.y)
     tm, ym = _reduce(t_mod, y_mod)
-    ax_all.plot(tm, ym, lw=0.6, color="tab:red", label="least-squares model")
     ax_all.plot(tr, yr, **dot, label=f"fitted samples ({fd.path}, {fd.fs:.3g} Hz, n = {fd.y.size})")
+    ax_all.plot(tm, ym, lw=0.7, **line, label="least-squares model")
     ax_all.set_ylabel("acceleration [m/s²]")
     ax_all.set_title("Whole analysed window", fontsize=10, loc="left")
 
@@ -365,23 +377,31 @@ def fit_figure(an: "Analysis") -> "Figure":
     ranges = [(t_start, min(t_start + zoom, t_end)), (max(t_end - zoom, t_start), t_end)]
     in_win = (prep.time >= t_start) & (prep.time <= t_end)
     for ax, (a, b), title in zip((ax_z0, ax_z1), ranges, ("First", "Last")):
-        raw = in_win & (prep.time >= a) & (prep.time <= b)
-        tr_, yr_ = _reduce(prep.time[raw], prep.signal[raw])
-        ax.plot(tr_, yr_, lw=0.6, color="0.6", label="recorded signal (raw)")
-        m = (t_mod >= a) & (t_mod <= b)
-        ax.plot(t_mod[m], y_mod[m], lw=1.2, color="tab:red", label="least-squares model")
+        if fd.path != "raw":  # the fitted samples are filtered: show the recording beside them
+            raw = in_win & (prep.time >= a) & (prep.time <= b)
+            tr_, yr_ = _reduce(prep.time[raw], prep.signal[raw])
+            ax.plot(tr_, yr_, lw=0.6, color="0.6", zorder=1, label="recorded signal (raw)")
         s = (t_fit >= a) & (t_fit <= b)
-        ax.plot(t_fit[s], fd.y[s], **{**dot, "ms": 5.0}, label="fitted samples")
+        ax.plot(t_fit[s], fd.y[s], **{**dot, "ms": 3.0 if dense else 5.0}, label="fitted samples")
+        m = (t_mod >= a) & (t_mod <= b)
+        ax.plot(t_mod[m], y_mod[m], lw=1.3, **line, label="least-squares model")
         ax.set_xlim(a, b)
         ax.set_xlabel("time [s]")
         ax.set_ylabel("acceleration [m/s²]")
         ax.set_title(f"{title} {ZOOM_CYCLES:g} cycles", fontsize=10)
         ax.grid(alpha=0.3)
-    ax_z0.legend(loc="upper right", fontsize=7)
+    ax_z0.legend(loc="upper right", fontsize=7, framealpha=0.9)
 
     res = np.asarray(ls.residuals)
     rr_t, rr = _reduce(t_fit, res) if many else (t_fit, res)
     ax_res.plot(rr_t, rr, **{**dot, "color": "0.3"})
+    n_avg = int(round(per_cycle))
+    if n_avg >= 3 and res.size > 3 * n_avg:
+        from scipy import ndimage
+
+        smooth = ndimage.uniform_filter1d(res, n_avg, mode="nearest")
+        ts, ys = _reduce(t_fit, smooth)
+        ax_res.plot(ts, ys, color="tab:orange", lw=1.2, zorder=3, label="one-period running mean")
     ax_res.axhline(0, color="tab:red", lw=0.8)
     sig = an.noise.sigma
     for sgn in (-2, 2):
@@ -392,7 +412,7 @@ def fit_figure(an: "Analysis") -> "Figure":
     ax_res.set_title(f"Residuals (σ = {sig:.3g} m/s², lag-1 autocorrelation "
                      f"{an.noise.lag1:+.2f}, PSD ratio at f₀ r = {an.noise.psd_ratio:.2g})",
                      fontsize=10, loc="left")
-    _legend_above(ax_res, 1)
+    _legend_above(ax_res, 2)
     for ax in (ax_all, ax_res):
         ax.grid(alpha=0.3)
     ax_all.set_xlim(t_start, t_end)
@@ -459,7 +479,6 @@ def displacement_figure(an: "Analysis") -> "Figure | None":
                     label=f"log-decrement peaks ÷ ω_n² (p = {ld.p:.4g} 1/s)")
 
     ax_lin.set_ylabel("displacement [m]")
-    ax_lin.set_title("Displacement from the paper's envelope pipeline", fontsize=10)
     ax_log.set_yscale("log")
     pos = env[mask] if mask.any() else env
     pos = pos[pos > 0]
@@ -467,19 +486,23 @@ def displacement_figure(an: "Analysis") -> "Figure | None":
         lo_y = min(float(pos.min()), float(ls_env.min())) / 2
         hi_y = max(float(env.max()), float(ls_env.max())) * 2
         ax_log.set_ylim(lo_y, hi_y)
-    ax_log.set_ylabel("envelope [m]")
+    ax_log.set_ylabel("envelope [m] (log scale)")
     ax_log.set_xlabel("time [s]")
-    ax_log.set_title("Envelopes on a log scale (an exponential decay is a straight line)",
-                     fontsize=10)
     for ax in (ax_lin, ax_log):
         ax.grid(alpha=0.3, which="both" if ax is ax_log else "major")
         ax.set_xlim(t[0], t[-1])
-    ax_lin.legend(loc="upper right", fontsize=8)
-    ax_log.legend(loc="upper right", fontsize=8)
+    _legend_above(ax_lin, 2)
+    # the log panel repeats the envelope lines: label only what is new there
+    handles, labels = ax_log.get_legend_handles_labels()
+    new = [(h, lab) for h, lab in zip(handles, labels)
+           if lab.startswith(("not used", "log-decrement"))]
+    if new:
+        ax_log.legend(*zip(*new), loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2,
+                      fontsize=8, frameon=False, borderaxespad=0.2)
     head = (f"c = {_fmt(base.c)} (envelope) vs {_fmt(vals.get('c'))} (LS) N·s/m"
             if base.c is not None else
             f"ζ = {_fmt(base.zeta)} (envelope) vs {_fmt(vals['zeta'])} (LS)")
-    fig.suptitle(f"Displacement and decay envelopes — {head}")
+    fig.suptitle(f"Displacement from the paper's envelope pipeline and decay envelopes — {head}")
     return fig
 
 
@@ -512,7 +535,7 @@ def posterior_figure(an: "Analysis") -> "Figure":
             x = draws[vx]
             if i == j:
                 q05, q50, q95 = _interval(x)
-                ax.hist(x, bins=50, range=lims.get(vx), histtype="step",
+                ax.hist(x, bins=_bins(x.size), range=lims.get(vx), histtype="step",
                         color="tab:blue", density=True, lw=1.2)
                 ax.axvspan(q05, q95, color="tab:orange", alpha=0.15, lw=0,
                            label="90 % interval")
@@ -559,7 +582,7 @@ def posterior_figure(an: "Analysis") -> "Figure":
     return fig
 
 
-def _contours(ax, x, y, xlim, ylim, seed: int = 0, n_grid: int = 100) -> None:
+def _contours(ax, x, y, xlim, ylim, seed: int = 0, n_grid: int = 80) -> None:
     """Highest-density contours holding ≈ 50 % and 90 % of the draws.
 
     A Gaussian KDE (bandwidth from the draws' own covariance, so strongly correlated pairs
@@ -619,7 +642,8 @@ def trace_figure(an: "Analysis") -> "Figure":
         lo, hi = np.quantile(flat, [0.001, 0.999]) if flat.size else (0.0, 1.0)
         pad = 0.1 * (hi - lo) if hi > lo else 1e-12 + 0.1 * abs(lo)
         grid = np.linspace(lo - pad, hi + pad, 300)
-        ax_d.hist(flat, bins=50, range=(grid[0], grid[-1]), density=True, color="0.85")
+        ax_d.hist(flat, bins=_bins(flat.size), range=(grid[0], grid[-1]), density=True,
+                  color="0.85")
         sub = flat[_subsample(flat.size, MAX_SCATTER_POINTS, seed=an.seed)]
         if sub.size > 2 and np.ptp(sub) > 0:
             dens = stats.gaussian_kde(sub)(grid)
@@ -639,7 +663,7 @@ def trace_figure(an: "Analysis") -> "Figure":
         ax_d.tick_params(labelsize=8)
         if i < n - 1:
             ax_t.tick_params(labelbottom=False)
-    axes[-1, 0].set_xlabel(f"emcee step (after burn-in {s.burn_in}, thinned by {s.thin}; "
+    axes[-1, 0].set_xlabel(f"emcee step [1] (after burn-in {s.burn_in}, thinned by {s.thin}; "
                            f"{post.sizes.get('chain', 0)} walkers)")
     conv = "converged" if s.converged else "NOT converged"
     fig.suptitle(f"Posterior traces — {conv}: max R-hat {s.max_r_hat:.3f}, "
@@ -662,17 +686,19 @@ FIGURES: dict[str, Callable[["Analysis"], Any]] = {
 def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110) -> dict[str, Path]:
     """Write every figure of :data:`FIGURES` as ``<name>.png`` into ``outdir``.
 
-    Returns ``{name: path}`` of the files written; a figure that does not apply (the
-    displacement figure without the envelope-pipeline baseline) is skipped.
+    Returns ``{name: path}`` of the files written. A figure that does not apply (the
+    displacement figure without the envelope-pipeline baseline) is skipped, and an older
+    file of that name in ``outdir`` is removed.
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     written: dict[str, Path] = {}
     for name, make in FIGURES.items():
         fig = make(an)
-        if fig is None:
-            continue
         path = outdir / f"{name}.png"
+        if fig is None:
+            path.unlink(missing_ok=True)  # never leave a stale figure of an earlier run
+            continue
         tmp = path.with_name(path.name + ".part")
         try:
             fig.savefig(tmp, dpi=dpi, format="png")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import warnings as _warnings
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import emcee
 import jax
@@ -38,9 +39,16 @@ from . import model
 from .fit import LeastSquaresResult
 from .preprocess import FitData
 
-with _warnings.catch_warnings():
-    _warnings.simplefilter("ignore", FutureWarning)
+if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric import path
     import arviz as az
+
+
+def _arviz():
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore", FutureWarning)
+        import arviz
+
+    return arviz
 
 __all__ = ["PosteriorResult", "sample", "N_WALKERS"]
 
@@ -52,7 +60,7 @@ PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
 class PosteriorResult:
     """Posterior draws as arviz ``InferenceData`` plus convergence facts."""
 
-    idata: az.InferenceData
+    idata: "az.InferenceData"
     converged: bool
     n_steps: int
     burn_in: int
@@ -177,6 +185,7 @@ def sample(
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, 2)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     idata = _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng)
+    az = _arviz()
     summ = az.summary(idata, var_names=[v for v in PARAMETERS if v in idata.posterior],
                       kind="diagnostics", round_to="none")
     max_rhat = float(summ["r_hat"].max())
@@ -198,6 +207,7 @@ def _diagnose(chain: np.ndarray) -> tuple[float, float]:
     if chain.shape[0] < 8:
         return np.inf, 0.0
     x = np.transpose(chain, (1, 0, 2))  # (chain, draw, dim)
+    az = _arviz()
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
         rh = [float(az.rhat(x[..., i])) for i in range(2)]
@@ -205,7 +215,7 @@ def _diagnose(chain: np.ndarray) -> tuple[float, float]:
     return max(rh), min(es)
 
 
-def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> az.InferenceData:
+def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> "az.InferenceData":
     n_draw, n_walk, _ = chain.shape
     flat = chain.reshape(-1, 2)
     p, wd = np.exp(flat[:, 0]), np.exp(flat[:, 1])
@@ -223,7 +233,7 @@ def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> az.InferenceData
     def shape(v):  # emcee: (draw, walker) → arviz: (chain, draw)
         return v.reshape(n_draw, n_walk).T
 
-    return az.from_dict(
+    return _arviz().from_dict(
         posterior={k: shape(v) for k, v in post.items()},
         sample_stats={"lp": lp.T},
         attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,

@@ -45,10 +45,17 @@ SPIKE_SIGMA = 8.0
 BAND_FACTOR = 1.5
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
+#: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
+IMPACT_RATIO = 10.0
 #: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
 RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
+#: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
+#: maximum; resolves bias drift up to ≈ f₀/8 while staying orthogonal to the oscillation.
+DRIFT_CYCLES_PER_DEGREE, MAX_DRIFT_DEGREE = 4.0, 24
+#: Settling time of the decimation low-pass, in periods of its cut-off frequency.
+SETTLE_PERIODS = 3.0
 #: Fewest samples the decimated path must leave; below it the raw samples are fitted.
-MIN_DECIMATED = 200
+MIN_DECIMATED = 100
 
 
 @dataclass(frozen=True)
@@ -242,9 +249,15 @@ def _noise_floor(env: np.ndarray, y: np.ndarray, fs: float, f0: float, band) -> 
 
 
 def _detect_window(
-    grid: np.ndarray, env: np.ndarray, f0: float, floor: float
+    grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
 ) -> tuple[float, float, list[str]]:
-    """Free-decay window [s] from the smoothed envelope; see the module docstring, step 8."""
+    """Free-decay window [s] from the smoothed envelope; see the module docstring, step 8.
+
+    ``events`` = (times [s], |acceleration| [m/s²]) of masked impact spikes. A spike ends the
+    free decay (a catch, or a knock that resets the oscillator) if it is more than
+    ``IMPACT_RATIO`` times the envelope just before it, or if the oscillation dies after it
+    (envelope up to three periods later below a third of its level one period before).
+    """
     fs = 1.0 / (grid[1] - grid[0])
     per = max(1, int(round(fs / f0)))
     sm = ndimage.uniform_filter1d(env, per)
@@ -265,6 +278,19 @@ def _detect_window(
         if i_rise < i_end:
             i_end = i_rise
             notes.append("window ends before the envelope rises again (catch or new excitation)")
+    ev_t, ev_a = events
+    after = ev_t > grid[i_pk]
+    for tc, size in zip(ev_t[after], ev_a[after]):
+        i = int(np.searchsorted(grid, tc))
+        horizon = min(3 * per, len(sm) - 1 - i)
+        if i >= i_end:
+            break
+        before = sm[max(i - per, 0)]
+        dies = horizon >= per and sm[i + horizon] < before / 3.0
+        if size > IMPACT_RATIO * before or dies:
+            i_end = max(i - per // 2, i_pk)
+            notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
+            break
     return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
 
 
@@ -365,7 +391,8 @@ def prepare(
         )
 
     if window is None:
-        w0, w1, wnotes = _detect_window(grid, env, f0, floor)
+        hits = spikes & ~clipped
+        w0, w1, wnotes = _detect_window(grid, env, f0, floor, (t[hits], np.abs(y[hits])))
         notes.extend(wnotes)
         guard = max(0.5 / f0, 3.0 / bnd[1])
         w0 = min(w0 + guard, w1)
@@ -379,6 +406,11 @@ def prepare(
                 f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
             )
         window_auto = False
+    if window_auto and (w1 - w0) * f0 < MIN_CYCLES:
+        raise InputError(
+            f"no free decay found: the strongest oscillation ({f0:.3g} Hz) lasts only "
+            f"{(w1 - w0) * f0:.1f} cycles after its peak; give --window START END if it is there"
+        )
     if (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
             f"the free-decay window {w0:.3f}–{w1:.3f} s holds only {(w1 - w0) * f0:.1f} cycles "
@@ -411,7 +443,7 @@ def fit_data(prep: Prepared) -> FitData:
     lo, hi = prep.band
     q = int(np.floor(prep.fs / (2.5 * hi)))
     span = (w1 - w0) * prep.f0
-    degree = int(np.clip(span / 8.0, 1, 10))
+    degree = int(np.clip(span / DRIFT_CYCLES_PER_DEGREE, 1, MAX_DRIFT_DEGREE))
     # decimate only when the rate is well above the band and enough samples remain
     if q >= 3 and (w1 - w0) * prep.fs / q >= MIN_DECIMATED:
         sos = filters.lowpass_sos(hi, prep.fs)
@@ -419,11 +451,12 @@ def fit_data(prep: Prepared) -> FitData:
         i0 = int(np.ceil((w0 - prep.grid[0]) * prep.fs))
         i1 = int(np.floor((w1 - prep.grid[0]) * prep.fs))
         idx = np.arange(i0, i1 + 1, q)
-        # exclude decimated samples whose filter support touched a masked raw sample
-        bad_t = prep.time[~prep.usable]
+        # exclude samples whose filter support touched a masked sample or a record end
+        reach = SETTLE_PERIODS / hi
+        bad_t = np.concatenate([prep.time[~prep.usable], prep.grid[[0, -1]]])
+        bad_t.sort()
         keep = np.ones(idx.size, dtype=bool)
         if bad_t.size:
-            reach = 3.0 / hi
             tg = prep.grid[idx]
             j = np.searchsorted(bad_t, tg)
             near_l = np.abs(tg - bad_t[np.clip(j - 1, 0, bad_t.size - 1)]) < reach
