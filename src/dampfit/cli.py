@@ -112,17 +112,23 @@ def _analysis_options(a: argparse.ArgumentParser) -> None:
 
 
 # ----------------------------------------------------------------------- outputs
-@contextlib.contextmanager
-def _staged_dir(target: Path, force: bool):
-    """Yield a fresh staging directory; move it onto ``target`` only if the block succeeds."""
+def _check_target(target: Path, force: bool) -> None:
+    """Refuse an output directory that exists (without --force) or cannot be made; before any work."""
     target = target.resolve()
     if target.exists() and not force:
         raise InputError(f"{target} exists; use --force to replace it")
     if target.exists() and not target.is_dir():
         raise InputError(f"{target} exists and is not a directory")
+    if not target.parent.is_dir():
+        raise InputError(f"output folder {target.parent} does not exist")
+
+
+@contextlib.contextmanager
+def _staged_dir(target: Path, force: bool):
+    """Yield a fresh staging directory; move it onto ``target`` only if the block succeeds."""
+    _check_target(target, force)
+    target = target.resolve()
     parent = target.parent
-    if not parent.is_dir():
-        raise InputError(f"output folder {parent} does not exist")
     stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
     try:
         yield stage
@@ -171,8 +177,7 @@ def _cmd_analyze(args) -> int:
     from .io import read
 
     out = Path(args.out) if args.out else Path(Path(args.file).name + ".dampfit")
-    if out.exists() and not args.force:  # fail before any work
-        raise InputError(f"{out} exists; use --force to replace it")
+    _check_target(out, args.force)
     opts = {k: getattr(args, k) for k in ("time_column", "accel_columns", "time_unit",
                                            "accel_unit", "sheet") if getattr(args, k)}
     rec = read(args.file, **opts)
@@ -231,8 +236,7 @@ def _cmd_demo(args) -> int:
     from .io import read
 
     out = Path(args.out)
-    if out.exists() and not args.force:
-        raise InputError(f"{out} exists; use --force to replace it")
+    _check_target(out, args.force)
     cfg = sim.preset("paper", seed=args.seed)
     print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
           f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at {cfg.sample_rate:g} Hz) "

@@ -53,6 +53,8 @@ def _arviz():
 __all__ = ["PosteriorResult", "sample", "N_WALKERS"]
 
 N_WALKERS = 32
+#: Posterior draws per batched call when drawing the amplitudes (bounds memory use).
+AMPLITUDE_CHUNK = 256
 PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
 
 
@@ -101,20 +103,25 @@ def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng)
     n, q = fd.y.size, fd.drift_degree + 3
 
     @jax.jit
-    def mean_and_chol(th):
+    @jax.vmap
+    def draw(th, zz):
         beta, rss, _, (chol, scale) = model.profile(th, tau, y, drift)
-        return beta[:2], rss, chol, scale
+        # scaled coefficients have covariance s²·(LLᵀ)⁻¹: deviation L⁻ᵀ·z, then unscale
+        dev = jax.scipy.linalg.solve_triangular(chol.T, zz, lower=False) / scale
+        return beta[:2] + jnp.sqrt(rss / (n - q) / temper) * dev[:2]
 
-    out = np.empty((len(thetas), 2))
-    z = rng.standard_normal((len(thetas), q))
+    n_draws = len(thetas)
+    z = rng.standard_normal((n_draws, q))
+    out = np.empty((n_draws, 2))
+    chunk = AMPLITUDE_CHUNK  # bounded memory: chunk × n_samples × q doubles
     with jax.enable_x64(True):
-        beta, rss, chol, scale = jax.vmap(mean_and_chol)(jnp.asarray(thetas))
-        beta, rss, chol, scale = map(np.asarray, (beta, rss, chol, scale))
-    s = np.sqrt(rss / (n - q) / temper)
-    for i in range(len(thetas)):
-        # scaled coefficients have covariance (LLᵀ)⁻¹: draw L⁻ᵀ z, then unscale
-        dev = np.linalg.solve(chol[i].T, z[i]) / scale[i]
-        out[i] = beta[i] + s[i] * dev[:2]
+        for i in range(0, n_draws, chunk):
+            th, zz = thetas[i : i + chunk], z[i : i + chunk]
+            m = len(th)
+            if m < chunk:  # pad to one shape: one compilation
+                th = np.concatenate([th, np.repeat(th[-1:], chunk - m, axis=0)])
+                zz = np.concatenate([zz, np.zeros((chunk - m, q))])
+            out[i : i + m] = np.asarray(draw(jnp.asarray(th), jnp.asarray(zz)))[:m]
     return out
 
 

@@ -1,0 +1,205 @@
+"""The command line through ``main([...])``: outputs, overwrite safety, exit codes, bad input."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from dampfit import cli
+from dampfit import simulate as sim
+from dampfit.cli import main
+
+
+@pytest.fixture(scope="module")
+def csv_file(tmp_path_factory):
+    """A short simulated phyphox CSV of the paper's set-up and its truth."""
+    d = tmp_path_factory.mktemp("rec")
+    rec, truth = sim.simulate(sim.preset("paper", duration=20.0, seed=5))
+    path = d / "Raw Data.csv"
+    sim.write_phyphox_csv(rec, path)
+    return path, truth
+
+
+def one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith("dampfit: error:")
+    return err[0]
+
+
+def test_analyze_writes_outputs_and_prints_table(csv_file, tmp_path, capsys):
+    path, truth = csv_file
+    out = tmp_path / "result"
+    assert main(["analyze", str(path), "--mass", "5.3", "--mass-sd", "0.02", "--out", str(out),
+                 "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "c      [N s/m]" in text and "log decrement" in text and "converged       yes" in text
+    names = {p.name for p in out.iterdir()}
+    assert {"summary.json", "posterior.nc", "signal.png", "spectrum.png", "fit.png",
+            "posterior.png", "trace.png"} <= names
+    s = json.loads((out / "summary.json").read_text())
+    assert s["input"]["format"] == "phyphox-csv"
+    assert s["mass"] == {"value": 5.3, "sd": 0.02, "unit": "kg"}
+    c = s["parameters"]["c"]
+    assert c["q05"] - 2 * c["sd"] <= truth["c"] <= c["q95"] + 2 * c["sd"]
+
+    # refuses to overwrite without --force, and leaves the old result alone
+    before = (out / "summary.json").read_bytes()
+    assert main(["analyze", str(path), "--mass", "5.3", "--out", str(out), "--quiet"]) == 2
+    assert "exists; use --force" in one_error_line(capsys)
+    assert (out / "summary.json").read_bytes() == before
+
+    # --force replaces it completely
+    assert main(["analyze", str(path), "--mass", "5.0", "--out", str(out), "--quiet",
+                 "--no-figures", "--force"]) == 0
+    s2 = json.loads((out / "summary.json").read_text())
+    assert s2["mass"]["value"] == 5.0
+    assert not (out / "fit.png").exists()
+    assert not list(tmp_path.glob(".result*")), "staging directories left behind"
+
+
+def test_analyze_without_mass_says_why(csv_file, tmp_path, capsys):
+    path, _ = csv_file
+    out = tmp_path / "nomass"
+    assert main(["analyze", str(path), "--out", str(out), "--quiet", "--no-figures", "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["parameters"]["c"] is None and "mass" in s["missing"]["c"]
+    assert s["parameters"]["zeta"]["q50"] > 0
+
+
+def test_non_converged_result_exits_zero_but_warns_loudly(csv_file, tmp_path, capsys):
+    path, _ = csv_file
+    code = main(["analyze", str(path), "--mass", "5.3", "--out", str(tmp_path / "nc"),
+                 "--quiet", "--no-figures", "--max-steps", "200"])
+    assert code == 0
+    err = capsys.readouterr().err
+    assert "did NOT converge" in err
+
+
+def test_simulate_writes_csv_and_truth_and_refuses_overwrite(tmp_path, capsys):
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--preset", "phone", "--f-n", "2.5", "--zeta", "0.02",
+                 "--dialect", "semicolon", "--out", str(out)]) == 0
+    truth = json.loads((tmp_path / "sim.truth.json").read_text())
+    assert truth["f_n"] == pytest.approx(2.5) and truth["zeta"] == pytest.approx(0.02)
+    assert out.read_text().splitlines()[0].startswith('"Time (s)";')
+    capsys.readouterr()
+    assert main(["simulate", "--out", str(out)]) == 2
+    assert "exists" in one_error_line(capsys)
+
+
+def test_demo_recovers_c_inside_its_interval(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--quiet", "--no-figures"]) == 0
+    text = capsys.readouterr().out
+    assert "is inside the 90 % interval" in text
+    assert (out / "paper-preset.csv").exists() and (out / "summary.json").exists()
+
+
+# ------------------------------------------------------------------------ bad input
+def write(tmp_path, name, text):
+    p = tmp_path / name
+    p.write_text(text)
+    return p
+
+
+HEADER = '"Time (s)","Linear Acceleration x (m/s^2)","Linear Acceleration y (m/s^2)","Linear Acceleration z (m/s^2)"\n'
+
+
+def rows(t, a):
+    return "".join(f"{ti:.6E},{ai:.6E},0.0,0.0\n" for ti, ai in zip(t, a))
+
+
+def _bad_files(tmp_path):
+    t = np.arange(2000) / 100.0
+    a = np.sin(2 * np.pi * 2 * t) * np.exp(-0.1 * t)
+    nan = rows(t, a).replace("0.0,0.0\n", "NaN,0.0\n", 1)
+    back = t.copy()
+    back[500] = back[100]
+    dup = t.copy()
+    dup[501] = dup[500]
+    rng = np.random.default_rng(0)
+    return {
+        "empty": write(tmp_path, "empty.csv", ""),
+        "header only": write(tmp_path, "header.csv", HEADER),
+        "NaN": write(tmp_path, "nan.csv", HEADER + nan),
+        "non-monotonic": write(tmp_path, "back.csv", HEADER + rows(back, a)),
+        "duplicated time": write(tmp_path, "dup.csv", HEADER + rows(dup, a)),
+        "text junk": write(tmp_path, "junk.csv", "hello world\nthis is not a recording\n"),
+        "unknown columns": write(tmp_path, "cols.csv", "foo,bar,baz\n" + "1,2,3\n" * 50),
+        "no oscillation": write(tmp_path, "noise.csv", HEADER + rows(t, 0.01 * rng.standard_normal(t.size))),
+        "too short": write(tmp_path, "short.csv", HEADER + rows(t[:8], a[:8])),
+        "missing": tmp_path / "does-not-exist.csv",
+    }
+
+
+@pytest.mark.parametrize("case", ["empty", "header only", "NaN", "non-monotonic",
+                                  "duplicated time", "text junk", "unknown columns",
+                                  "no oscillation", "too short", "missing"])
+def test_malformed_input_gives_exit_2_and_one_line(tmp_path, capsys, case):
+    path = _bad_files(tmp_path)[case]
+    out = tmp_path / "out"
+    code = main(["analyze", str(path), "--mass", "1.0", "--out", str(out), "--quiet"])
+    assert code == 2
+    one_error_line(capsys)
+    assert not out.exists()
+    assert not list(tmp_path.glob(".out*"))
+
+
+@pytest.mark.parametrize("argv,match", [
+    ([], "no command"),
+    (["analyze"], "required"),
+    (["frobnicate"], "invalid choice"),
+    (["analyze", "x.csv", "--mass", "heavy"], "not a number"),
+    (["analyze", "x.csv", "--window", "1"], "expected 2"),
+    (["simulate"], "required"),
+    (["simulate", "--preset", "nope", "--out", "x.csv"], "preset"),
+])
+def test_usage_errors(tmp_path, monkeypatch, capsys, argv, match):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert match in one_error_line(capsys)
+
+
+@pytest.mark.parametrize("extra,match", [
+    (["--mass", "-2"], "positive"),
+    (["--mass", "1", "--mass-sd", "-0.1"], "standard deviation"),
+    (["--mass-sd", "0.1"], "without --mass"),
+    (["--mass", "1", "--axis", "q"], "axis 'q'"),
+    (["--mass", "1", "--band", "3", "1"], "pass band"),
+    (["--mass", "1", "--window", "9", "2"], "after its start"),
+])
+def test_bad_options_exit_2(csv_file, tmp_path, capsys, extra, match):
+    path, _ = csv_file
+    out = tmp_path / "o"
+    assert main(["analyze", str(path), "--out", str(out), "--quiet", *extra]) == 2
+    assert match in one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_output_parent_must_exist(csv_file, tmp_path, capsys):
+    path, _ = csv_file
+    assert main(["analyze", str(path), "--mass", "1", "--out", str(tmp_path / "a" / "b"),
+                 "--quiet"]) == 2
+    assert "does not exist" in one_error_line(capsys)
+
+
+def test_internal_error_exits_1_without_traceback(csv_file, tmp_path, capsys, monkeypatch):
+    path, _ = csv_file
+
+    def boom(*a, **k):
+        raise RuntimeError("kaput")
+
+    monkeypatch.setattr("dampfit.analysis.analyze", boom)
+    out = tmp_path / "o"
+    assert main(["analyze", str(path), "--mass", "1", "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "internal error: RuntimeError: kaput" in err and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_parser_is_documented():
+    text = cli.get_parser().format_help()
+    assert "analyze" in text and "simulate" in text and "demo" in text
