@@ -7,7 +7,6 @@ Fixed pipeline (each stage its own module):
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import platform
@@ -20,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from . import baselines, fit, noise, posterior, preprocess
+from ._files import atomic_write_text, publish
 from .errors import InputError
 from .recording import Recording
 
@@ -151,13 +151,14 @@ class Analysis:
 
     def to_json(self, path: str | os.PathLike) -> Path:
         """Write :meth:`summary` as JSON to ``path`` (atomically)."""
-        return _atomic_write(Path(path), json.dumps(self.summary(), indent=2) + "\n")
+        return atomic_write_text(path, json.dumps(self.summary(), indent=2) + "\n")
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""
         path = Path(path)
         tmp = path.with_name(path.name + ".part")
         self.posterior.to_netcdf(str(tmp), engine="h5netcdf")
+        publish(tmp)
         os.replace(tmp, path)
         return path
 
@@ -292,19 +293,3 @@ def _jsonable(obj):
     if isinstance(obj, (float, np.floating)):
         return float(obj) if np.isfinite(obj) else None
     return obj
-
-
-def _atomic_write(path: Path, text: str) -> Path:
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
-    return path
-
-
-def file_sha256(path: str | os.PathLike) -> str:
-    """SHA-256 of a file's bytes (provenance)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()

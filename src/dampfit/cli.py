@@ -17,13 +17,15 @@ import tempfile
 import traceback
 import warnings
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
+from ._files import publish
 from .errors import DampfitError, InputError
 
 __all__ = ["main", "run", "get_parser"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
+DEMO_MARKER = "paper-preset.truth.json"  # file that identifies a demo's own output folder
 
 
 class _Parser(argparse.ArgumentParser):
@@ -130,6 +132,7 @@ def _staged_dir(target: Path, force: bool):
     target = target.resolve()
     parent = target.parent
     stage = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=parent))
+    publish(stage)
     try:
         yield stage
     except BaseException:
@@ -236,12 +239,14 @@ def _cmd_demo(args) -> int:
     from .io import read
 
     out = Path(args.out)
-    _check_target(out, args.force)
+    # a previous demo's own output (recognised by its truth file) is regenerated freely
+    force = args.force or (out / DEMO_MARKER).is_file()
+    _check_target(out, force)
     cfg = sim.preset("paper", seed=args.seed)
     print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
           f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at {cfg.sample_rate:g} Hz) "
           "as a phyphox CSV, then analysing it\n")
-    with _staged_dir(out, args.force) as stage:
+    with _staged_dir(out, force) as stage:
         rec, truth = sim.simulate(cfg)
         csv = stage / "paper-preset.csv"
         sim.write_phyphox_csv(rec, csv)

@@ -106,12 +106,12 @@ def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng)
     @jax.vmap
     def draw(th, zz):
         beta, rss, _, (chol, scale) = model.profile(th, tau, y, drift)
-        # scaled coefficients have covariance s²·(LLᵀ)⁻¹: deviation L⁻ᵀ·z, then unscale
+        # scaled (A, B) have covariance s²·(LLᵀ)⁻¹ (drift marginalised): L⁻ᵀ·z, then unscale
         dev = jax.scipy.linalg.solve_triangular(chol.T, zz, lower=False) / scale
-        return beta[:2] + jnp.sqrt(rss / (n - q) / temper) * dev[:2]
+        return beta[:2] + jnp.sqrt(rss / (n - q) / temper) * dev
 
     n_draws = len(thetas)
-    z = rng.standard_normal((n_draws, q))
+    z = rng.standard_normal((n_draws, 2))
     out = np.empty((n_draws, 2))
     chunk = AMPLITUDE_CHUNK  # bounded memory: chunk × n_samples × q doubles
     with jax.enable_x64(True):
@@ -120,7 +120,7 @@ def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng)
             m = len(th)
             if m < chunk:  # pad to one shape: one compilation
                 th = np.concatenate([th, np.repeat(th[-1:], chunk - m, axis=0)])
-                zz = np.concatenate([zz, np.zeros((chunk - m, q))])
+                zz = np.concatenate([zz, np.zeros((chunk - m, 2))])
             out[i : i + m] = np.asarray(draw(jnp.asarray(th), jnp.asarray(zz)))[:m]
     return out
 

@@ -54,8 +54,8 @@ RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.l
 DRIFT_CYCLES_PER_DEGREE, MAX_DRIFT_DEGREE = 4.0, 24
 #: Settling time of the decimation low-pass, in periods of its cut-off frequency.
 SETTLE_PERIODS = 3.0
-#: Fewest samples the decimated path must leave; below it the raw samples are fitted.
-MIN_DECIMATED = 100
+#: Samples the decimated path aims to keep at least (fewer only if the raw window has fewer).
+TARGET_DECIMATED = 400
 
 
 @dataclass(frozen=True)
@@ -155,6 +155,12 @@ def dominant_frequency(
     if sel.size < 3:
         raise InputError(f"no frequency range to search between {fmin:.3g} and {fmax:.3g} Hz")
     i = sel[np.argmax(spec[sel])]
+    if i in (sel[0], sel[-1]):
+        # a maximum at the edge of the searched range is leakage, not a resolved oscillation
+        raise InputError(
+            f"no resolvable oscillation between {fmin:.3g} and {fmax:.3g} Hz: the spectrum peaks "
+            f"at the edge of that range (recording {n / fs:.3g} s long; too short, or give --band)"
+        )
     logp = np.log(spec**2 + 1e-300)
     f0 = f[i] + _parabolic_peak(logp, i) * (f[1] - f[0])
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
@@ -453,11 +459,13 @@ def fit_data(prep: Prepared) -> FitData:
     """Step 9 of the module docstring: the samples to fit, on the raw or decimated path."""
     w0, w1 = prep.window
     lo, hi = prep.band
-    q = int(np.floor(prep.fs / (2.5 * hi)))
     span = (w1 - w0) * prep.f0
     degree = int(np.clip(span / DRIFT_CYCLES_PER_DEGREE, 1, MAX_DRIFT_DEGREE))
-    # decimate only when the rate is well above the band and enough samples remain
-    if q >= 3 and (w1 - w0) * prep.fs / q >= MIN_DECIMATED:
+    # decimate to ≥ 2.5× the band edge (no in-band information is lost), but keep at least
+    # TARGET_DECIMATED samples; below a factor of 3 fit the raw samples instead
+    q_max = int(np.floor(prep.fs / (2.5 * hi)))
+    q = min(q_max, int((w1 - w0) * prep.fs / TARGET_DECIMATED))
+    if q >= 3:
         sos = filters.lowpass_sos(hi, prep.fs)
         yl = filters.lowpass(prep.grid_signal, prep.fs, hi)
         i0 = int(np.ceil((w0 - prep.grid[0]) * prep.fs))

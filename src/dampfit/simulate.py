@@ -43,14 +43,13 @@ import json
 import math
 import os
 import re
-import tempfile
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ._files import atomic_write_text
 from .errors import InputError
 from .physics import critical_damping, from_decay, to_decay
 from .recording import STANDARD_GRAVITY, Recording
@@ -486,22 +485,6 @@ DIALECTS: dict[str, tuple[str, str]] = {"comma": (",", "."), "tab": ("\t", "."),
 _EXPONENT = re.compile(r"E\+?(-?)0*(\d)")
 
 
-def _atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` to ``path`` via a temporary file in the same directory and ``os.replace``."""
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
-
-
 def _phyphox_numbers(values: np.ndarray, sep: str, decimal: str) -> str:
     """Rows of ``values`` in phyphox's number format (``0.000000000E0``), one line per row."""
     values = np.asarray(values, dtype=float) + 0.0  # turns −0.0 into 0.0
@@ -527,9 +510,9 @@ def write_phyphox_csv(recording: Recording, path: str | os.PathLike, dialect: st
     names = ["Time (s)", *(f"{label} {a} (m/s^2)" for a in _AXES), "Absolute acceleration (m/s^2)"]
     header = sep.join(f'"{n}"' for n in names) + "\n"
     table = np.column_stack([recording.time, xyz, np.sqrt(np.sum(xyz**2, axis=1))])
-    return _atomic_write_text(path, header + _phyphox_numbers(table, sep, decimal))
+    return atomic_write_text(path, header + _phyphox_numbers(table, sep, decimal))
 
 
 def write_truth(truth: dict[str, Any], path: str | os.PathLike) -> Path:
     """Write the truth dict of :func:`simulate` as JSON (indent 2); returns the path."""
-    return _atomic_write_text(path, json.dumps(truth, indent=2, allow_nan=False) + "\n")
+    return atomic_write_text(path, json.dumps(truth, indent=2, allow_nan=False) + "\n")
