@@ -96,6 +96,8 @@ def test_demo_recovers_c_inside_its_interval(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "is inside the 90 % interval" in text
     assert (out / "paper-preset.csv").exists() and (out / "summary.json").exists()
+    s = json.loads((out / "summary.json").read_text())
+    assert s["input"]["path"] == str((out / "paper-preset.csv").resolve())
 
 
 # ------------------------------------------------------------------------ bad input

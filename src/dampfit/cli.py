@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import os
 import shutil
 import sys
@@ -251,7 +252,9 @@ def _cmd_demo(args) -> int:
         csv = stage / "paper-preset.csv"
         sim.write_phyphox_csv(rec, csv)
         sim.write_truth(truth, csv.with_suffix(".truth.json"))
-        an = analyze(read(csv), mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
+        # the recording is read from the staging folder but lives at its final path
+        rec = dataclasses.replace(read(csv), path=str(out.resolve() / csv.name))
+        an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
                      progress=not args.quiet and sys.stderr.isatty())
         an.to_json(stage / "summary.json")
         an.to_netcdf(stage / "posterior.nc")
