@@ -128,7 +128,10 @@ def test_posterior_is_converged_and_diagnosed(analysed):
     an, _ = analysed
     d = an.summary()["diagnostics"]
     assert d["converged"] and d["max_r_hat"] < 1.01 and d["min_ess_bulk"] >= 1000
-    assert set(an.posterior.posterior.data_vars) >= {"c", "k", "u0", "zeta", "f_n", "mass"}
+    assert set(an.posterior.posterior.data_vars) >= {"c", "k", "u0", "zeta", "f_n", "mass", "Q", "c_crit"}
+    s = an.summary()["parameters"]
+    assert s["c"]["q50"] / s["c_crit"]["q50"] == pytest.approx(s["zeta"]["q50"], rel=0.01)
+    assert s["Q"]["q50"] == pytest.approx(0.5 / s["zeta"]["q50"], rel=0.01)
 
 
 def test_non_convergence_is_flagged_not_raised(short_paper):

@@ -28,7 +28,7 @@ __all__ = ["Analysis", "analyze", "PARAMETER_UNITS"]
 #: Unit of every reported parameter.
 PARAMETER_UNITS = {
     "c": "N s/m", "k": "N/m", "u0": "m", "zeta": "1", "f_n": "Hz",
-    "p": "1/s", "f_d": "Hz", "delta": "1",
+    "p": "1/s", "f_d": "Hz", "delta": "1", "Q": "1", "c_crit": "N s/m",
 }
 #: A PSD ratio r above this signals residual structure worth a warning.
 R_WARN = 3.0
@@ -94,13 +94,13 @@ class Analysis:
         rec, prep, fd = self.recording, self.prepared, self.fit_data
         post = self.posterior.posterior
         params: dict[str, Any] = {}
-        for name in ("c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta"):
+        for name in PARAMETER_UNITS:
             params[name] = _param_summary(self.posterior, name) if name in post else None
         missing = {}
         if self.mass is None:
             why = ("no mass given: a free decay identifies only the decay rate p and the "
                    "frequency f_n; c = 2·m·p and k = m·(2π·f_n)² need the mass (--mass KG)")
-            missing = {"c": why, "k": why}
+            missing = {"c": why, "k": why, "c_crit": why}
         ls = self.least_squares
         lsd = _ls_physical(ls, self.mass)
         lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})

@@ -231,11 +231,12 @@ def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> "az.InferenceDat
     u0 = np.hypot(ab[:, 0], ab[:, 1]) / (wn2 * abs(ls.gain))
     post = {
         "p": p, "omega_d": wd, "zeta": p / np.sqrt(wn2), "f_n": np.sqrt(wn2) / (2 * np.pi),
-        "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "u0": u0,
+        "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "Q": 0.5 * np.sqrt(wn2) / p,
+        "u0": u0,
     }
     m = _mass_draws(mass, mass_sd, p.size, rng)
     if m is not None:
-        post.update({"mass": m, "c": 2 * m * p, "k": m * wn2})
+        post.update({"mass": m, "c": 2 * m * p, "k": m * wn2, "c_crit": 2 * m * np.sqrt(wn2)})
 
     def shape(v):  # emcee: (draw, walker) → arviz: (chain, draw)
         return v.reshape(n_draw, n_walk).T
