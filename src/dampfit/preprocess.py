@@ -14,7 +14,8 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    direction of the band-passed signal (the oscillation direction, whatever the tilt).
 5. **Clipping and impact spikes** — samples at a saturated level and isolated spikes
    (> 8 robust σ above a running median) are masked, never fitted.
-6. **Spectrum and dominant frequency** — periodogram peak refined by parabolic interpolation.
+6. **Spectrum and dominant frequency** — peak of the power summed over axes (Tukey-windowed
+   periodogram, flat over 90 % of the record) refined by parabolic interpolation.
 7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
    the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
@@ -146,16 +147,18 @@ def _parabolic_peak(y: np.ndarray, i: int) -> float:
 def dominant_frequency(
     y: np.ndarray, fs: float, fmin: float, fmax: float
 ) -> tuple[float, np.ndarray, np.ndarray]:
-    """Dominant frequency [Hz] of uniformly sampled ``y`` between ``fmin`` and ``fmax`` [Hz].
+    """Dominant frequency [Hz] of uniformly sampled ``y`` (n,) or (n, axes) in [fmin, fmax] [Hz].
 
-    Returns ``(f0, freqs, amplitude)``: the Hann-windowed, 4× zero-padded periodogram peak
+    Returns ``(f0, freqs, amplitude)``: the Tukey(0.1)-windowed, 4× zero-padded periodogram peak
     refined by parabolic interpolation of the log power, and the single-sided amplitude
     spectrum [m/s²] of the unpadded signal for display.
     """
     n = len(y)
-    win = signal.windows.hann(n)
+    win = signal.windows.tukey(n, 0.1)  # flat over 90 %: a decay near an end keeps its weight
     nfft = int(2 ** np.ceil(np.log2(4 * n)))
-    spec = np.abs(np.fft.rfft((y - y.mean()) * win, nfft))
+    yy = (y - y.mean(axis=0)).reshape(n, -1)
+    # power summed over axes (one axis: its own power)
+    spec = np.sqrt(np.sum(np.abs(np.fft.rfft(yy * win[:, None], nfft, axis=0)) ** 2, axis=1))
     f = np.fft.rfftfreq(nfft, 1.0 / fs)
     sel = np.flatnonzero((f >= fmin) & (f <= fmax))
     if sel.size < 3:
@@ -170,7 +173,7 @@ def dominant_frequency(
     logp = np.log(spec**2 + 1e-300)
     f0 = f[i] + _parabolic_peak(logp, i) * (f[1] - f[0])
     freqs = np.fft.rfftfreq(n, 1.0 / fs)
-    amp = 2.0 * np.abs(np.fft.rfft(y - y.mean())) / n
+    amp = 2.0 * np.sqrt(np.sum(np.abs(np.fft.rfft(yy, axis=0)) ** 2, axis=1)) / n
     return float(f0), freqs, amp
 
 
@@ -226,7 +229,12 @@ def _inpaint_on_grid(grid: np.ndarray, t: np.ndarray, y: np.ndarray, usable: np.
     amplitude A (linear interpolation would give A·(ωg)²/8), so short masked spikes leave the
     filtered signal intact; long runs are excluded from the fit instead (:func:`fit_data`).
     """
-    return _to_grid(t[usable], y[usable], 1.0 / (grid[1] - grid[0]), grid=grid)[1]
+    tu, yu = t[usable], y[usable]
+    inside = (grid >= tu[0]) & (grid <= tu[-1])
+    out = np.empty(grid.size)
+    out[inside] = _to_grid(tu, yu, 1.0 / (grid[1] - grid[0]), grid=grid[inside])[1]
+    out[grid < tu[0]], out[grid > tu[-1]] = yu[0], yu[-1]  # hold, never extrapolate
+    return out
 
 
 def _principal_direction(yb: np.ndarray) -> np.ndarray:
@@ -281,6 +289,14 @@ def _impacts(t, y, usable, hits, f0) -> tuple[np.ndarray, np.ndarray]:
     return times, ratios
 
 
+def _running_median(x: np.ndarray, width: int) -> np.ndarray:
+    """Centred running median over ``width`` samples, computed on a thinned copy (fast)."""
+    step = max(1, width // 20)
+    thin = x[::step]
+    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode="nearest")
+    return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
+
+
 def _detect_window(
     grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
 ) -> tuple[float, float, list[str]]:
@@ -298,10 +314,12 @@ def _detect_window(
     inner = sm[edge : len(sm) - edge] if len(sm) > 2 * edge + 1 else sm
     i_pk = int(np.argmax(inner)) + (edge if len(sm) > 2 * edge + 1 else 0)
     notes = []
-    # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck)
-    run_min = np.minimum.accumulate(sm[i_pk:])
-    low = np.flatnonzero(sm[i_pk:] < 3.0 * floor)
-    rise = np.flatnonzero((sm[i_pk:] > 1.5 * run_min) & (sm[i_pk:] > 5.0 * floor))
+    # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck),
+    # judged on a median over five periods so that short dropouts (gaps) do not end it
+    robust = _running_median(env, 5 * per)
+    run_min = np.minimum.accumulate(robust[i_pk:])
+    low = np.flatnonzero(robust[i_pk:] < 3.0 * floor)
+    rise = np.flatnonzero((robust[i_pk:] > 1.5 * run_min) & (robust[i_pk:] > 5.0 * floor))
     i_end = len(sm) - 1 - edge
     if low.size:
         i_end = min(i_end, i_pk + int(low[0]))
@@ -455,15 +473,8 @@ def prepare(
 
 
 def _dominant_multi(detr: np.ndarray, fs: float, fmin: float, fmax: float) -> float:
-    """Dominant frequency of several axes: that of the axis with the strongest peak."""
-    best_f, best_h = 0.0, -1.0
-    for col in detr.T:
-        f0, freqs, amp = dominant_frequency(col, fs, fmin, fmax)
-        sel = (freqs >= fmin) & (freqs <= fmax)
-        height = amp[sel].max() if sel.any() else 0.0
-        if height > best_h:
-            best_f, best_h = f0, height
-    return best_f
+    """Dominant frequency [Hz] of the summed power of all axes (invariant to the tilt)."""
+    return dominant_frequency(detr, fs, fmin, fmax)[0]
 
 
 def _long_masked_runs(t: np.ndarray, usable: np.ndarray, min_gap: float) -> np.ndarray:
