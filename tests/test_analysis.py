@@ -52,14 +52,14 @@ def test_bad_options_are_input_errors(kw, match):
 
 
 def test_no_oscillation_is_an_input_error():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0, u0=0.0))
+    rec, _ = sim.simulate(sim.preset("paper", duration=15.0, u0=0.0))  # hand tremor only
     with pytest.raises(InputError, match="no free.decay"):
-        preprocess.prepare(rec)
+        analysis.analyze(rec, mass=5.3)
 
 
 def test_too_short_recording_is_an_input_error():
     rec, _ = sim.simulate(sim.preset("paper", duration=1.0, handheld=0.0))  # 1.7 cycles
-    with pytest.raises(InputError, match="too short"):
+    with pytest.raises(InputError, match="too short"):  # "no … peak" or "(too short?)"
         preprocess.prepare(rec)
 
 

@@ -32,6 +32,9 @@ PARAMETER_UNITS = {
 }
 #: A PSD ratio r above this signals residual structure worth a warning.
 R_WARN = 3.0
+#: A free decay must explain at least this fraction of the window's variance beyond the drift
+#: (a real decay explains ≈ 1 − 1/SNR; random hand motion or noise far less).
+MIN_EXPLAINED = 0.5
 
 
 def _version() -> str:
@@ -205,6 +208,12 @@ def analyze(
 
     fd = preprocess.fit_data(prep)
     ls = fit.least_squares(fd, p0, prep.f0)
+    if ls.explained < MIN_EXPLAINED:
+        raise InputError(
+            f"no free decay found: a damped oscillation explains only {100 * ls.explained:.0f} % "
+            f"of the signal in {prep.window[0]:.3g}–{prep.window[1]:.3g} s (random motion or "
+            "noise?); check the axis or give --window START END"
+        )
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)

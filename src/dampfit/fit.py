@@ -49,6 +49,12 @@ class LeastSquaresResult:
     message: str
     n_steps: int
     gain: complex
+    rss_drift: float  # residual sum of squares of the drift terms alone [(m/s²)²]
+
+    @property
+    def explained(self) -> float:
+        """Fraction of the window's variance beyond the drift that the damped oscillation explains."""
+        return float(1.0 - self.rss / self.rss_drift) if self.rss_drift > 0 else 0.0
 
     @property
     def p(self) -> float:
@@ -141,4 +147,5 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
             theta=theta, beta=np.asarray(beta), cov=cov, rss=float(rss_v), n=n,
             residuals=resid, converged=ok and finite, message=message, n_steps=steps,
             gain=amplitude_gain(fd, p, wd),
+            rss_drift=float(jnp.sum((y - drift @ (drift.T @ y)) ** 2)),
         )

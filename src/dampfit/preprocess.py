@@ -456,7 +456,8 @@ def prepare(
     if window_auto and (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
             f"no free decay found: the strongest oscillation ({f0:.3g} Hz) lasts only "
-            f"{(w1 - w0) * f0:.1f} cycles after its peak; give --window START END if it is there"
+            f"{(w1 - w0) * f0:.1f} cycles after its peak in this {t[-1] - t[0]:.3g} s recording "
+            "(too short?); give --window START END if a decay is there"
         )
     if (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
