@@ -102,7 +102,7 @@ def rows() -> list[dict]:
         "c = 2·m·p (MEMS envelope)", "3, after 4", 0.1897, c_mems, 4,
         "p = 0.0179 1/s, m = 5.3 kg; physics.from_decay(...)['c'] = 2·m·p.",
     ))
-    c_as_typeset = -(-P) * M
+    c_as_typeset = -(-P) * M  # noqa: B002 - the paper's typeset expression, on purpose
     out.append(_row(
         "c as typeset: −(−0.0179)·5.3", "after 4", 0.1897, c_as_typeset, 4,
         f"The paper writes c = −p·2m = −(−0.0179)·5.3, which evaluates to {c_as_typeset:.4f}: "

@@ -117,6 +117,18 @@ def test_marginal_likelihood_peaks_at_truth_and_vmaps():
     assert np.all(np.isfinite(vec))
 
 
+def test_drift_basis_evaluates_the_same_functions_elsewhere():
+    """Coefficients fitted on the sample times apply on any other grid (plots)."""
+    rng = np.random.default_rng(3)
+    tau = np.sort(rng.uniform(0, 30, 400))  # irregular sample times
+    q = model.drift_basis(tau, 5)
+    np.testing.assert_allclose(model.drift_basis(tau, 5, at=tau), q, atol=1e-12)
+    coef = q.T @ (0.3 + 0.01 * tau - 1e-4 * tau**2)  # a smooth drift, exactly representable
+    dense = np.linspace(tau[0], tau[-1], 1000)
+    np.testing.assert_allclose(model.drift_basis(tau, 5, at=dense) @ coef,
+                               0.3 + 0.01 * dense - 1e-4 * dense**2, atol=1e-10)
+
+
 def test_drift_basis_is_well_conditioned():
     tau = np.linspace(0, 300, 5000)
     basis = model.drift_basis(tau, 10)

@@ -108,7 +108,7 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
     with jax.enable_x64(True):
         tau = jnp.asarray(fd.tau)
         y = jnp.asarray(fd.y)
-        drift = jnp.asarray(model.drift_basis(fd.tau, fd.drift_degree))
+        drift = jnp.asarray(fd.drift)
         span = float(fd.tau[-1] - fd.tau[0])
         w0 = 2 * np.pi * f0
         p0 = float(np.clip(p0, 1e-6 * w0, 0.5 * w0)) if np.isfinite(p0) and p0 > 0 else 1e-3 * w0

@@ -74,18 +74,25 @@ def displacement(tau, p, omega_d, a_cos, a_sin):
     return jnp.real(cc * jnp.exp(s * tau))
 
 
-def drift_basis(tau: np.ndarray, degree: int) -> np.ndarray:
+def drift_basis(tau: np.ndarray, degree: int, at: np.ndarray | None = None) -> np.ndarray:
     """Orthonormal drift basis on the window, shape (n, degree + 1) [1].
 
     The Legendre polynomials ``P_0..P_degree`` of x = 2τ/T − 1 ∈ [−1, 1] (``tau`` [s] from the
-    window start), orthonormalised on the actual sample times by a QR decomposition, so that
-    ``QᵀQ = I`` exactly even for irregular times. Being fixed, it is computed once per fit.
+    window start), orthonormalised on the actual sample times by a QR decomposition V = QR, so
+    that ``QᵀQ = I`` exactly even for irregular times. With ``at`` [s], the *same* basis
+    functions V(at)·R⁻¹ are evaluated at other times (e.g. a dense grid for plotting), so
+    coefficients fitted on ``tau`` apply there unchanged.
     """
     tau = np.asarray(tau, dtype=float)
     span = max(float(tau[-1] - tau[0]), 1e-12)
-    x = 2.0 * (tau - tau[0]) / span - 1.0
-    q, _ = np.linalg.qr(np.polynomial.legendre.legvander(x, degree))
-    return q
+
+    def vander(t):
+        return np.polynomial.legendre.legvander(2.0 * (t - tau[0]) / span - 1.0, degree)
+
+    q, r = np.linalg.qr(vander(tau))
+    if at is None:
+        return q
+    return np.linalg.solve(r.T, vander(np.asarray(at, dtype=float)).T).T
 
 
 def oscillation_columns(theta, tau):

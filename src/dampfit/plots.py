@@ -147,7 +147,7 @@ def _model_curve(an: "Analysis", n: int) -> tuple[np.ndarray, np.ndarray]:
     fd, ls = an.fit_data, an.least_squares
     # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
     tau = np.linspace(fd.tau[0], fd.tau[-1], int(n))
-    drift = model.drift_basis(tau, fd.drift_degree)
+    drift = model.drift_basis(fd.tau, fd.drift_degree, at=tau)
     with jax.enable_x64(True):
         x = model.design_matrix(jnp.asarray(ls.theta), jnp.asarray(tau), jnp.asarray(drift))
         y = np.asarray(x @ jnp.asarray(ls.beta))

@@ -77,7 +77,7 @@ class PosteriorResult:
 def _make_log_prob(fd: FitData, band: tuple[float, float], temper: float):
     tau = jnp.asarray(fd.tau)
     y = jnp.asarray(fd.y)
-    drift = jnp.asarray(model.drift_basis(fd.tau, fd.drift_degree))
+    drift = jnp.asarray(fd.drift)
     lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
 
     def one(theta):
@@ -99,7 +99,7 @@ def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng)
     """Draw (A, B) [m/s²] given each θ from N(β̂(θ), s²·r·(XᵀX)⁻¹)."""
     tau = jnp.asarray(fd.tau)
     y = jnp.asarray(fd.y)
-    drift = jnp.asarray(model.drift_basis(fd.tau, fd.drift_degree))
+    drift = jnp.asarray(fd.drift)
     n, q = fd.y.size, fd.drift_degree + 3
 
     @jax.jit

@@ -27,12 +27,13 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import interpolate, ndimage, signal
 
-from . import filters
+from . import filters, model
 from .errors import InputError
 from .recording import Recording
 
@@ -94,7 +95,7 @@ class Prepared:
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class FitData:
     """Samples the decay model is fitted to.
 
@@ -112,6 +113,11 @@ class FitData:
     lowpass_sos: np.ndarray | None
     fs_filter: float
     n_excluded: int
+
+    @functools.cached_property
+    def drift(self) -> np.ndarray:
+        """Orthonormal drift basis on ``tau`` (:func:`dampfit.model.drift_basis`), built once."""
+        return model.drift_basis(self.tau, self.drift_degree)
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -391,7 +397,7 @@ def prepare(
 
     # dominant frequency on the axis with the strongest peak, then the axis, then refine
     detr = signal.detrend(graw, axis=0)
-    f0 = _dominant_multi(detr, fs, fmin, fmax)
+    f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
     bnd = (float(band[0]), float(band[1])) if band is not None else auto_band(f0, fs)
     if axis == "auto":
         if graw.shape[1] == 1:
@@ -471,11 +477,6 @@ def prepare(
         window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
     )
-
-
-def _dominant_multi(detr: np.ndarray, fs: float, fmin: float, fmax: float) -> float:
-    """Dominant frequency [Hz] of the summed power of all axes (invariant to the tilt)."""
-    return dominant_frequency(detr, fs, fmin, fmax)[0]
 
 
 def _long_masked_runs(t: np.ndarray, usable: np.ndarray, min_gap: float) -> np.ndarray:
