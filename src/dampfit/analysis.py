@@ -156,6 +156,51 @@ class Analysis:
         """Write :meth:`summary` as JSON to ``path`` (atomically)."""
         return atomic_write_text(path, json.dumps(self.summary(), indent=2) + "\n")
 
+    def true_quadratures(self) -> tuple[float, float]:
+        """Least-squares acceleration quadratures (A, B) [m/s²] at the window start with the
+        decimation filter's complex gain G divided out: the fitted data carry Re[G·C·e^{sτ}]
+        with C = A − iB (eq. M1), so C_true = C_fit / G."""
+        ls = self.least_squares
+        cc = complex(ls.beta[0], -ls.beta[1]) / complex(ls.gain)
+        return cc.real, -cc.imag
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Measured and modelled signals on the analysis window (plain arrays, SI units).
+
+        ``t`` [s] uniform grid of the window (recording time base), ``accel`` [m/s²]
+        band-passed measured acceleration of the analysed axis, ``accel_model`` [m/s²] the
+        least-squares decay (drift excluded, filter gain removed), ``displacement`` [m] the
+        measured displacement of the paper's pipeline (band-pass, ∫∫, band-pass; NaN when that
+        baseline failed), ``displacement_model`` [m]; scalars ``fs`` [Hz], ``p`` [1/s],
+        ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0).
+        """
+        from . import model
+
+        prep, ls = self.prepared, self.least_squares
+        sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+        t = prep.grid[sel]
+        tau = t - self.fit_data.t0
+        a_cos, a_sin = self.true_quadratures()
+        accel_model = np.asarray(model.acceleration(tau, ls.p, ls.omega_d, a_cos, a_sin))
+        disp_model = np.asarray(model.displacement(tau, ls.p, ls.omega_d, a_cos, a_sin))
+        env = self.baselines.get("envelope_pipeline")
+        disp = np.full(t.size, np.nan)
+        if env is not None and np.size(env.details.get("displacement", [])) == t.size:
+            disp = np.asarray(env.details["displacement"], float)
+        return {"t": t, "accel": prep.bandpassed[sel], "accel_model": accel_model,
+                "displacement": disp, "displacement_model": disp_model,
+                "fs": np.float64(prep.fs), "p": np.float64(ls.p),
+                "omega_d": np.float64(ls.omega_d), "t0": np.float64(self.fit_data.t0)}
+
+    def to_signals(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`signals` to an ``.npz`` file (atomically)."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".part.npz")
+        np.savez_compressed(tmp, **self.signals())
+        publish(tmp)
+        os.replace(tmp, path)
+        return path
+
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""
         path = Path(path)

@@ -95,7 +95,30 @@ def get_parser() -> argparse.ArgumentParser:
     d.add_argument("--seed", type=int, default=0)
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.add_argument("--no-figures", action="store_true")
+    d.add_argument("--report", action="store_true", help="also write report.html and report.md")
+
+    # commands implemented in their own modules: each provides add_arguments(parser) and
+    # command(args) -> exit code; those modules keep heavy imports (jax, dask, openseespy)
+    # inside functions so that building the parser stays fast
+    for name, help_, module in _EXTERNAL:
+        sp = sub.add_parser(name, help=help_)
+        _load(module).add_arguments(sp)
     return p
+
+
+#: (command, help, module) of the commands that live outside this file.
+_EXTERNAL = (
+    ("report", "write report.html and report.md for a result folder", "report"),
+    ("export", "write an FEM deck (LS-DYNA, OpenSees, CalculiX) of the identified system", "fem.export"),
+    ("verify", "run the identified system in OpenSeesPy and compare with the measurement", "fem.verify"),
+    ("study", "simulation study comparing damping estimators (Dask, resumable)", "study"),
+)
+
+
+def _load(module: str):
+    import importlib
+
+    return importlib.import_module(f"dampfit.{module}")
 
 
 def _analysis_options(a: argparse.ArgumentParser) -> None:
@@ -112,6 +135,10 @@ def _analysis_options(a: argparse.ArgumentParser) -> None:
     a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
     a.add_argument("--quiet", action="store_true", help="no progress bar")
+    a.add_argument("--report", action="store_true", help="also write report.html and report.md")
+    a.add_argument("--model", default="viscous",
+                   choices=["viscous", "coulomb", "quadratic", "power", "auto"],
+                   help="damping model (auto: compare all and report the preferred one)")
 
 
 # ----------------------------------------------------------------------- outputs
@@ -152,6 +179,7 @@ def _write_outputs(an, out: Path, force: bool, figures: bool) -> Path:
     with _staged_dir(out, force) as stage:
         an.to_json(stage / "summary.json")
         an.to_netcdf(stage / "posterior.nc")
+        an.to_signals(stage / "signals.npz")
         if figures:
             from .plots import save_figures
 
@@ -258,6 +286,7 @@ def _cmd_demo(args) -> int:
                      progress=not args.quiet and sys.stderr.isatty())
         an.to_json(stage / "summary.json")
         an.to_netcdf(stage / "posterior.nc")
+        an.to_signals(stage / "signals.npz")
         if not args.no_figures:
             from .plots import save_figures
 
@@ -276,8 +305,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         args = get_parser().parse_args(argv)
         if args.command is None:
-            raise InputError("no command given; use analyze, simulate or demo (see 'dampfit --help')")
-        return {"analyze": _cmd_analyze, "simulate": _cmd_simulate, "demo": _cmd_demo}[args.command](args)
+            raise InputError("no command given; use analyze, simulate, demo, report, export, verify "
+                             "or study (see 'dampfit --help')")
+        builtin = {"analyze": _cmd_analyze, "simulate": _cmd_simulate, "demo": _cmd_demo}
+        if args.command in builtin:
+            return builtin[args.command](args)
+        module = {name: mod for name, _, mod in _EXTERNAL}[args.command]
+        return _load(module).command(args)
     except InputError as exc:
         print(f"dampfit: error: {exc}", file=sys.stderr)
         return 2

@@ -86,51 +86,66 @@ def amplitude_gain(fd: FitData, p: float, omega_d: float) -> complex:
     return filtfilt_gain(fd.lowpass_sos, fd.fs_filter, p, omega_d)
 
 
+# Module-level jitted kernels on padded inputs (FitData.padded): they compile once per shape
+# bucket and are reused by every later fit of that bucket (a study compiles a handful of times).
 @jax.jit
 def _projected_residual(theta, args):
-    tau, y, drift = args
-    beta, _, _, _ = model.profile(theta, tau, y, drift)
-    return y - model.design_matrix(theta, tau, drift) @ beta
+    tau, y, drift, mask = args
+    beta, _, _, _ = model.profile(theta, tau, y, drift, mask)
+    return y - _full_model(jnp.concatenate([theta, beta]), tau, drift, mask)
 
 
 @jax.jit
-def _grid_rss(thetas, tau, y, drift):
-    return jax.vmap(lambda th: model.profile(th, tau, y, drift)[1])(thetas)
+def _grid_rss(thetas, tau, y, drift, mask):
+    return jax.vmap(lambda th: model.profile(th, tau, y, drift, mask)[1])(thetas)
 
 
 @jax.jit
-def _full_model(phi, tau, drift):
-    return model.design_matrix(phi[:2], tau, drift) @ phi[2:]
+def _full_model(phi, tau, drift, mask):
+    x = model.design_matrix(phi[:2], tau, drift)
+    x = x.at[:, :2].multiply(mask[:, None])
+    return x @ phi[2:]
+
+
+@jax.jit
+def _profile(theta, tau, y, drift, mask):
+    return model.profile(theta, tau, y, drift, mask)[:2]
+
+
+_jacobian = jax.jit(jax.jacfwd(_full_model))
+_SOLVER = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
 
 
 def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) -> LeastSquaresResult:
     """Fit the decay model to ``fd`` from a decay rate guess ``p0`` [1/s] and frequency ``f0`` [Hz]."""
+    pad = fd.padded
+    n, nq = pad.n, pad.q  # real samples; real linear coefficients (A, B, drift)
     with jax.enable_x64(True):
-        tau = jnp.asarray(fd.tau)
-        y = jnp.asarray(fd.y)
-        drift = jnp.asarray(fd.drift)
+        arrays = tuple(jnp.asarray(a) for a in (pad.tau, pad.y, pad.drift, pad.mask))
         span = float(fd.tau[-1] - fd.tau[0])
         w0 = 2 * np.pi * f0
         p0 = float(np.clip(p0, 1e-6 * w0, 0.5 * w0)) if np.isfinite(p0) and p0 > 0 else 1e-3 * w0
-        # coarse start: ω_d over ±3 Fourier bins, p over a factor of 10
+        # coarse start: ω_d over ±3 Fourier bins, p over a factor of 10 (fixed 5 × 49 grid)
         ws = w0 + 2 * np.pi / span * np.linspace(-3, 3, 49)
+        ws = np.where(ws > 0, ws, w0)
         ps = p0 * np.array([0.2, 0.5, 1.0, 2.0, 5.0])
-        grid = np.array([[np.log(pp), np.log(ww)] for pp in ps for ww in ws if ww > 0])
-        rss = np.asarray(_grid_rss(jnp.asarray(grid), tau, y, drift))
+        grid = np.log(np.array([[pp, ww] for pp in ps for ww in ws]))
+        rss = np.asarray(_grid_rss(jnp.asarray(grid), *arrays))
         theta0 = jnp.asarray(grid[int(np.nanargmin(rss))])
 
-        solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
         sol = optx.least_squares(
-            _projected_residual, solver, theta0, args=(tau, y, drift),
-            max_steps=max_steps, throw=False,
+            _projected_residual, _SOLVER, theta0, args=arrays, max_steps=max_steps, throw=False,
         )
         ok = bool(sol.result == optx.RESULTS.successful)
         theta = np.asarray(sol.value)
-        beta, rss_v, _, _ = model.profile(sol.value, tau, y, drift)
-        phi = jnp.concatenate([sol.value, beta])
-        resid = np.asarray(y - _full_model(phi, tau, drift))
-        jac = np.asarray(jax.jacfwd(_full_model)(phi, tau, drift))
-        n, k = fd.y.size, phi.size
+        beta_pad, rss_v = _profile(sol.value, *arrays)
+        beta_pad = np.asarray(beta_pad)
+        phi = jnp.concatenate([sol.value, jnp.asarray(beta_pad)])
+        resid = np.asarray(arrays[1] - _full_model(phi, arrays[0], arrays[2], arrays[3]))[:n]
+        # Jacobian of the real rows and the real columns (θ, A, B, drift_0..drift_degree)
+        jac = np.asarray(_jacobian(phi, arrays[0], arrays[2], arrays[3]))[:n, : 2 + nq]
+        beta = beta_pad[:nq]
+        k = 2 + nq
         s2 = float(rss_v) / max(n - k, 1)
         try:
             cov = s2 * np.linalg.inv(jac.T @ jac)
@@ -143,9 +158,10 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
             ok, message = False, "singular Jacobian at the optimum"
         steps = int(sol.stats.get("num_steps", -1)) if hasattr(sol, "stats") else -1
         p, wd = float(np.exp(theta[0])), float(np.exp(theta[1]))
+        y, drift = fd.y, fd.drift
         return LeastSquaresResult(
-            theta=theta, beta=np.asarray(beta), cov=cov, rss=float(rss_v), n=n,
+            theta=theta, beta=beta, cov=cov, rss=float(rss_v), n=n,
             residuals=resid, converged=ok and finite, message=message, n_steps=steps,
             gain=amplitude_gain(fd, p, wd),
-            rss_drift=float(jnp.sum((y - drift @ (drift.T @ y)) ** 2)),
+            rss_drift=float(np.sum((y - drift @ (drift.T @ y)) ** 2)),
         )

@@ -108,7 +108,7 @@ def design_matrix(theta, tau, drift):
     return jnp.concatenate([oscillation_columns(theta, tau), drift], axis=1)
 
 
-def profile(theta, tau, y, drift):
+def profile(theta, tau, y, drift, mask=None):
     r"""Linear least squares of ``y`` [m/s²] on the design matrix at fixed θ.
 
     With the orthonormal drift basis Q (:func:`drift_basis`) the drift is projected out
@@ -116,28 +116,38 @@ def profile(theta, tau, y, drift):
 
         β_osc = (X⊥ᵀX⊥)⁻¹X⊥ᵀy⊥,   RSS = ‖y⊥ − X⊥β_osc‖²,   det XᵀX = det(X⊥ᵀX⊥)·det(QᵀQ),
 
-    and det QᵀQ = 1. This costs O(n·d) instead of O(n·d²) per evaluation and is the same
-    likelihood. Returns ``(beta, rss, logdet, (chol, scale))``: all coefficients
+    and det QᵀQ = 1. The 2×2 system is formed from Gram products (QᵀX, Qᵀy, XᵀX, Xᵀy):
+    O(n·d) per evaluation instead of O(n·d²), and the same likelihood. Returns ``(beta, rss, logdet, (chol, scale))``: all coefficients
     (A, B, drift in Q coordinates), the RSS [(m/s²)²], ``log det XᵀX``, and the Cholesky
     factor of the column-scaled 2×2 ``X⊥ᵀX⊥`` with its column scales (the conditional
     covariance of (A, B) is ``s²·diag(1/scale)·(LLᵀ)⁻¹·diag(1/scale)``).
+
+    ``mask`` [1] (optional, 0 or 1 per sample) switches samples off: padded rows (see
+    :class:`dampfit.preprocess.Padded`) carry y = 0 and zero drift rows, and the mask zeroes
+    their oscillation columns, so they contribute nothing.
     """
     xo = oscillation_columns(theta, tau)
-    xp = xo - drift @ (drift.T @ xo)
-    yp = y - drift @ (drift.T @ y)
-    scale = jnp.sqrt(jnp.sum(xp * xp, axis=0))
-    xs = xp / scale
-    chol = jnp.linalg.cholesky(xs.T @ xs)
-    beta_s = jsl.cho_solve((chol, True), xs.T @ yp)
-    resid = yp - xs @ beta_s
-    rss = jnp.sum(resid * resid)
+    if mask is not None:
+        xo = xo * mask[:, None]
+    # Gram form of the projection: X⊥ᵀX⊥ = XᵀX − (QᵀX)ᵀ(QᵀX) and X⊥ᵀy⊥ = Xᵀy − (QᵀX)ᵀ(Qᵀy)
+    # (the drift columns are orthonormal); the RSS from the explicit residual, not from
+    # ‖y⊥‖² − βᵀX⊥ᵀy⊥, which would lose digits when the fit is nearly exact
+    qx = drift.T @ xo
+    qy = drift.T @ y
+    gram = xo.T @ xo - qx.T @ qx
+    rhs = xo.T @ y - qx.T @ qy
+    scale = jnp.sqrt(jnp.diag(gram))
+    chol = jnp.linalg.cholesky(gram / jnp.outer(scale, scale))
+    beta_s = jsl.cho_solve((chol, True), rhs / scale)
     logdet = 2.0 * jnp.sum(jnp.log(jnp.diag(chol))) + 2.0 * jnp.sum(jnp.log(scale))
     beta_osc = beta_s / scale
-    beta_drift = drift.T @ (y - xo @ beta_osc)
+    beta_drift = qy - qx @ beta_osc
+    resid = y - xo @ beta_osc - drift @ beta_drift
+    rss = jnp.sum(resid * resid)
     return jnp.concatenate([beta_osc, beta_drift]), rss, logdet, (chol, scale)
 
 
-def log_marginal_likelihood(theta, tau, y, drift, temper):
+def log_marginal_likelihood(theta, tau, y, drift, temper, mask=None, n=None, q=None):
     r"""Log likelihood of θ with the linear coefficients and the noise level marginalised.
 
     With Gaussian noise of unknown σ, flat priors on the q linear coefficients and a
@@ -148,8 +158,10 @@ def log_marginal_likelihood(theta, tau, y, drift, temper):
     ``temper`` = 1/r divides the information by the ratio r of the noise power spectral
     density at the oscillation frequency to its mean (r = 1 for white noise; see
     :mod:`dampfit.noise`), which keeps the posterior calibrated for coloured noise and for
-    filtered, decimated samples.
+    filtered, decimated samples. With padded inputs give ``mask`` and the real sample count
+    ``n`` and coefficient count ``q``.
     """
-    _, rss, logdet, _ = profile(theta, tau, y, drift)
-    n, q = y.shape[0], drift.shape[1] + 2
+    _, rss, logdet, _ = profile(theta, tau, y, drift, mask)
+    n = y.shape[0] if n is None else n
+    q = drift.shape[1] + 2 if q is None else q
     return temper * (-0.5 * logdet - 0.5 * (n - q) * jnp.log(rss))

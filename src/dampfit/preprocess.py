@@ -119,6 +119,48 @@ class FitData:
         """Orthonormal drift basis on ``tau`` (:func:`dampfit.model.drift_basis`), built once."""
         return model.drift_basis(self.tau, self.drift_degree)
 
+    @functools.cached_property
+    def padded(self) -> "Padded":
+        """The same samples padded to a fixed bucket of shapes, so that jitted functions
+        compile once per bucket instead of once per recording (see :class:`Padded`)."""
+        n = self.tau.size
+        n_pad = padded_length(n)
+        tau = np.full(n_pad, self.tau[-1])
+        tau[:n] = self.tau
+        y = np.zeros(n_pad)
+        y[:n] = self.y
+        drift = np.zeros((n_pad, MAX_DRIFT_DEGREE + 1))
+        drift[:n, : self.drift_degree + 1] = self.drift
+        mask = np.zeros(n_pad)
+        mask[:n] = 1.0
+        return Padded(tau=tau, y=y, drift=drift, mask=mask, n=n, q=self.drift_degree + 3)
+
+
+@dataclass(frozen=True, eq=False)
+class Padded:
+    """Fit samples padded with inert rows: ``mask`` [1] is 1 on the ``n`` real samples and 0 on
+    the padding, where ``y`` and the drift basis are 0 and the oscillation columns are masked,
+    so every projection, residual and determinant equals the unpadded one. The drift basis is
+    padded with zero columns to ``MAX_DRIFT_DEGREE + 1`` (Q·Qᵀ is unchanged). ``q`` is the
+    number of real linear coefficients (A, B and the drift terms)."""
+
+    tau: np.ndarray
+    y: np.ndarray
+    drift: np.ndarray
+    mask: np.ndarray
+    n: int
+    q: int
+
+
+def padded_length(n: int) -> int:
+    """Smallest bucket ≥ ``n`` of the series 256·{1, 1.5}·2^k (≤ 50 % padding)."""
+    size = 256
+    while True:
+        for b in (size, size * 3 // 2):
+            if b >= n:
+                return b
+        size *= 2
+
 
 # ----------------------------------------------------------------------------- helpers
 def _stale_mask(accel: np.ndarray) -> np.ndarray:
