@@ -71,6 +71,7 @@ class Analysis:
     noise: noise.NoiseModel
     sampling: posterior.PosteriorResult
     baselines: dict[str, baselines.BaselineResult | None]
+    crlb: dict[str, Any] | None
     mass: float | None
     mass_sd: float
     seed: int
@@ -99,6 +100,9 @@ class Analysis:
         params: dict[str, Any] = {}
         for name in PARAMETER_UNITS:
             params[name] = _param_summary(self.posterior, name) if name in post else None
+            bound = (self.crlb or {}).get(name)
+            if params[name] is not None and isinstance(bound, dict):
+                params[name]["crlb_sd"] = bound.get("sd_with_mass", bound["sd"])
         missing = {}
         if self.mass is None:
             why = ("no mass given: a free decay identifies only the decay rate p and the "
@@ -130,6 +134,7 @@ class Analysis:
             "baselines": {k: (v.summary() if v is not None else None)
                           for k, v in self.baselines.items()},
             "noise_model": self.noise.summary(),
+            "crlb": self.crlb,
             "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
                     "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
                     "t0_s": fd.t0},
@@ -267,6 +272,7 @@ def analyze(
             f"residuals near f0 are {nm.psd_ratio:.1f}x the white-noise level (coloured noise, "
             "amplitude-dependent damping or a second mode?); intervals were widened to match"
         )
+    bound = _crlb(prep, fd, ls, nm, m, sd, warns)
     post = posterior.sample(
         fd, ls, band=prep.band, temper=1.0 / nm.psd_ratio, mass=m, mass_sd=sd, seed=seed,
         progress=progress, max_steps=max_steps, min_ess=min_ess,
@@ -277,7 +283,7 @@ def analyze(
                "min_ess": min_ess}
     return Analysis(
         recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
-        sampling=post, baselines=base, mass=m, mass_sd=sd, seed=int(seed), options=options,
+        sampling=post, baselines=base, crlb=bound, mass=m, mass_sd=sd, seed=int(seed), options=options,
         warnings=warns,
     )
 
@@ -291,6 +297,33 @@ def _initial_decay_rate(base: dict) -> float:
             if p is not None and np.isfinite(p) and p > 0:
                 return float(p)
     return float("nan")
+
+
+def _crlb(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] | None:
+    """Cramér–Rao bound of this recording's design (:mod:`dampfit.crlb`).
+
+    Design: the raw usable sample times of the window; white noise at the level the residuals
+    show at f₀ — one-sided density S(f₀) = r·σ²·2/f_fit from the noise model (σ per fitted
+    sample, r the Whittle factor), i.e. σ_raw = √(S(f₀)·f_s/2) per raw sample — since by the
+    Whittle argument only the noise near f₀ limits the estimate; the least-squares parameters
+    (amplitude with the decimation filter's gain removed); the fitted drift as nuisance."""
+    from . import crlb
+
+    sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
+    density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))
+    sigma = crlb.from_noise_density(density, prep.fs)
+    cc = complex(ls.beta[0], -ls.beta[1]) / complex(ls.gain)
+    try:
+        out = crlb.bound(prep.time[sel] - fd.t0, sigma, p=ls.p, omega_d=ls.omega_d,
+                         a_cos=cc.real, a_sin=-cc.imag, mass=mass, mass_sd=mass_sd,
+                         drift_degree=fd.drift_degree)
+    except (InputError, np.linalg.LinAlgError, ValueError) as exc:
+        warns.append(f"Cramér–Rao bound not computed: {exc}")
+        return None
+    out["noise_sigma"] = sigma
+    out["noise_density"] = density
+    out["noise_density_unit"] = "m/s^2/sqrt(Hz)"
+    return out
 
 
 def _param_summary(idata, name: str) -> dict[str, Any]:

@@ -111,6 +111,9 @@ class SimulationConfig:
         Number of gaps of a few (2–10) missing samples each.
     noise_density : float
         White noise density [µg/√Hz], one-sided, independent per axis.
+    flicker : float
+        Coloured (1/f, "flicker") noise: one-sided amplitude density at 1 Hz [µg/√Hz], so
+        the power density is flicker²/f; added to the white noise, independent per axis.
     bias : float or (float, float, float)
         Constant offset [m/s²], one for all axes or one per axis (x, y, z); stored as a 3-tuple.
     drift : float
@@ -140,6 +143,7 @@ class SimulationConfig:
     jitter: float = 0.0
     gaps: int = 0
     noise_density: float = 150.0
+    flicker: float = 0.0
     bias: tuple[float, float, float] | float = 0.0
     drift: float = 0.0
     quantization: float = 0.0
@@ -154,7 +158,8 @@ class SimulationConfig:
     def __post_init__(self) -> None:
         for name in ("mass", "k", "sample_rate", "duration"):
             _require_number(self, name, positive=True)
-        for name in ("c", "u0", "jitter", "noise_density", "drift", "quantization", "handheld"):
+        for name in ("c", "u0", "jitter", "noise_density", "flicker", "drift", "quantization",
+                     "handheld"):
             _require_number(self, name, positive=False)
         for name in ("tilt_deg", "azimuth_deg"):
             _require_number(self, name, positive=None)
@@ -404,6 +409,22 @@ def _band_limited(
     return x * np.where(scale > 0, rms / np.where(scale > 0, scale, 1.0), 0.0)
 
 
+def _flicker_noise(rng: np.random.Generator, n: int, cfg: SimulationConfig) -> np.ndarray:
+    """1/f noise [m/s²] of shape (n, 3), one-sided density ``cfg.flicker``/√f [µg/√Hz].
+
+    Unit white noise (one-sided density √(2/f_s)) shaped in the frequency domain by
+    H(f) = flicker·f^(−1/2)/√(2/f_s), on the nominal sample grid (jitter is ignored here).
+    """
+    if n == 0 or cfg.flicker == 0:
+        return np.zeros((n, 3))
+    fs = cfg.sample_rate
+    f = np.fft.rfftfreq(n, 1.0 / fs)
+    gain = np.zeros_like(f)
+    gain[1:] = cfg.flicker * 1e-6 * STANDARD_GRAVITY / np.sqrt(f[1:]) / math.sqrt(2.0 / fs)
+    white = rng.standard_normal((n, 3))
+    return np.fft.irfft(np.fft.rfft(white, axis=0) * gain[:, None], n=n, axis=0)
+
+
 def _pull(t: np.ndarray, cfg: SimulationConfig) -> np.ndarray:
     """Acceleration [m/s²] of the slow cycloidal pull from 0 to ``u0`` during the hand-held segment.
 
@@ -431,8 +452,8 @@ def simulate(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
     if not isinstance(config, SimulationConfig):
         raise InputError(f"simulate needs a SimulationConfig, got {type(config).__name__}")
     cfg = config
-    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(5)]
-    rng_time, rng_gaps, rng_tremor, rng_drift, rng_noise = streams
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(6)]
+    rng_time, rng_gaps, rng_tremor, rng_drift, rng_noise, rng_flicker = streams
 
     t = _remove_gaps(rng_gaps, _sample_times(rng_time, cfg), cfg.gaps)
     t_release = cfg.handheld
@@ -461,6 +482,7 @@ def simulate(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
     f_drift = _DRIFT_FRACTION * f_n
     accel += _band_limited(rng_drift, t, (f_drift / 50.0, f_drift), cfg.drift, _DRIFT_COMPONENTS)
     accel += _noise_sigma(cfg) * rng_noise.standard_normal(accel.shape)
+    accel += _flicker_noise(rng_flicker, t.size, cfg)
     if cfg.quantization > 0:
         accel = np.round(accel / cfg.quantization) * cfg.quantization
 

@@ -1,0 +1,167 @@
+"""Benchmark: dampfit's posterior against an lmfit + emcee reference on the same recording.
+
+Runs, in one process and on one recording (the seed paper's set-up simulated: 60 s at
+500 Hz, m = 5.3 kg known exactly so that c = 2·m·p and the effective sample size of c is that
+of the decay rate):
+
+1. **reference** — what an engineer would write by hand: the band-passed full-rate
+   acceleration of dampfit's analysis window fitted with an lmfit ``Model``
+   (A·e^{−p·t}·cos(ω·t + φ) + offset) by least squares, then lmfit's emcee wrapper
+   (``method="emcee"``, ``is_weighted=False`` so the noise level is sampled too, 32 walkers,
+   ``--ref-steps`` steps). Effective samples of c per second = bulk ESS of p (arviz, walkers as
+   chains, first third discarded) / wall time of the emcee run.
+2. **dampfit** — :func:`dampfit.analyze` on the same recording (cold: including JAX
+   compilation; warm: a second recording of the same shape). ESS of c per second = bulk ESS of
+   c / wall time of the whole ``analyze`` call (preprocessing, least squares and all).
+3. **whole CLI** — ``dampfit analyze FILE --mass 5.3`` in a fresh process (start-up, compile,
+   fit, posterior, figures), wall time, against the time the reference needs for 1,000
+   effective samples of c.
+4. **study throughput** — least-squares fits per minute (prepare + fit, warm) over
+   ``--fits`` recordings with different seeds.
+
+Usage: ``python paper/benchmark.py [--ref-steps 2000] [--fits 20] [--json FILE]``. Timings
+are ratios measured in the same run, so they transfer between machines; the absolute numbers
+are this machine's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+MASS = 5.3  # [kg]
+
+
+def _ess(chain: np.ndarray) -> float:
+    """Bulk ESS of a (chain, draw) array."""
+    import arviz as az
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return float(az.ess(np.asarray(chain), method="bulk"))
+
+
+def reference(rec, prep, steps: int, seed: int) -> dict:
+    """lmfit least squares + lmfit's emcee wrapper on the full-rate band-passed window."""
+    import lmfit
+
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    t = prep.grid[sel] - prep.window[0]
+    y = prep.bandpassed[sel]
+
+    def decay(t, amp, p, omega, phi, offset):
+        return amp * np.exp(-p * t) * np.cos(omega * t + phi) + offset
+
+    model = lmfit.Model(decay)
+    params = model.make_params(amp=float(np.max(np.abs(y[: int(prep.fs)]))), p=0.02,
+                               omega=2 * np.pi * prep.f0, phi=0.0, offset=0.0)
+    params["p"].set(min=0.0)
+    params["amp"].set(min=0.0)
+    params["phi"].set(min=-np.pi, max=np.pi)
+    t0 = time.perf_counter()
+    ls = model.fit(y, params, t=t)
+    t_ls = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    mc = model.fit(y, ls.params, t=t, method="emcee",
+                   fit_kws=dict(steps=steps, nwalkers=32, burn=0, is_weighted=False,
+                                progress=False, seed=seed))
+    t_mc = time.perf_counter() - t0
+    names = list(mc.var_names)
+    chain = np.asarray(mc.chain)  # (steps, walkers, nvarys)
+    chain = chain[chain.shape[0] // 3 :]
+    p_chain = chain[:, :, names.index("p")].T
+    ess = _ess(p_chain)
+    return {"n_samples": int(y.size), "steps": steps, "walkers": 32, "ls_time_s": t_ls,
+            "emcee_time_s": t_mc, "ess_c": ess, "ess_c_per_s": ess / t_mc,
+            "c_median": float(2 * MASS * np.median(p_chain)),
+            "time_per_1000_ess_s": 1000.0 * t_mc / ess}
+
+
+def dampfit_run(rec) -> dict:
+    import dampfit
+
+    t0 = time.perf_counter()
+    an = dampfit.analyze(rec, mass=MASS)
+    dt = time.perf_counter() - t0
+    ess = _ess(np.asarray(an.posterior.posterior["c"]))
+    return {"time_s": dt, "ess_c": ess, "ess_c_per_s": ess / dt,
+            "c_median": float(np.median(an.draws("c"))), "n_fit_samples": int(an.fit_data.y.size)}
+
+
+def cli_time(csv: Path) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "dampfit.cli", "analyze", str(csv), "--mass",
+                        str(MASS), "--out", str(Path(tmp) / "out"), "--quiet"],
+                       check=True, stdout=subprocess.DEVNULL)
+        return time.perf_counter() - t0
+
+
+def throughput(n: int) -> float:
+    from dampfit import fit, preprocess
+    from dampfit import simulate as sim
+
+    recs = [sim.simulate(sim.preset("paper", seed=1000 + i))[0] for i in range(n + 1)]
+    prep = preprocess.prepare(recs[0])  # warm-up (compilation) not counted
+    fit.least_squares(preprocess.fit_data(prep), float("nan"), prep.f0)
+    t0 = time.perf_counter()
+    for rec in recs[1:]:
+        prep = preprocess.prepare(rec)
+        fit.least_squares(preprocess.fit_data(prep), float("nan"), prep.f0)
+    return 60.0 * n / (time.perf_counter() - t0)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description="dampfit vs lmfit + emcee benchmark")
+    ap.add_argument("--ref-steps", type=int, default=2000, help="emcee steps of the reference")
+    ap.add_argument("--fits", type=int, default=20, help="recordings for the throughput test")
+    ap.add_argument("--json", help="also write the numbers to this JSON file")
+    a = ap.parse_args(argv)
+
+    from dampfit import preprocess
+    from dampfit import simulate as sim
+
+    rec, truth = sim.simulate(sim.preset("paper", seed=0))
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "paper.csv"
+        sim.write_phyphox_csv(rec, csv)
+        cli = cli_time(csv)
+    d_cold = dampfit_run(rec)
+    d_warm = dampfit_run(sim.simulate(sim.preset("paper", seed=1))[0])
+    ref = reference(rec, preprocess.prepare(rec), a.ref_steps, seed=0)
+    tput = throughput(a.fits)
+
+    ratio_cold = d_cold["ess_c_per_s"] / ref["ess_c_per_s"]
+    ratio_warm = d_warm["ess_c_per_s"] / ref["ess_c_per_s"]
+    cli_ratio = ref["time_per_1000_ess_s"] / cli
+    out = {"truth_c": truth["c"], "reference": ref, "dampfit_cold": d_cold,
+           "dampfit_warm": d_warm, "cli_time_s": cli, "ess_ratio_cold": ratio_cold,
+           "ess_ratio_warm": ratio_warm, "reference_time_over_cli_time": cli_ratio,
+           "least_squares_fits_per_minute": tput}
+    print(f"recording: paper preset, 60 s at 500 Hz, truth c = {truth['c']} N s/m (mass known)")
+    print(f"{'':28s}{'time [s]':>10s}{'ESS(c)':>10s}{'ESS/s':>10s}{'c median':>12s}")
+    print(f"{'lmfit + emcee (reference)':28s}{ref['emcee_time_s']:10.1f}{ref['ess_c']:10.0f}"
+          f"{ref['ess_c_per_s']:10.2f}{ref['c_median']:12.5f}")
+    for name, d in (("dampfit.analyze (cold)", d_cold), ("dampfit.analyze (warm)", d_warm)):
+        print(f"{name:28s}{d['time_s']:10.1f}{d['ess_c']:10.0f}{d['ess_c_per_s']:10.1f}"
+              f"{d['c_median']:12.5f}")
+    print(f"\nESS/s ratio dampfit / reference: cold {ratio_cold:.0f}x, warm {ratio_warm:.0f}x "
+          "(goal >= 100x)")
+    print(f"whole CLI `dampfit analyze` {cli:.1f} s vs reference {ref['time_per_1000_ess_s']:.0f} s "
+          f"per 1,000 ESS: 1/{cli_ratio:.0f} (goal <= 1/20)")
+    print(f"study throughput: {tput:.0f} least-squares fits per minute")
+    if a.json:
+        Path(a.json).write_text(json.dumps(out, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
