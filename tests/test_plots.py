@@ -120,3 +120,49 @@ def test_numeric_core_does_not_import_matplotlib():
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "False"
+
+
+def _line(ax, label_start: str):
+    lines = [ln for ln in ax.get_lines() if ln.get_label().startswith(label_start)]
+    assert len(lines) == 1, (label_start, [ln.get_label() for ln in ax.get_lines()])
+    return np.asarray(lines[0].get_xdata(), float), np.asarray(lines[0].get_ydata(), float)
+
+
+def test_spectrum_figure_linear_db_band_and_filter_response(with_mass):
+    """The paper's Figs 15–17 and 19: linear and dB spectra, pass band, |H|², filtered spectrum."""
+    prep = with_mass.prepared
+    lo, hi = prep.band
+    fig = plots.spectrum_figure(with_mass)
+    by_ylabel = {ax.get_ylabel(): ax for ax in fig.axes}
+    ax_lin = by_ylabel["amplitude [m/s²]"]
+    ax_h = by_ylabel["filter gain |H|² [1]"]
+    ax_db = by_ylabel["level re peak [dB]"]
+    assert ax_db.get_xlabel() == "frequency [Hz]"
+
+    # pass band shaded and f0 marked in both panels
+    for ax in (ax_lin, ax_db):
+        spans = [(p.get_x(), p.get_x() + p.get_width()) for p in ax.patches]
+        assert any(np.allclose(s, (lo, hi)) for s in spans), spans
+        assert any(len(ln.get_xdata()) == 2 and np.allclose(ln.get_xdata(), prep.f0)
+                   for ln in ax.get_lines())
+
+    # zero-phase Butterworth: |H|² = 1/2 at the band edges (−3 dB of |H|), ≈ 1 inside, ≈ 0 far out
+    fh, gain = _line(ax_h, "band-pass |H|²")
+    assert abs(np.interp(lo, fh, gain) - 0.5) < 0.02 and abs(np.interp(hi, fh, gain) - 0.5) < 0.02
+    assert abs(gain.max() - 1.0) < 1e-3 and np.all(gain[fh < 0.5 * lo] < 0.01)
+    fh_db, gdb = _line(ax_db, "band-pass |H|² [dB]")
+    assert np.allclose(gdb, 20 * np.log10(np.maximum(gain, 1e-12)))
+
+    # dB spectrum: 0 dB at the peak, which is at f0; the filtered spectrum is that times |H|²
+    f, db = _line(ax_db, "amplitude re peak")
+    f_lin, amp = _line(ax_lin, "amplitude spectrum")
+    assert np.allclose(f, f_lin)
+    assert abs(db.max()) < 1e-9 and abs(f[np.argmax(db)] - prep.f0) < 0.05 * prep.f0
+    assert np.allclose(db, 20 * np.log10(np.maximum(amp, 1e-12 * amp.max()) / amp.max()))
+    ff, db_filt = _line(ax_db, "after band-pass")
+    assert np.allclose(ff, f) and np.all(db_filt <= db + 1e-9)
+    ok = (db_filt > -200) & (f > fh[0]) & (f < fh[-1])
+    assert np.allclose(db_filt[ok] - db[ok], np.interp(f[ok], fh, 20 * np.log10(gain)), atol=0.5)
+    far = f > 2.0 * hi
+    if far.any():
+        assert np.all(db_filt[far] < db[far] - 20)

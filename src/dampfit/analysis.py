@@ -11,6 +11,7 @@ import json
 import os
 import platform
 import warnings as _warnings
+from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -77,6 +78,7 @@ class Analysis:
     seed: int
     options: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
 
     # --------------------------------------------------------------- views
     @property
@@ -153,7 +155,7 @@ class Analysis:
                 "acceptance_fraction": s.acceptance,
                 "warnings": list(self.warnings),
             },
-            "provenance": {"seed": self.seed, "options": self.options,
+            "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
                            "python": platform.python_version(), "versions": _versions()},
         })
 
@@ -186,8 +188,12 @@ class Analysis:
         t = prep.grid[sel]
         tau = t - self.fit_data.t0
         a_cos, a_sin = self.true_quadratures()
-        accel_model = np.asarray(model.acceleration(tau, ls.p, ls.omega_d, a_cos, a_sin))
-        disp_model = np.asarray(model.displacement(tau, ls.p, ls.omega_d, a_cos, a_sin))
+        import jax
+
+        with jax.enable_x64(True):
+            args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
+            accel_model = np.asarray(model.acceleration(*args), dtype=float)
+            disp_model = np.asarray(model.displacement(*args), dtype=float)
         env = self.baselines.get("envelope_pipeline")
         disp = np.full(t.size, np.nan)
         if env is not None and np.size(env.details.get("displacement", [])) == t.size:

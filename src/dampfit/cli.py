@@ -187,6 +187,13 @@ def _write_outputs(an, out: Path, force: bool, figures: bool) -> Path:
     return out
 
 
+def _write_report(out: Path) -> None:
+    """report.html + report.md in the finished folder (the report names the folder's commands)."""
+    from .report import write_report
+
+    write_report(out)
+
+
 def _report(an, out: Path, as_json: bool) -> None:
     from . import render
 
@@ -197,7 +204,10 @@ def _report(an, out: Path, as_json: bool) -> None:
         print(json.dumps(s, indent=2))
     else:
         print(render.text(s))
-        print(f"\n  written to {out}/ (summary.json, posterior.nc{', figures' if (out / 'fit.png').exists() else ''})")
+        extras = "".join(f", {name}" for name, there in (
+            ("figures", (out / "fit.png").exists()), ("report.html", (out / "report.html").exists()))
+            if there)
+        print(f"\n  written to {out}/ (summary.json, posterior.nc, signals.npz{extras})")
     if not an.converged:
         print("dampfit: WARNING: the result did NOT converge; see diagnostics.warnings in "
               "summary.json before using these numbers", file=sys.stderr)
@@ -218,6 +228,8 @@ def _cmd_analyze(args) -> int:
                  band=tuple(args.band) if args.band else None, seed=args.seed,
                  progress=not args.quiet and sys.stderr.isatty(), max_steps=args.max_steps)
     _write_outputs(an, out, args.force, not args.no_figures)
+    if args.report:
+        _write_report(out)
     _report(an, out, args.json)
     return 0
 
@@ -291,6 +303,8 @@ def _cmd_demo(args) -> int:
             from .plots import save_figures
 
             save_figures(an, stage)
+    if args.report:
+        _write_report(out)
     _report(an, out, False)
     c = an.summary()["parameters"]["c"]
     inside = c["q05"] <= truth["c"] <= c["q95"]

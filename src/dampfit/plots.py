@@ -5,7 +5,8 @@ the object API (no pyplot, no global state), so a report can reuse it; :func:`sa
 writes them all:
 
 * ``signal`` — :func:`signal_figure`: raw axes, selected signal, window, masked samples;
-* ``spectrum`` — :func:`spectrum_figure`: amplitude spectrum (linear and dB), band, f₀, |H|²;
+* ``spectrum`` — :func:`spectrum_figure`: amplitude spectrum (linear and dB), band, f₀, |H|²
+  and the spectrum after the band-pass (the seed paper's Figs 15–17, 19);
 * ``fit`` — :func:`fit_figure`: fitted samples, least-squares model, zooms, residuals;
 * ``displacement`` — :func:`displacement_figure`: the paper's envelope pipeline (its Fig. 20)
   against the least-squares envelope;
@@ -287,7 +288,13 @@ def signal_figure(an: "Analysis") -> "Figure":
 
 
 def spectrum_figure(an: "Analysis") -> "Figure":
-    """Amplitude spectrum (linear and dB re peak) with the pass band, f₀ and the filter gain."""
+    """Amplitude spectrum (linear and dB re peak) with the pass band, f₀ and the filter gain.
+
+    The seed paper's Figs 15–17 and 19: the single-sided amplitude spectrum [m/s²] of the
+    selected signal on a linear scale with the zero-phase band-pass gain |H|² [1] on a second
+    axis; the same in dB re the spectral peak with |H|² [dB] and the spectrum after filtering
+    (amplitude·|H|²); the pass band shaded and f₀ [Hz] marked in both panels.
+    """
     from scipy import signal as sps
 
     from .filters import bandpass_sos
@@ -302,9 +309,13 @@ def spectrum_figure(an: "Analysis") -> "Figure":
     peak = float(np.max(amp)) if amp.size else 1.0
     db = 20 * np.log10(np.maximum(amp, 1e-12 * peak) / peak)
 
+    sos = bandpass_sos(prep.band, prep.fs)
     fh = np.linspace(0, fmax, 2000)[1:]
-    _, h = sps.sosfreqz(bandpass_sos(prep.band, prep.fs), worN=fh, fs=prep.fs)
+    _, h = sps.sosfreqz(sos, worN=fh, fs=prep.fs)
     gain = np.abs(h) ** 2  # zero-phase (forward–backward): |H|²
+    # the spectrum after the zero-phase band-pass is the spectrum times |H|² (the paper's Fig. 19)
+    _, hf = sps.sosfreqz(sos, worN=f, fs=prep.fs) if f.size else (None, np.zeros(0))
+    db_filt = 20 * np.log10(np.maximum(amp * np.abs(hf) ** 2, 1e-12 * peak) / peak)
 
     fig = _new_figure(10.0, 7.0)
     ax_lin, ax_db = fig.subplots(2, 1, sharex=True)
@@ -317,6 +328,8 @@ def spectrum_figure(an: "Analysis") -> "Figure":
     ax_h.set_ylim(0, 1.6)
 
     ax_db.plot(f, db, lw=0.9, color="tab:blue", label="amplitude re peak")
+    ax_db.plot(f, db_filt, lw=0.9, color="tab:orange", alpha=0.9,
+               label="after band-pass (amplitude·|H|²)")
     gdb = 20 * np.log10(np.maximum(gain, 1e-12))
     ax_db.plot(fh, gdb, lw=1.0, ls="--", color="tab:purple", label="band-pass |H|² [dB]")
     floor = float(np.percentile(db, 1)) if db.size else -100.0
@@ -335,8 +348,9 @@ def spectrum_figure(an: "Analysis") -> "Figure":
     lines_h = ax_h.get_legend_handles_labels()
     ax_lin.legend(lines[0] + lines_h[0], lines[1] + lines_h[1], loc="upper right", fontsize=8)
     ax_db.legend(loc="upper right", fontsize=8)
-    ax_lin.set_title("Linear scale", fontsize=10)
-    ax_db.set_title("Decibels (20·log₁₀ of amplitude re spectral peak)", fontsize=10)
+    ax_lin.set_title("Linear scale (paper Figs 15 and 17)", fontsize=10)
+    ax_db.set_title("Decibels, 20·log₁₀ of amplitude re spectral peak (paper Figs 16 and 19)",
+                    fontsize=10)
     fig.suptitle(f"Spectrum of the selected signal — f₀ = {prep.f0:.4g} Hz, "
                  f"band {lo:.3g}–{hi:.3g} Hz ({'auto' if prep.band_auto else 'given'})")
     return fig

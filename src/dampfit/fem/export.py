@@ -1,0 +1,151 @@
+"""``dampfit export DIR --format lsdyna|opensees|calculix``: an FEM deck of the identified system.
+
+The system (m, k, c, u0 at a posterior quantile; see :mod:`dampfit.fem.sdof`) is written as
+
+* ``lsdyna``  — an LS-DYNA keyword deck (.k), the seed paper's discrete-element model
+  (:mod:`dampfit.fem.lsdyna`);
+* ``opensees`` — a runnable OpenSeesPy script (.py) that writes the displacement history
+  (:mod:`dampfit.fem.opensees`);
+* ``calculix`` — a CalculiX input deck (.inp) (:mod:`dampfit.fem.calculix`; CalculiX is not
+  installed here, the deck is verified by reading it back).
+
+Units: ``--units SI`` (m, s, kg, N), ``mm-ms-kg`` (mm, ms, kg, kN) or ``mm-s-t`` (mm, s,
+tonne, N), converted with :mod:`dampfit.fem.units`. The run lasts ``--duration`` [s]
+(default: the analysed window), the output interval is the recording's sample interval (at
+most T/50) and the fixed time step comes from :func:`dampfit.fem.timestep.choose`
+(≥ 200 steps per period, phase error ≤ 1e-3 rad at the end). With ``--gravity`` the mass
+hangs under g = 9.80665 m/s² and is released from static equilibrium + u0.
+
+The file is written atomically and an existing one is replaced only with ``--force``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from .._files import atomic_write_text
+from ..errors import InputError
+from . import sdof as sdof_mod
+from . import timestep
+from . import units as units_mod
+
+__all__ = ["FORMATS", "add_arguments", "build", "command", "output_interval"]
+
+#: format → (description, default file name)
+FORMATS: dict[str, tuple[str, str]] = {
+    "lsdyna": ("LS-DYNA keyword deck", "sdof_lsdyna.k"),
+    "opensees": ("OpenSeesPy script", "sdof_opensees.py"),
+    "calculix": ("CalculiX input deck", "sdof_calculix.inp"),
+}
+
+
+def output_interval(period: float, sample_rate: float | None) -> float:
+    """Output interval [s]: the sample interval 1/``sample_rate`` [Hz], at most ``period``/50 [s],
+    rounded to the nearest 1-2-5 number (not above period/50), so the decks read well."""
+    target = period / 50.0
+    if isinstance(sample_rate, (int, float)) and math.isfinite(sample_rate) and sample_rate > 0:
+        target = min(target, 1.0 / sample_rate)
+    nice = [m * 10.0**e for e in range(math.floor(math.log10(target)) - 1,
+                                       math.floor(math.log10(target)) + 2) for m in (1, 2, 5)]
+    allowed = [x for x in nice if x <= period / 50.0 * (1 + 1e-12)]
+    return min(allowed, key=lambda x: abs(math.log(x / target)))
+
+
+def _duration(summary: dict[str, Any], duration: float | None) -> float:
+    if duration is None:
+        w = summary.get("window") or {}
+        try:
+            duration = float(w["end_s"]) - float(w["start_s"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError("summary.json has no analysis window; give --duration S") from None
+    if not (math.isfinite(duration) and duration > 0):
+        raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
+    return float(duration)
+
+
+def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5,
+          gravity: bool = False, duration: float | None = None,
+          name: str | None = None) -> tuple[str, dict[str, Any]]:
+    """Text of the ``fmt`` deck for result ``folder`` and a plain-data description of it.
+
+    ``duration`` [s] (default: the analysed window); ``name`` is the script's file name
+    (OpenSees only, used in its help text). Raises :class:`InputError` for bad input.
+    """
+    if fmt not in FORMATS:
+        raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    system = units_mod.get(units)
+    sdof = sdof_mod.load(folder, quantile, gravity)
+    _, summary = sdof_mod.read_summary(folder)
+    dur = _duration(summary, duration)
+    fs = (summary.get("input") or {}).get("sample_rate_hz")
+    output_dt = output_interval(sdof.period, fs)
+    dt = timestep.choose(sdof.omega_n, dur, output_dt)
+    if dur / dt > 5e7:
+        raise InputError(f"{dur:g} s at a step of {dt:.3g} s is over 5e7 steps; give a shorter --duration")
+    if fmt == "lsdyna":
+        from .lsdyna import deck
+
+        text = deck(sdof, system, dur, dt, output_dt)
+    elif fmt == "opensees":
+        from .opensees import script
+
+        text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1])
+    else:
+        from .calculix import deck
+
+        text = deck(sdof, system, dur, dt, output_dt)
+    info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
+            "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
+            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof}
+    return text, info
+
+
+def _number(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``dampfit export``."""
+    parser.add_argument("folder", metavar="DIR", help="dampfit result folder (with summary.json)")
+    parser.add_argument("--format", required=True, choices=list(FORMATS),
+                        help="lsdyna (.k), opensees (OpenSeesPy .py) or calculix (.inp)")
+    parser.add_argument("--units", default="SI", choices=list(units_mod.UNIT_SYSTEMS),
+                        help="SI (m, s, kg, N), mm-ms-kg (mm, ms, kg, kN) or mm-s-t (mm, s, t, N)")
+    parser.add_argument("--quantile", type=_number, default=0.5, metavar="Q",
+                        help="posterior quantile of k, c, u0 (0.05/0.5/0.95 from summary.json, "
+                             "others from posterior.nc); default 0.5")
+    parser.add_argument("--gravity", action=argparse.BooleanOptionalAction, default=False,
+                        help="hang the mass under gravity, released from static equilibrium + u0")
+    parser.add_argument("--duration", type=_number, metavar="S",
+                        help="simulated time [s] (default: the analysed window)")
+    parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
+    parser.add_argument("--force", action="store_true", help="replace an existing output file")
+
+
+def command(args: argparse.Namespace) -> int:
+    """Run ``dampfit export``; return the exit code."""
+    fmt = args.format
+    if fmt not in FORMATS:
+        raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    out = Path(args.out) if args.out else Path(args.folder) / FORMATS[fmt][1]
+    if out.is_dir():
+        raise InputError(f"{out} is a directory; give a file name with --out")
+    if out.exists() and not args.force:
+        raise InputError(f"{out} exists; use --force to replace it")
+    text, info = build(args.folder, fmt, args.units, args.quantile, args.gravity,
+                       args.duration, name=out.name)
+    atomic_write_text(out, text)
+    s, u = info["sdof"], units_mod.get(info["units"])
+    print(f"wrote {out} ({FORMATS[fmt][0]}, units {u.name}, posterior quantile {info['quantile']:g}"
+          f"{', gravity' if info['gravity'] else ''})")
+    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, c = {s.c:.6g} N s/m, u0 = {s.u0:.6g} m "
+          f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
+    print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
+          f"output every {info['output_dt']:.4g} s")
+    return 0

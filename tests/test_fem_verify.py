@@ -1,0 +1,202 @@
+"""FEM verification (``dampfit verify``): OpenSees against the closed form, the integrator's
+period error, the start from the fitted model, and the comparison on simulated results."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from dampfit.cli import main
+from dampfit.errors import InputError
+from dampfit.fem import compare, opensees, timestep, verify
+from dampfit.physics import to_decay
+from dampfit.simulate import free_decay
+
+M, K, C, U0 = 5.3, 619.0, 0.2, 0.04
+T_RELEASE, T0, SPAN, FS = 0.5, 2.0, 20.0, 200.0
+
+
+def write_result(folder, noise=0.0, mass=M, drop=()):
+    """A result folder for the clean free decay released at T_RELEASE, window [T0, T0 + SPAN]:
+    summary.json (posterior medians = truth) and signals.npz with the keys analysis writes."""
+    p, wd = (float(x) for x in to_decay(C, K, M))
+    t = T0 + np.arange(int(SPAN * FS) + 1) / FS
+    u, _, a = free_decay(t - T_RELEASE, M, C, K, U0)
+    rng = np.random.default_rng(1)
+    sig = {"t": t, "accel": a + noise * rng.standard_normal(t.size), "accel_model": a,
+           "displacement": u, "displacement_model": u, "fs": np.float64(FS),
+           "p": np.float64(p), "omega_d": np.float64(wd), "t0": np.float64(T0)}
+    folder.mkdir(parents=True, exist_ok=True)
+    np.savez(folder / "signals.npz", **{k: v for k, v in sig.items() if k not in drop})
+    entry = lambda unit, v: {"unit": unit, "mean": v, "sd": 0.0, "q05": v, "q50": v, "q95": v}
+    summary = {"dampfit_version": "test", "window": {"start_s": T0, "end_s": T0 + SPAN},
+               "input": {"sample_rate_hz": FS}, "mass": {"value": mass, "sd": 0.0, "unit": "kg"},
+               "parameters": {"c": entry("N s/m", C if mass else None), "k": entry("N/m", K if mass else None),
+                              "u0": entry("m", U0), "p": entry("1/s", p)}}
+    if mass is None:
+        summary["parameters"]["c"] = summary["parameters"]["k"] = None
+    (folder / "summary.json").write_text(json.dumps(summary))
+    return folder
+
+
+# -- the engine and the integrator -----------------------------------------------------------
+
+
+def test_opensees_free_decay_matches_the_closed_form():
+    """Known (m, k, c, u0), Δt = T/2000 over 5 periods: OpenSees within 1e-4 (relative)."""
+    period = 2 * math.pi / math.sqrt(K / M)
+    dt = period / 2000
+    res = opensees.free_decay(M, K, C, U0, 0.0, dt, 5 * 2000)
+    u, v, a = free_decay(res["t"], M, C, K, U0)
+    assert np.max(np.abs(res["u"] - u)) / U0 < 1e-4
+    assert np.max(np.abs(res["v"] - v)) / np.max(np.abs(v)) < 1e-4
+    assert np.max(np.abs(res["a"] - a)) / np.max(np.abs(a)) < 1e-4
+    # with a constant force (gravity) the decay is about the static equilibrium −m·g/k
+    g = opensees.free_decay(M, K, C, -M * 9.81 / K + U0, 0.0, dt, 2000, force=-M * 9.81)
+    assert np.max(np.abs(g["u"] + M * 9.81 / K - u[:2001])) / U0 < 1e-4
+
+
+def test_newmark_period_error_formula_is_what_opensees_does():
+    """Coarse step T/16, undamped: the measured period elongation equals (ωΔt/2)/atan(ωΔt/2) − 1."""
+    wn = math.sqrt(K / M)
+    period = 2 * math.pi / wn
+    dt = period / 16
+    res = opensees.free_decay(M, K, 0.0, U0, 0.0, dt, 16 * 60)
+    u, t = res["u"], res["t"]
+    up = np.flatnonzero((u[:-1] < 0) & (u[1:] >= 0))
+    crossings = t[up] - u[up] * dt / (u[up + 1] - u[up])
+    measured = np.mean(np.diff(crossings)) / period - 1
+    predicted = timestep.newmark_period_error(wn, dt)
+    assert predicted == pytest.approx((wn * dt) ** 2 / 12, rel=0.05)
+    assert measured == pytest.approx(predicted, rel=0.02)
+    assert np.ptp(u[-32:]) == pytest.approx(2 * U0, rel=1e-3)   # no numerical damping
+    assert timestep.newmark_period_error(wn, period / 200) < 1e-4
+
+
+def test_time_step_choice():
+    wn = 10.8
+    dt = timestep.choose(wn, 60.0, 0.002)
+    assert 0.002 / dt == pytest.approx(round(0.002 / dt), abs=1e-9)       # divides the output
+    assert dt <= 2 * math.pi / wn / 200
+    assert wn * 60.0 * timestep.newmark_period_error(wn, dt) <= timestep.PHASE_BUDGET
+    assert timestep.central_difference_period_error(wn, dt) == pytest.approx(-(wn * dt) ** 2 / 24, rel=1e-3)
+
+
+# -- pure comparison pieces ------------------------------------------------------------------
+
+
+def test_initial_state_is_the_fitted_models_state():
+    p, wd = (float(x) for x in to_decay(C, K, M))
+    tau = np.arange(0, 10, 0.01)
+    _, _, a = free_decay(tau + 1.234, M, C, K, U0)   # window starts 1.234 s after release
+    st = compare.initial_state(tau, a, p, wd, tau0=0.37)
+    u_ref, v_ref, _ = free_decay(np.array([0.37 + 1.234]), M, C, K, U0)
+    assert st["u"] == pytest.approx(u_ref[0], rel=1e-9, abs=1e-12)
+    assert st["v"] == pytest.approx(v_ref[0], rel=1e-9, abs=1e-12)
+    assert st["fit_rms"] < 1e-10
+
+
+def test_peak_decay_rate_and_errors():
+    p, _ = to_decay(C, K, M)
+    t = np.arange(0, 30, 0.005)
+    u, _, _ = free_decay(t, M, C, K, U0)
+    d = compare.peak_decay_rate(t, u)
+    assert d["p"] == pytest.approx(float(p), rel=1e-5) and d["n_peaks"] > 90
+    assert compare.peak_decay_rate(t[:50], u[:50])["p"] is None
+    e = compare.errors(u, 1.01 * u)
+    assert e["nmse"] == pytest.approx(1e-4 * np.mean(u**2) / np.var(u), rel=1e-9)
+    assert e["slope"] == pytest.approx(1.01) and e["r2"] == pytest.approx(1.0)
+    assert compare.errors([np.nan] * 5, [1.0] * 5)["mse"] is None
+
+
+# -- verify on results -----------------------------------------------------------------------
+
+
+def test_verify_reproduces_a_clean_simulated_decay(tmp_path, capsys):
+    folder = write_result(tmp_path / "r")
+    assert main(["verify", str(folder)]) == 0
+    rep = json.loads((folder / "verification.json").read_text())
+    assert (folder / "verify.png").stat().st_size > 10_000
+    d = rep["decay_rate"]
+    assert abs(d["relative_difference"]) < 0.01
+    assert d["fem_peaks"] == pytest.approx(C / (2 * M), rel=1e-4)
+    for key in ("displacement", "acceleration"):
+        assert rep[key]["vs_measured"]["nmse"] < 1e-5
+        assert rep[key]["vs_model"]["nmse"] < 1e-5
+    e = rep["engine"]
+    assert e["gamma"] == 0.5 and e["beta"] == 0.25 and e["period_error"] < 1e-4
+    assert e["phase_error_at_end_rad"] <= timestep.PHASE_BUDGET
+    assert e["version"] != "unknown"
+    out = capsys.readouterr().out
+    assert "decay rate p" in out and "NMSE" in out and "verification.json" in out
+
+
+def test_verify_with_noise_and_custom_figure(tmp_path):
+    folder = write_result(tmp_path / "r", noise=0.3)
+    fig = tmp_path / "fig.png"
+    assert main(["verify", str(folder), "--out", str(fig), "--dt", "0.001"]) == 0
+    rep = json.loads((folder / "verification.json").read_text())
+    assert fig.is_file() and rep["engine"]["dt_s"] == 0.001 and rep["figure"] == str(fig)
+    acc = rep["acceleration"]["vs_measured"]
+    measured = np.load(folder / "signals.npz")["accel"]
+    assert acc["nmse"] == pytest.approx(0.3**2 / np.var(measured), rel=0.1)  # noise var / var
+    assert rep["acceleration"]["vs_model"]["nmse"] < 1e-5
+
+
+@pytest.mark.slow  # ~2 s itself, but the shared 'analysed' fixture costs ~40 s when run alone
+def test_verify_on_an_analysed_recording(analysed, tmp_path):
+    """The full pipeline: a simulated phone recording analysed by dampfit, then verified."""
+    an, _ = analysed
+    folder = tmp_path / "r"
+    folder.mkdir()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        an.to_json(folder / "summary.json")
+        an.to_signals(folder / "signals.npz")
+    rep = verify.run(folder)["report"]
+    assert abs(rep["decay_rate"]["relative_difference"]) < 0.01
+    assert rep["acceleration"]["vs_measured_interior"]["nmse"] < 0.01
+    assert rep["acceleration"]["vs_model"]["nmse"] < 1e-3
+
+
+def test_verify_without_measured_displacement(tmp_path):
+    """The paper's displacement pipeline may fail (NaN): acceleration is still compared."""
+    folder = write_result(tmp_path / "r")
+    with np.load(folder / "signals.npz") as data:
+        sig = dict(data)
+    sig["displacement"] = np.full(sig["t"].size, np.nan)
+    np.savez(folder / "signals.npz", **sig)
+    result = verify.run(folder)
+    rep = result["report"]
+    assert rep["displacement"]["vs_measured"]["nmse"] is None
+    assert rep["decay_rate"]["measured_displacement_peaks"] is None
+    assert rep["acceleration"]["vs_measured"]["nmse"] < 1e-5
+    assert verify.plot(result, tmp_path / "v.png").is_file()
+
+
+def test_verify_input_errors(tmp_path, capsys):
+    with pytest.raises(InputError, match="summary.json not found"):
+        verify.run(tmp_path)
+    folder = write_result(tmp_path / "a")
+    (folder / "signals.npz").unlink()
+    with pytest.raises(InputError, match="signals.npz not found"):
+        verify.run(folder)
+    with pytest.raises(InputError, match="no mass, so c and k are not identified"):
+        verify.run(write_result(tmp_path / "b", mass=None))
+    with pytest.raises(InputError, match="lacks accel_model"):
+        verify.run(write_result(tmp_path / "c", drop=("accel_model",)))
+    with pytest.raises(InputError, match="period error .* > 0.0001"):
+        verify.run(write_result(tmp_path / "d"), dt=0.02)
+    write_result(tmp_path / "f")
+    (tmp_path / "f" / "signals.npz").write_bytes(b"junk")
+    with pytest.raises(InputError, match="not a readable .npz"):
+        verify.run(tmp_path / "f")
+    assert main(["verify", str(tmp_path / "missing")]) == 2
+    assert main(["verify", str(write_result(tmp_path / "g")), "--out", str(tmp_path / "no" / "f.png")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2 and "is not a directory" in err[0] and "does not exist" in err[1]
+    assert not (tmp_path / "g" / "verification.json").exists()
