@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
+
 from .sdof import Sdof
 from .timestep import newmark_period_error
 from .units import UnitSystem, factor
@@ -48,7 +50,13 @@ def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt
     displacement ``u_init`` and velocity ``v_init`` of node 2, fixed step ``dt``, ``n_steps``
     steps, constant external ``force`` on the mass (e.g. −m·g). Arrays have n_steps + 1 entries.
     """
-    import openseespy.opensees as ops  # lazy: heavy, and global state
+    try:
+        import openseespy.opensees as ops  # lazy: heavy, and global state
+    except ImportError as exc:  # not installed, or its BLAS/LAPACK libraries are missing
+        raise InputError(
+            f"OpenSeesPy is not usable ({exc}); install it with 'pip install \"dampfit[fem]\"' "
+            "(on Debian it also needs: apt-get install libblas3 liblapack3)"
+        ) from None
 
     ops.wipe()
     try:

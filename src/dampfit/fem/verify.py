@@ -258,4 +258,9 @@ def command(args: argparse.Namespace) -> int:
     atomic_write_text(folder / "verification.json", json.dumps(rep, indent=2, allow_nan=False) + "\n")
     print(_table(rep))
     print(f"\n  written {folder / 'verification.json'}, {fig}")
+    if (folder / "report.html").exists():  # keep an existing report complete
+        from ..report import write_report
+
+        write_report(folder)
+        print(f"  report updated: {folder / 'report.html'}")
     return 0
