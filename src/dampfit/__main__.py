@@ -1,0 +1,5 @@
+"""``python -m dampfit …`` runs the command-line interface."""
+
+from .cli import run
+
+run()

@@ -1,0 +1,337 @@
+"""The study configuration (TOML): validation, scenarios, tasks and their seeds.
+
+A study file has three tables::
+
+    [study]
+    name = "ranking"            # title of the summary (optional; default: the file's stem)
+    replicates = 40             # simulated recordings per scenario (≥ 1)
+    seed = 0                    # study seed (≥ 0)
+    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.estimators
+    mass = 5.3                  # [kg]; known exactly to the estimators. Omit it to study ζ (no c)
+    max_replicates = { bayes = 5 }   # optional: an expensive estimator on the first 5 only
+
+    [grid]                      # lists; the scenarios are their cartesian product
+    f_n = [2.0]                 # natural frequency [Hz]
+    zeta = [0.002, 0.01]        # damping ratio [1]
+    duration = [30, 60]         # and any other field of dampfit.simulate.SimulationConfig
+
+    [fixed]                     # single values shared by every scenario
+    noise_density = 150         # [µg/√Hz]
+
+Allowed fields in ``[grid]`` and ``[fixed]``: ``f_n`` [Hz] and ``zeta`` [1] (both required,
+the simulator's k and c follow from them and the mass, see
+:func:`dampfit.simulate.from_modal`) and the :class:`~dampfit.simulate.SimulationConfig`
+options except ``mass`` (set in ``[study]``), ``k``, ``c`` and ``seed`` (set per run). Fields
+not given keep the simulator's defaults (60 s at 500 Hz, 150 µg/√Hz, u0 = 4 cm, no drift…).
+
+Determinism: a scenario's id is a hash of its canonical parameters (numbers normalised to
+float, keys sorted), and the seed of a run is drawn from
+``numpy.random.SeedSequence(study_seed, spawn_key=(scenario hash, replicate))``. A run
+therefore gets the same numbers on any worker, in any order, whatever else is in the grid.
+Everything here is pure and cheap (no simulation, no estimator imports).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["FIELDS", "StudyConfig", "Task", "load", "parse"]
+
+#: Simulator fields a study may set, with their kind: float, int, bool, str or bias.
+FIELDS: dict[str, str] = {
+    "f_n": "float", "zeta": "float", "u0": "float", "duration": "float", "sample_rate": "float",
+    "jitter": "float", "gaps": "int", "noise_density": "float", "bias": "bias", "drift": "float",
+    "quantization": "float", "tilt_deg": "float", "azimuth_deg": "float", "main_axis": "str",
+    "gravity": "bool", "handheld": "float", "catch": "bool",
+}
+_SET_ELSEWHERE = {"mass": "set it as [study] mass", "k": "give f_n and the mass instead",
+                  "c": "give zeta instead", "seed": "each run's seed is derived from [study] seed"}
+_STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates"}
+_DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of work: simulate scenario ``scenario`` once (replicate ``replicate``) and run
+    ``estimators`` on that recording. ``params`` are the simulator fields; ``mass`` [kg] is
+    simulated and, if ``mass_known``, given to the estimators."""
+
+    scenario: str
+    replicate: int
+    seed: int
+    params: dict[str, Any]
+    estimators: tuple[str, ...]
+    mass: float
+    mass_known: bool
+
+    @property
+    def key(self) -> tuple[str, int]:
+        return (self.scenario, self.replicate)
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """A validated study (see the module docstring)."""
+
+    name: str
+    replicates: int
+    seed: int
+    estimators: tuple[str, ...]
+    mass: float | None
+    max_replicates: dict[str, int]
+    grid: dict[str, list]
+    fixed: dict[str, Any]
+    source: str = ""
+
+    @property
+    def varying(self) -> list[str]:
+        """Grid fields with more than one value (they label the scenarios)."""
+        return [k for k, v in self.grid.items() if len(v) > 1]
+
+    @property
+    def sim_mass(self) -> float:
+        """Simulated mass [kg]: ``mass``, or the seed paper's 5.3 kg when the study has none."""
+        return self.mass if self.mass is not None else _DEFAULT_MASS
+
+    @property
+    def target(self) -> str:
+        """The quantity the ranking is about: ``"c"`` with a mass, else ``"zeta"``."""
+        return "c" if self.mass is not None else "zeta"
+
+    def scenarios(self) -> list[tuple[str, dict[str, Any]]]:
+        """``(scenario id, parameters)`` of the cartesian product of the grid, in grid order."""
+        keys = list(self.grid)
+        out = []
+        for values in itertools.product(*(self.grid[k] for k in keys)):
+            params = {**self.fixed, **dict(zip(keys, values))}
+            out.append((scenario_id(params), params))
+        return out
+
+    def tasks(self) -> list[Task]:
+        """All tasks, replicate-major (every scenario gets its first replicates first)."""
+        scen = self.scenarios()
+        out = []
+        for rep in range(self.replicates):
+            names = tuple(e for e in self.estimators if rep < self.max_replicates.get(e, rep + 1))
+            for sid, params in scen:
+                out.append(Task(sid, rep, run_seed(self.seed, sid, rep), params, names,
+                                self.sim_mass, self.mass is not None))
+        return out
+
+    def fingerprint(self) -> str:
+        """Hash of what determines the runs' numbers: seed, estimators, mass and the set of
+        scenarios (not their order, nor name, replicates or max_replicates, which only add or
+        drop runs). A stored study with another fingerprint is not resumed with this one."""
+        core = {"seed": self.seed, "estimators": list(self.estimators), "mass": self.mass,
+                "scenarios": sorted(sid for sid, _ in self.scenarios())}
+        return hashlib.sha256(_canonical(core).encode()).hexdigest()[:16]
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-safe description (stored in study.json)."""
+        d = dataclasses.asdict(self)
+        d.pop("source")
+        d["estimators"] = list(self.estimators)
+        return d
+
+
+def _canonical(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def scenario_id(params: dict[str, Any]) -> str:
+    """Stable id of a scenario: ``s`` + 12 hex digits of the SHA-256 of its canonical parameters."""
+    return "s" + hashlib.sha256(_canonical(params).encode()).hexdigest()[:12]
+
+
+def run_seed(study_seed: int, scenario: str, replicate: int) -> int:
+    """Seed (63 bit) of one run, a pure function of (study seed, scenario id, replicate)."""
+    ss = np.random.SeedSequence(study_seed, spawn_key=(int(scenario[1:], 16), replicate))
+    return int(ss.generate_state(1, dtype=np.uint64)[0]) & (2**63 - 1)
+
+
+# -- loading and validation ---------------------------------------------------------------
+
+
+def load(path: str | Path, available: list[str] | None = None) -> StudyConfig:
+    """Read and validate the TOML study file ``path``; ``available`` estimator names."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError(f"study file {path} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read study file {path}: {exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"{path.name} is not valid TOML: {exc}") from None
+    return parse(data, available, default_name=path.stem, source=text)
+
+
+def parse(data: dict, available: list[str] | None = None, *, default_name: str = "study",
+          source: str = "") -> StudyConfig:
+    """Validate a parsed study table (see the module docstring); raise :class:`InputError`."""
+    unknown = sorted(set(data) - {"study", "grid", "fixed"})
+    if unknown:
+        raise InputError(f"unknown table(s) [{'], ['.join(unknown)}]; "
+                         "a study has [study], [grid] and [fixed]")
+    study = _table(data, "study", required=True)
+    grid = _table(data, "grid", required=True)
+    fixed = _table(data, "fixed", required=False)
+    bad = sorted(set(study) - _STUDY_KEYS)
+    if bad:
+        raise InputError(f"unknown key [study] {bad[0]}; known: {', '.join(sorted(_STUDY_KEYS))}")
+
+    name = study.get("name", default_name)
+    if not isinstance(name, str) or not name.strip():
+        raise InputError("[study] name must be a non-empty string")
+    replicates = _integer(study, "replicates", minimum=1, default=None)
+    seed = _integer(study, "seed", minimum=0, default=0)
+    estimators = _estimators(study.get("estimators"), available)
+    mass = study.get("mass")
+    if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float))
+                             or not math.isfinite(mass) or mass <= 0):
+        raise InputError(f"[study] mass must be a positive number of kilograms, got {mass!r}")
+    max_rep = _max_replicates(study.get("max_replicates", {}), estimators)
+
+    if not grid:
+        raise InputError("[grid] is empty; give at least one field as a list, e.g. zeta = [0.01]")
+    norm_grid: dict[str, list] = {}
+    for key, values in grid.items():
+        _check_field(key, "grid")
+        if not isinstance(values, list):
+            raise InputError(f"[grid] {key} must be a list of values, e.g. {key} = [{values!r}]; "
+                             "put single values in [fixed]")
+        if not values:
+            raise InputError(f"[grid] {key} is an empty list; give at least one value")
+        norm = [_value(key, v, "grid") for v in values]
+        if len({_canonical(v) for v in norm}) != len(norm):
+            raise InputError(f"[grid] {key} lists a value twice")
+        norm_grid[key] = norm
+    norm_fixed = {}
+    for key, value in fixed.items():
+        _check_field(key, "fixed")
+        if key in norm_grid:
+            raise InputError(f"{key} is in both [grid] and [fixed]; keep one")
+        norm_fixed[key] = _value(key, value, "fixed")
+    for key in ("f_n", "zeta"):
+        if key not in norm_grid and key not in norm_fixed:
+            raise InputError(f"{key} is missing; give it in [grid] (a list) or [fixed]")
+
+    cfg = StudyConfig(name.strip(), replicates, seed, estimators, None if mass is None else float(mass),
+                      max_rep, norm_grid, norm_fixed, source)
+    _check_scenarios(cfg)
+    return cfg
+
+
+def _table(data: dict, name: str, required: bool) -> dict:
+    table = data.get(name)
+    if table is None:
+        if required:
+            raise InputError(f"the study file has no [{name}] table")
+        return {}
+    if not isinstance(table, dict):
+        raise InputError(f"{name} must be a table ([{name}])")
+    return table
+
+
+def _integer(study: dict, key: str, minimum: int, default: int | None) -> int:
+    value = study.get(key, default)
+    if value is None:
+        raise InputError(f"[study] {key} is missing; give an integer ≥ {minimum}")
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise InputError(f"[study] {key} must be an integer ≥ {minimum}, got {value!r}")
+    return value
+
+
+def _estimators(value: Any, available: list[str] | None) -> tuple[str, ...]:
+    hint = f" (available: {', '.join(available)})" if available else ""
+    if value is None:
+        raise InputError(f"[study] estimators is missing; give a list of names{hint}")
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise InputError(f"[study] estimators must be a non-empty list of names{hint}")
+    if len(set(value)) != len(value):
+        raise InputError("[study] estimators lists a name twice")
+    if available is not None:
+        unknown = [v for v in value if v not in available]
+        if unknown:
+            raise InputError(f"[study] estimators: unknown estimator {unknown[0]!r}{hint}")
+    return tuple(value)
+
+
+def _max_replicates(value: Any, estimators: tuple[str, ...]) -> dict[str, int]:
+    if not isinstance(value, dict):
+        raise InputError("[study] max_replicates must be a table, e.g. max_replicates = { bayes = 5 }")
+    for name, n in value.items():
+        if name not in estimators:
+            raise InputError(f"[study] max_replicates names {name!r}, which is not in [study] estimators")
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise InputError(f"[study] max_replicates.{name} must be an integer ≥ 1, got {n!r}")
+    return dict(value)
+
+
+def _check_field(key: str, table: str) -> None:
+    if key in _SET_ELSEWHERE:
+        raise InputError(f"[{table}] {key} cannot be set here: {_SET_ELSEWHERE[key]}")
+    if key not in FIELDS:
+        raise InputError(f"unknown field [{table}] {key}; known: {', '.join(sorted(FIELDS))}")
+
+
+def _value(key: str, value: Any, table: str) -> Any:
+    """A field value normalised to its kind (so 2 and 2.0 give the same scenario id)."""
+    kind = FIELDS[key]
+    where = f"[{table}] {key}"
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise InputError(f"{where} must be true or false, got {value!r}")
+        return value
+    if kind == "str":
+        if not isinstance(value, str):
+            raise InputError(f"{where} must be a string, got {value!r}")
+        return value
+    if kind == "bias" and isinstance(value, list):
+        return [_number(where, v) for v in value]
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{where} must be an integer, got {value!r}")
+        return value
+    return _number(where, value)
+
+
+def _number(where: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{where} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _check_scenarios(cfg: StudyConfig) -> None:
+    """Build every scenario's simulator configuration once, so bad values fail before any work."""
+    for sid, params in cfg.scenarios():
+        try:
+            sim_config(params, cfg.sim_mass, seed=0)
+        except InputError as exc:
+            label = ", ".join(f"{k}={params[k]}" for k in cfg.varying) or "the fixed scenario"
+            raise InputError(f"scenario {label}: {exc}") from None
+
+
+def sim_config(params: dict[str, Any], mass: float, seed: int):
+    """The :class:`~dampfit.simulate.SimulationConfig` of one run."""
+    from .. import simulate as sim
+
+    fields = dict(params)
+    f_n, zeta = fields.pop("f_n"), fields.pop("zeta")
+    if isinstance(fields.get("bias"), list):
+        fields["bias"] = tuple(fields["bias"])
+    return sim.from_modal(mass, f_n, zeta, seed=seed, **fields)

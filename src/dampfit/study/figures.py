@@ -1,0 +1,110 @@
+"""Study figures: RMSE/CRLB and interval coverage per estimator (matplotlib, imported lazily)."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._files import publish
+
+__all__ = ["save_figures"]
+
+
+def _save(fig, path: Path) -> None:
+    """Save atomically (temporary name in the same folder, then rename)."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120, format="png")
+        publish(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _wilson(k: np.ndarray, n: np.ndarray, z: float = 1.96) -> tuple[np.ndarray, np.ndarray]:
+    """Wilson score interval (95 %) of a binomial proportion k/n: (lower, upper)."""
+    n = np.maximum(n, 1)
+    p = k / n
+    centre = (p + z**2 / (2 * n)) / (1 + z**2 / n)
+    half = z / (1 + z**2 / n) * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
+    return centre - half, centre + half
+
+
+def _strip(ax, agg: pd.DataFrame, order: list[str], column: str, wilson: bool = False):
+    """One column of points per estimator (one point per scenario, jittered), scenario colours;
+    ``wilson`` adds the 95 % Wilson interval of a coverage from its ``n_intervals``."""
+    labels = list(dict.fromkeys(agg["label"]))
+    colours = {lab: f"C{i % 10}" for i, lab in enumerate(labels)}
+    width = 0.5
+    for j, lab in enumerate(labels):
+        sub = agg[agg["label"] == lab].set_index("estimator")
+        x = np.array([order.index(e) for e in sub.index if e in order], dtype=float)
+        sel = sub.loc[[e for e in sub.index if e in order]]
+        y = sel[column].to_numpy(float)
+        offset = (j - (len(labels) - 1) / 2) * width / max(len(labels), 1)
+        if wilson:
+            n = sel["n_intervals"].to_numpy(float)
+            lo, hi = _wilson(np.round(y * n), n)
+            ax.errorbar(x + offset, y, yerr=[y - lo, hi - y], fmt="o", color=colours[lab],
+                        label=lab, ms=6, alpha=0.85, capsize=3)
+        else:
+            ax.plot(x + offset, y, "o", color=colours[lab], label=lab, ms=6, alpha=0.85)
+    ax.set_xticks(range(len(order)), order, rotation=25, ha="right")
+    ax.set_xlim(-0.6, len(order) - 0.4)
+
+
+def _legend(ax) -> None:
+    if len(ax.get_legend_handles_labels()[1]) > 1:
+        ax.legend(fontsize=8, title="scenario", title_fontsize=8, loc="best")
+
+
+def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, title: str) -> list[Path]:
+    """Write ``ranking.png`` (RMSE/CRLB, log scale) and ``coverage.png`` into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    order = list(rank["estimator"])
+    quantity = str(agg["quantity"].iloc[0]) if len(agg) else "c"
+    paths = []
+
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
+    _strip(ax, agg, order, "rmse_crlb")
+    ax.set_yscale("log")
+    ax.axhline(1.0, color="k", lw=1, ls="--")
+    ax.text(len(order) - 0.45, 1.0, "CRLB", va="bottom", ha="right", fontsize=8)
+    ax.set_ylabel(f"RMSE / CRLB of {quantity} [1]")
+    ax.set_title(f"{title}: efficiency (1 = the Cramér–Rao bound)", fontsize=10)
+    ax.grid(True, which="both", axis="y", alpha=0.3)
+    _legend(ax)
+    _save(fig, out / "ranking.png")
+    plt.close(fig)
+    paths.append(out / "ranking.png")
+
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
+    has = agg[agg["n_intervals"] > 0]
+    order_cov = [e for e in order if e in set(has["estimator"])]
+    if order_cov:
+        _strip(ax, has, order_cov, "coverage", wilson=True)
+    without = [e for e in order if e not in order_cov]
+    if without:
+        ax.text(0.01, 0.01, "no intervals: " + ", ".join(without), fontsize=8, va="bottom",
+                ha="left", transform=ax.transAxes, color="0.3")
+    ax.axhline(0.9, color="k", lw=1, ls="--")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel(f"coverage of the 90 % interval of {quantity} [1]")
+    ax.set_title(f"{title}: interval coverage (bars: 95 % Wilson interval)", fontsize=10)
+    ax.grid(True, axis="y", alpha=0.3)
+    _legend(ax)
+    _save(fig, out / "coverage.png")
+    plt.close(fig)
+    paths.append(out / "coverage.png")
+    return paths

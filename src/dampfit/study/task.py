@@ -1,0 +1,162 @@
+r"""One study run, executed on a Dask worker: simulate, estimate, bound. Pure: no file output.
+
+:func:`run_task` simulates one recording of a scenario, runs every estimator of the task on
+that same recording (:func:`dampfit.estimators.run`, which never raises for a numerical
+failure) and computes the Cramér–Rao lower bound of the design (:func:`dampfit.crlb.bound`).
+It returns a plain, JSON-safe record; the client stores it.
+
+The bound's design is the noise-free free decay as simulated: every sample from the release
+``t_r`` up to the catch (or the end), white noise of per-sample sd
+σ = √(σ_noise² + LSB²/12) (the simulator's noise plus uniform quantization), the true p and
+ω_d, an unknown constant offset (``drift_degree=0``) and the mass known exactly. The
+acceleration along the motion is (:mod:`dampfit.simulate`, release at rest from u0 [m])
+
+    a(τ) = e^{−pτ}·(A·cos ω_dτ + B·sin ω_dτ),  A = −ω_n²·u0,  B = p·ω_n²·u0/ω_d,
+
+(A from ü(0) = −ω_n²u0; B from the jerk ⃛u(0) = 2p·ω_n²·u0 = −pA + ω_d·B). With the bound's
+time origin at the first free sample τ₀, the quadratures there are
+e^{−pτ₀}·(A cos ω_dτ₀ + B sin ω_dτ₀) and e^{−pτ₀}·(B cos ω_dτ₀ − A sin ω_dτ₀).
+It is the bound of an estimator that uses the whole free decay with white noise; drift and
+coloured noise are not in it, so their cost shows as RMSE/CRLB > 1.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import socket
+import time
+from typing import Any
+
+import numpy as np
+
+from .config import Task, sim_config
+
+__all__ = ["QUANTITIES", "crlb_design", "run_task", "worker_info"]
+
+#: Quantities compared with the truth, with the bound's key for each.
+QUANTITIES = ("p", "f_n", "zeta", "c")
+
+
+def worker_info() -> dict[str, Any]:
+    """Identity of the process this runs in (checked by the client before submitting)."""
+    from .. import __version__
+
+    return {"dampfit": __version__, "pid": os.getpid(), "host": socket.gethostname()}
+
+
+def crlb_design(recording, truth: dict[str, Any]) -> dict[str, Any]:
+    """Arguments of :func:`dampfit.crlb.bound` for a simulated recording (module docstring).
+
+    Returns ``times`` [s] (from the first free sample), ``sigma`` [m/s²], ``p`` [1/s],
+    ``omega_d`` [rad/s], ``a_cos`` and ``a_sin`` [m/s²].
+    """
+    t = recording.time
+    end = truth["t_catch"] if truth["t_catch"] is not None else math.inf
+    t = t[(t >= truth["t_release"]) & (t < end)]
+    p, wd, wn = truth["p"], truth["omega_d"], truth["omega_n"]
+    a, b = -wn**2 * truth["u0"], p * wn**2 * truth["u0"] / wd
+    tau0 = float(t[0] - truth["t_release"])
+    env, ph = math.exp(-p * tau0), wd * tau0
+    lsb = truth["config"]["quantization"]
+    return {
+        "times": t - t[0],
+        "sigma": math.sqrt(truth["noise_sigma"] ** 2 + lsb**2 / 12.0),
+        "p": p, "omega_d": wd,
+        "a_cos": env * (a * math.cos(ph) + b * math.sin(ph)),
+        "a_sin": env * (b * math.cos(ph) - a * math.sin(ph)),
+    }
+
+
+def _finite(x) -> float | None:
+    """``x`` as a float, or None if missing or not finite (JSON-safe)."""
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _bound(recording, truth: dict, mass: float | None) -> tuple[dict[str, float | None], str]:
+    from .. import crlb
+    from ..errors import InputError
+
+    try:
+        b = crlb.bound(**crlb_design(recording, truth), mass=mass, mass_sd=0.0, drift_degree=0)
+    except InputError as exc:
+        return {q: None for q in QUANTITIES}, f"no bound: {exc}"
+    return {q: _finite(b.get(q, {}).get("sd")) for q in QUANTITIES}, ""
+
+
+def _covers(lo, hi, true) -> bool | None:
+    lo, hi = _finite(lo), _finite(hi)
+    if lo is None or hi is None or true is None:
+        return None
+    return bool(lo <= true <= hi)
+
+
+def _row(est, truth: dict, sd: dict, mass_known: bool) -> dict[str, Any]:
+    row: dict[str, Any] = {"estimator": est.estimator}
+    true = {q: _finite(truth[q]) for q in QUANTITIES}
+    if not mass_known:
+        true["c"] = None
+    for q in QUANTITIES:
+        value = _finite(getattr(est, q, None))
+        row[f"est_{q}"] = value
+        row[f"true_{q}"] = true[q]
+        row[f"crlb_{q}"] = sd[q]
+        row[f"err_{q}"] = None if value is None or true[q] is None else value - true[q]
+    for q in ("c", "zeta"):
+        row[f"{q}_lo"] = _finite(getattr(est, f"{q}_lo", None))
+        row[f"{q}_hi"] = _finite(getattr(est, f"{q}_hi", None))
+        row[f"covers_{q}"] = _covers(row[f"{q}_lo"], row[f"{q}_hi"], true[q])
+    row["runtime_s"] = _finite(est.runtime_s)
+    row["ok"] = bool(est.ok) and row["est_p"] is not None
+    row["message"] = str(est.message or "")
+    return row
+
+
+def _failed_rows(task: Task, truth: dict | None, message: str) -> list[dict[str, Any]]:
+    rows = []
+    for name in task.estimators:
+        row: dict[str, Any] = {"estimator": name}
+        for q in QUANTITIES:
+            true = _finite(truth[q]) if truth and (q != "c" or task.mass_known) else None
+            row.update({f"est_{q}": None, f"true_{q}": true, f"crlb_{q}": None, f"err_{q}": None})
+        for q in ("c", "zeta"):
+            row.update({f"{q}_lo": None, f"{q}_hi": None, f"covers_{q}": None})
+        row.update({"runtime_s": None, "ok": False, "message": message})
+        rows.append(row)
+    return rows
+
+
+def run_task(task: Task) -> dict[str, Any]:
+    """Simulate ``task``'s recording, run its estimators, bound it; return a JSON-safe record.
+
+    The record holds ``scenario``, ``replicate``, ``seed``, provenance (``pid``, ``host``,
+    ``started`` [s since the epoch], ``elapsed`` [s]), ``crlb_note`` and ``rows``: one dict per
+    estimator with ``est_*``, ``true_*``, ``crlb_*`` (bound sd) and ``err_*`` (estimate −
+    truth) for p [1/s], f_n [Hz], ζ [1] and c [N·s/m], the 90 % intervals ``c_lo``…``zeta_hi``
+    with ``covers_c``/``covers_zeta``, ``runtime_s``, ``ok`` and ``message``. A simulation or
+    recording the estimators cannot use becomes rows with ``ok = False`` (data, not an error).
+    """
+    from .. import estimators
+    from .. import simulate as sim
+
+    started = time.time()
+    record: dict[str, Any] = {"scenario": task.scenario, "replicate": task.replicate,
+                              "seed": task.seed, "pid": os.getpid(), "host": socket.gethostname(),
+                              "started": started, "crlb_note": ""}
+    mass = task.mass if task.mass_known else None
+    truth = None
+    try:
+        rec, truth = sim.simulate(sim_config(task.params, task.mass, task.seed))
+        sd, record["crlb_note"] = _bound(rec, truth, mass)
+        # the estimators' seed: a second stream of the run's seed sequence
+        est_seed = int(np.random.SeedSequence(task.seed).generate_state(1)[0])
+        results = estimators.run(list(task.estimators), rec, mass, seed=est_seed)
+        record["rows"] = [_row(e, truth, sd, task.mass_known) for e in results]
+    except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
+        record["rows"] = _failed_rows(task, truth, f"run failed: {type(exc).__name__}: {exc}")
+    record["elapsed"] = time.time() - started
+    return record
