@@ -22,6 +22,8 @@ from .errors import DampfitError as DampfitError
 from .errors import InputError as InputError
 from .io import read as read
 from .recording import Recording as Recording
+from . import crlb as crlb
+from . import estimators as estimators
 from . import simulate as simulate
 
 try:
@@ -31,5 +33,5 @@ except _metadata.PackageNotFoundError:  # pragma: no cover - source tree without
 
 __all__ = [
     "Analysis", "DampfitError", "InputError", "Recording", "__version__", "analyze", "read",
-    "simulate",
+    "crlb", "estimators", "simulate",
 ]

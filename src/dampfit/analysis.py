@@ -111,7 +111,7 @@ class Analysis:
                    "frequency f_n; c = 2·m·p and k = m·(2π·f_n)² need the mass (--mass KG)")
             missing = {"c": why, "k": why, "c_crit": why}
         ls = self.least_squares
-        lsd = _ls_physical(ls, self.mass)
+        lsd = _ls_physical(ls, self.mass, self.noise.psd_ratio)
         lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
         s = self.sampling
         return _jsonable({
@@ -346,14 +346,15 @@ def _param_summary(idata, name: str) -> dict[str, Any]:
             "r_hat": rhat, "ess_bulk": ess}
 
 
-def _ls_physical(ls: fit.LeastSquaresResult, mass: float | None) -> dict[str, Any]:
+def _ls_physical(ls: fit.LeastSquaresResult, mass: float | None, r: float = 1.0) -> dict[str, Any]:
     p, wd = ls.p, ls.omega_d
     wn = float(np.hypot(p, wd))
     out = {"p": p, "zeta": p / wn, "f_n": wn / (2 * np.pi), "u0": float(ls.u0()),
            "c": 2 * mass * p if mass is not None else None,
            "k": mass * wn**2 if mass is not None else None}
-    # 1-σ from the Jacobian covariance, by the delta method in (ln p, ln ω_d)
-    cov = ls.cov[:2, :2]
+    # 1-σ from the Jacobian covariance × the noise calibration factor r (as the posterior),
+    # by the delta method in (ln p, ln ω_d)
+    cov = ls.cov[:2, :2] * r
     if np.all(np.isfinite(cov)):
         sd_lnp = float(np.sqrt(cov[0, 0]))
         out["c_sd"] = out["c"] * sd_lnp if mass is not None else None
