@@ -29,6 +29,12 @@ prints, equals the printed value. Some printed values are *truncated* rather tha
 (2.128, 0.27, 71.83); those rows have ``agrees=False`` and ``agrees_truncated=True``.
 
 Run ``python paper/reproduce_seed.py`` to print the table, or import :func:`rows`.
+``python paper/reproduce_seed.py --figures DIR`` also regenerates the paper-style figures from
+dampfit's simulated paper preset (the paper's own data are not public): the raw signal and
+spectra in linear and dB scale with the band and filter response (Figs 15–17, 19), the
+displacement with its envelope (Fig. 20), the fit, the posterior, and the OpenSees
+verification overlay (Figs 21–26), plus the full report — by running
+``dampfit demo --report`` and ``dampfit verify`` into DIR.
 """
 
 from __future__ import annotations
@@ -259,10 +265,26 @@ def format_table(table: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def main() -> int:
+def figures(out: str) -> int:
+    """Paper-style figures and the report of the simulated paper preset, written into ``out``."""
+    from dampfit.cli import main as dampfit
+
+    code = dampfit(["demo", "--out", out, "--quiet", "--report"])
+    return code or dampfit(["verify", out])
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(description="the seed paper's worked numbers, recomputed")
+    ap.add_argument("--figures", metavar="DIR", help="also write paper-style figures into DIR")
+    args = ap.parse_args(argv)
     print("Flis et al. (2025), worked example recomputed with dampfit.physics")
     print()
     print(format_table(rows()))
+    if args.figures:
+        print()
+        return figures(args.figures)
     return 0
 
 

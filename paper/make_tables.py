@@ -1,0 +1,96 @@
+"""Fill the generated tables of ``paper/paper.md`` from the result files in ``paper/results/``.
+
+Each table sits between ``<!-- table:NAME -->`` and ``<!-- /table:NAME -->`` in paper.md and is
+rebuilt from one file:
+
+* ``ranking``     ← ``results/ranking.study/ranking.csv`` — ``dampfit study examples/study_ranking.toml --out paper/results/ranking.study``
+* ``calibration`` ← ``results/calibration.csv`` — ``python paper/calibration.py --replicates 100 --out paper/results/calibration.csv``
+* ``benchmark``   ← ``results/benchmark.json`` — ``python paper/benchmark.py --json paper/results/benchmark.json``
+
+Run ``python paper/make_tables.py`` after any of them; a missing file leaves its table saying
+so.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+
+
+def _md(rows: list[list[str]], header: list[str]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def ranking() -> str:
+    df = pd.read_csv(RESULTS / "ranking.study" / "ranking.csv")
+    rows = []
+    for r in df.itertuples(index=False):
+        cov = getattr(r, "coverage", np.nan)
+        rows.append([str(r.estimator), f"{r.rmse_crlb_gmean:.2f}", f"{r.rmse_crlb_worst:.2f}",
+                     "—" if pd.isna(cov) else f"{cov:.2f}"])
+    return _md(rows, ["estimator", "RMSE/CRLB (geometric mean over scenarios)", "worst scenario",
+                      "90 % interval coverage"])
+
+
+def calibration() -> str:
+    df = pd.read_csv(RESULTS / "calibration.csv")
+    rows = []
+    for name, g in df.groupby("scenario", sort=False):
+        n = len(g)
+        rmse = float(np.sqrt(np.mean((g.c_q50 - g.c_true) ** 2)))
+        crlb = float(np.sqrt(np.mean(g.c_crlb**2)))
+        rows.append([name, str(n), f"{g.c_covered.mean():.2f}", f"{g.k_covered.mean():.2f}",
+                     f"{g.u0_covered.mean():.2f}", f"{rmse / crlb:.2f}",
+                     f"{g.psd_ratio.median():.2f}"])
+    se = float(np.sqrt(0.9 * 0.1 / max(df.groupby("scenario").size().min(), 1)))
+    return _md(rows, ["scenario", "replicates", "c covered", "k covered", "u₀ covered",
+                      "RMSE(c)/CRLB (white-noise bound)", "median r"]) + (
+        f"\n\nBinomial standard error of a coverage of 0.90 over these replicates: ±{se:.2f}.")
+
+
+def benchmark() -> str:
+    b = json.loads((RESULTS / "benchmark.json").read_text())
+    ref, cold, warm = b["reference"], b["dampfit_cold"], b["dampfit_warm"]
+    rows = [["lmfit + emcee (reference)", f"{ref['emcee_time_s']:.1f}", f"{ref['ess_c']:.0f}",
+             f"{ref['ess_c_per_s']:.2f}", "1"],
+            ["dampfit.analyze, cold (with compilation)", f"{cold['time_s']:.1f}",
+             f"{cold['ess_c']:.0f}", f"{cold['ess_c_per_s']:.1f}", f"{b['ess_ratio_cold']:.0f}"],
+            ["dampfit.analyze, warm", f"{warm['time_s']:.1f}", f"{warm['ess_c']:.0f}",
+             f"{warm['ess_c_per_s']:.1f}", f"{b['ess_ratio_warm']:.0f}"]]
+    return _md(rows, ["run", "time [s]", "ESS(c)", "ESS(c)/s", "ratio"]) + (
+        f"\n\nWhole `dampfit analyze` in a fresh process (start-up, compilation, fit, posterior, "
+        f"figures): {b['cli_time_s']:.1f} s, 1/{b['reference_time_over_cli_time']:.0f} of the "
+        f"{ref['time_per_1000_ess_s']:.0f} s the reference needs per 1,000 effective samples of c. "
+        f"Study throughput: {b['least_squares_fits_per_minute']:.0f} least-squares fits per minute.")
+
+
+TABLES = {"ranking": ranking, "calibration": calibration, "benchmark": benchmark}
+
+
+def main() -> int:
+    paper = HERE / "paper.md"
+    text = paper.read_text()
+    for name, fn in TABLES.items():
+        try:
+            body = fn()
+        except FileNotFoundError as exc:
+            body = f"*(not generated: {Path(exc.filename).relative_to(HERE)} is missing)*"
+        pattern = re.compile(rf"(<!-- table:{name} -->\n)(?:.*?\n)?(<!-- /table:{name} -->)", re.S)
+        text, n = pattern.subn(lambda m: m.group(1) + body + "\n" + m.group(2), text)
+        print(f"{name}: {'updated' if n else 'marker not found'}")
+    paper.write_text(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
