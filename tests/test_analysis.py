@@ -185,7 +185,9 @@ def test_summary_schema_and_json(analysed, tmp_path):
     assert s["parameters"]["c"]["unit"] == "N s/m"
     assert {"c", "zeta", "n_cycles"} <= set(s["baselines"]["log_decrement"])
     assert {"c", "zeta"} <= set(s["baselines"]["envelope_pipeline"])
-    assert s["noise_model"]["psd_ratio_at_f0"] >= 1.0
+    from dampfit.noise import R_FLOOR
+
+    assert s["noise_model"]["psd_ratio_at_f0"] >= R_FLOOR
 
 
 def test_netcdf_round_trip(analysed, tmp_path):

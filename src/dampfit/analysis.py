@@ -78,6 +78,7 @@ class Analysis:
     seed: int
     options: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
+    damping: Any = None  # dampfit.damping.DampingAssessment (None when not assessed)
     date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
 
     # --------------------------------------------------------------- views
@@ -137,6 +138,7 @@ class Analysis:
                           for k, v in self.baselines.items()},
             "noise_model": self.noise.summary(),
             "crlb": self.crlb,
+            **self._damping_summary(),
             "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
                     "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
                     "t0_s": fd.t0},
@@ -158,6 +160,17 @@ class Analysis:
             "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
                            "python": platform.python_version(), "versions": _versions()},
         })
+
+    def _damping_summary(self) -> dict[str, Any]:
+        """model_checks, damping_models, amplitude_curve and c_equivalent (the chosen
+        non-viscous law's energy-equivalent viscous c at a stated amplitude, else None)."""
+        if self.damping is None:
+            return {"model_checks": None, "damping_models": None, "amplitude_curve": None,
+                    "c_equivalent": None}
+        out = dict(self.damping.summary())
+        out["c_equivalent"] = (self.damping.c_report() if self.damping.chosen != "viscous"
+                               else None)
+        return out
 
     def to_json(self, path: str | os.PathLike) -> Path:
         """Write :meth:`summary` as JSON to ``path`` (atomically)."""
@@ -235,6 +248,8 @@ def analyze(
     progress: bool = False,
     max_steps: int = 20000,
     min_ess: float = 1000.0,
+    model: str = "auto",
+    amplitude: float | None = None,
 ) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
 
@@ -242,6 +257,13 @@ def analyze(
     the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
     (start, end) [s] and ``band`` (low, high) [Hz] override the automatic choices. ``seed``
     makes the posterior reproducible; ``progress`` shows a progress bar.
+
+    ``model`` (``auto``, ``viscous``, ``coulomb``, ``quadratic``, ``power``) chooses the damping
+    law reported as ``c_equivalent`` (:mod:`dampfit.damping`): ``auto`` compares them all and
+    takes the one the evidence prefers; every law is checked either way (``model_checks``).
+    The viscous posterior under ``parameters`` is always computed. ``amplitude`` [m] is the
+    displacement amplitude at which a non-viscous law's equivalent viscous c is reported
+    (default: the geometric mean of the first and last amplitudes of the window).
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
@@ -284,12 +306,14 @@ def analyze(
         progress=progress, max_steps=max_steps, min_ess=min_ess,
     )
     warns.extend(post.warnings)
+    assessment = _assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
+                                 max_steps, min_ess, warns)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
-               "min_ess": min_ess}
+               "min_ess": min_ess, "model": model, "amplitude": amplitude}
     return Analysis(
         recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
-        sampling=post, baselines=base, crlb=bound, mass=m, mass_sd=sd, seed=int(seed), options=options,
+        sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd, seed=int(seed), options=options,
         warnings=warns,
     )
 
@@ -303,6 +327,23 @@ def _initial_decay_rate(base: dict) -> float:
             if p is not None and np.isfinite(p) and p > 0:
                 return float(p)
     return float("nan")
+
+
+def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, progress,
+                    max_steps, min_ess, warns: list[str]):
+    """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`).
+
+    The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
+    when it is not the viscous one (whose emcee posterior is ``parameters``)."""
+    from . import damping
+
+    common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
+                  min_ess=min_ess, progress=progress)
+    res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="laplace", **common)
+    if res.chosen != "viscous":
+        res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen", **common)
+    warns.extend(res.warnings)
+    return res
 
 
 def _crlb(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] | None:

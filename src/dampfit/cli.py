@@ -136,9 +136,13 @@ def _analysis_options(a: argparse.ArgumentParser) -> None:
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
     a.add_argument("--quiet", action="store_true", help="no progress bar")
     a.add_argument("--report", action="store_true", help="also write report.html and report.md")
-    a.add_argument("--model", default="viscous",
-                   choices=["viscous", "coulomb", "quadratic", "power", "auto"],
-                   help="damping model (auto: compare all and report the preferred one)")
+    a.add_argument("--model", default="auto",
+                   choices=["auto", "viscous", "coulomb", "quadratic", "power"],
+                   help="damping law reported as c_equivalent (auto: the one the evidence "
+                        "prefers); all are compared in model_checks either way")
+    a.add_argument("--amplitude", type=_number(float), metavar="M",
+                   help="displacement amplitude [m] at which a non-viscous law's equivalent "
+                        "viscous c is reported (the amplitude your FEM model will see)")
 
 
 # ----------------------------------------------------------------------- outputs
@@ -226,7 +230,8 @@ def _cmd_analyze(args) -> int:
     an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
                  window=tuple(args.window) if args.window else None,
                  band=tuple(args.band) if args.band else None, seed=args.seed,
-                 progress=not args.quiet and sys.stderr.isatty(), max_steps=args.max_steps)
+                 progress=not args.quiet and sys.stderr.isatty(), max_steps=args.max_steps,
+                 model=args.model, amplitude=args.amplitude)
     _write_outputs(an, out, args.force, not args.no_figures)
     if args.report:
         _write_report(out)

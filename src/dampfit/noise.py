@@ -10,10 +10,15 @@ spectral density. An iid likelihood uses the *mean* level σ²/(f_s/2) instead, 
     r = S(f₀) / (σ² / (f_s/2)),
 
 and dividing the log likelihood by r (a "tempered" likelihood) restores calibrated intervals
-(r = 1 for white noise; r ≈ 1.25 for our low-pass-then-decimate path; r > 1 for red noise near
-f₀, or for model misfit at f₀, which is where it belongs). r is estimated from the
-least-squares residuals with Welch's method and clipped below at 1, so dampfit never claims
-more information than the iid model would.
+(r = 1 for white noise; r ≈ 1.3 for our low-pass-then-decimate path; r > 1 for red noise near
+f₀, or for model misfit at f₀, which is where it belongs; r < 1 when the residual variance is
+dominated by power far from f₀ — bias drift the polynomial basis does not fully absorb, 1/f
+noise — which inflates the iid σ² but carries no information about the decay). r is estimated
+from the least-squares residuals with Welch's method, averaging ≈ 2·halfwidth·T independent
+bins (relative error ≈ 1/√(that)), and floored at ``R_FLOOR`` as a guard against a degenerate
+spectrum estimate. Checked on 100-replicate calibration runs (``paper/calibration.py``): with
+the former floor at 1 the 90 % intervals of c covered 97 % under drift; with r < 1 allowed they
+are calibrated.
 """
 
 from __future__ import annotations
@@ -23,7 +28,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-__all__ = ["NoiseModel", "estimate"]
+__all__ = ["NoiseModel", "estimate", "R_FLOOR"]
+
+#: Smallest calibration factor used (a guard; r below ≈ 0.3 is not seen on real or simulated data).
+R_FLOOR = 0.2
 
 
 @dataclass(frozen=True)
@@ -74,7 +82,7 @@ def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params
     lag1 = float(np.corrcoef(resid[:-1], resid[1:])[0, 1]) if n > 3 else 0.0
     return NoiseModel(
         sigma=float(np.sqrt(sigma2)),
-        psd_ratio=max(1.0, r_raw),
+        psd_ratio=max(R_FLOOR, r_raw),
         psd_ratio_raw=r_raw,
         lag1=lag1,
         fs=float(fs),

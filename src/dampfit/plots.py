@@ -33,6 +33,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = [
     "save_figures",
+    "amplitude_figure",
     "signal_figure",
     "spectrum_figure",
     "fit_figure",
@@ -723,4 +724,72 @@ def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110) -
             if tmp.exists():
                 tmp.unlink()
         written[name] = path
+    if getattr(an, "damping", None) is not None:  # ζ(amplitude) of dampfit.damping
+        path = outdir / "amplitude.png"
+        fig = amplitude_figure(an.damping.summary()["amplitude_curve"], path, dpi=dpi)
+        fig.clear()
+        written["amplitude"] = path
     return written
+
+
+def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi: int = 110) -> "Figure":
+    """ζ against displacement amplitude: windowed viscous fits and each damping law's ζ_eq(a).
+
+    ``curve`` is ``summary()["amplitude_curve"]`` of :func:`dampfit.damping.assess`: window
+    estimates ζ ± 1.645·sd (90 %) [1] at their amplitude [m] (log axis), every converged law's
+    ζ_eq(a) = ρ(a)/ω from its least-squares fit, the 90 % posterior band of the chosen law
+    and the reference amplitude of c_eq. With a mass, a second axis gives c_eq [N·s/m] =
+    2·m·ω·ζ (ω from the windows). With ``path``, the PNG is written atomically as well.
+    """
+    fig = _new_figure(8.0, 5.0)
+    ax = fig.subplots()
+    wins = curve.get("windows") or []
+    a = np.array([w["amplitude_m"] for w in wins], dtype=float)
+    z = np.array([w["zeta"] for w in wins], dtype=float)
+    zs = np.array([w["zeta_sd"] for w in wins], dtype=float)
+    if a.size:
+        ax.errorbar(a, z, yerr=1.645 * zs, fmt="o", ms=4, color="0.25", ecolor="0.6", capsize=2,
+                    label=f"windowed viscous fits ({curve.get('window_cycles', 0):.0f} cycles, 90 %)")
+    grid = np.asarray(curve.get("amplitude_grid_m") or [], dtype=float)
+    band = curve.get("band")
+    if band and grid.size > 1:
+        ax.fill_between(grid, band["zeta_q05"], band["zeta_q95"], color="tab:blue", alpha=0.18,
+                        lw=0, label=f"{band['model']}: 90 % posterior band")
+    colors = {"viscous": "0.45", "coulomb": "tab:orange", "quadratic": "tab:green",
+              "power": "tab:blue"}
+    chosen = curve.get("chosen_model")
+    for name, entry in (curve.get("models") or {}).items():
+        if grid.size > 1:
+            ax.plot(grid, entry["zeta_eq"], color=colors.get(name, "k"),
+                    lw=2.0 if name == chosen else 1.0, ls="-" if name == chosen else "--",
+                    label=f"{name}{' (chosen)' if name == chosen else ''}: ζ_eq(a)")
+    ref = curve.get("reference_amplitude_m")
+    if ref:
+        ax.axvline(ref, color="tab:red", lw=0.9, ls=":", label=f"reference amplitude {ref:.3g} m")
+    ax.set_xscale("log")
+    ax.set_xlabel("displacement amplitude a [m]")
+    ax.set_ylabel("damping ratio ζ [1]")
+    ax.grid(alpha=0.3, which="both")
+    mass = curve.get("mass_kg")
+    if mass and wins:
+        w = float(np.median([2 * np.pi * x["f_d_hz"] for x in wins]))
+        sec = ax.secondary_yaxis("right", functions=(lambda zz: 2 * mass * w * zz,
+                                                     lambda cc: cc / (2 * mass * w)))
+        sec.set_ylabel("c_eq [N·s/m]")
+    slope = curve.get("slope")
+    title = "damping against amplitude"
+    if slope:
+        title += (f" — d ln p/d ln a = {slope['s']:.2f} [{slope['s_q05']:.2f}, "
+                  f"{slope['s_q95']:.2f}] (0 for one viscous c)")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8, loc="best")
+    if path is not None:
+        path = Path(path)
+        tmp = path.with_name(path.name + ".part")
+        try:
+            fig.savefig(tmp, dpi=dpi, format="png")
+            os.replace(tmp, path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+    return fig

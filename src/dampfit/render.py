@@ -61,6 +61,19 @@ def text(s: dict[str, Any]) -> str:
         f"  noise           sigma = {nm['sigma']:.3g} m/s^2 per sample at {nm['sample_rate_hz']:.4g} Hz, "
         f"spectral factor r = {nm['psd_ratio_at_f0']:.3g}"
     )
+    mc = s.get("model_checks")
+    if isinstance(mc, dict):
+        amp = mc.get("amplitude_dependence") or {}
+        verdict = ("amplitude-dependent" if amp.get("detected") else "no amplitude dependence")
+        line = (f"  damping law     {mc.get('preferred_model')} preferred ({verdict}, "
+                f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)})")
+        ceq = s.get("c_equivalent")
+        if isinstance(ceq, dict) and isinstance(ceq.get("c"), dict):
+            q = ceq["c"]
+            line += (f"\n  c_equivalent    {_g(q['q50'], 6)} N s/m [{_g(q['q05'], 6)}, "
+                     f"{_g(q['q95'], 6)}] ({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m "
+                     "displacement amplitude)")
+        lines.append(line)
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"
     lines.append(

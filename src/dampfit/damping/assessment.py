@@ -1,0 +1,274 @@
+r"""The entry point: :func:`assess` — is one viscous c enough, and if not, which damper?
+
+Pipeline, after the viscous least-squares fit and noise model of :func:`dampfit.analyze`:
+
+1. least squares of every law (:mod:`~dampfit.damping.fit`, NumPy variable projection), with
+   J = 0…3 frequency-drift phase terms (K4) chosen by BIC on the viscous law and shared;
+2. one Whittle factor r from the best law's residuals (:mod:`~dampfit.damping.compare`);
+3. evidence of every law, the comparison table and the verdict (amplitude dependence,
+   preferred law);
+4. posterior draws of every law (emcee for the chosen law by default, the nested Laplace
+   approximation for the others; :data:`POSTERIORS`);
+5. ζ(amplitude) from windowed viscous fits (:mod:`~dampfit.damping.curve`);
+6. model checks and the warning (:mod:`~dampfit.damping.checks`).
+
+What to report as *the* c when the chosen law is not viscous: the energy-equivalent viscous
+c_eq at the reference amplitude a_ref [m] (the user's ``amplitude``, else the geometric mean of
+the largest and smallest recorded displacement amplitudes), with the amplitude stated —
+:meth:`DampingAssessment.c_report`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .. import noise as _noise
+from ..errors import InputError
+from . import checks, compare, curve, models, quantities
+from .report import summary as _summary
+from . import fit as dfit
+from . import sample as dsample
+
+__all__ = ["assess", "from_analysis", "DampingAssessment", "CHOICES", "POSTERIORS"]
+
+#: Accepted values of ``model``.
+CHOICES = ("auto",) + models.MODELS
+#: Accepted values of ``posterior``: emcee for every law, for the chosen law only, or none.
+POSTERIORS = ("chosen", "emcee", "laplace")
+
+
+@dataclass
+class DampingAssessment:
+    """Everything :func:`assess` computed; :meth:`summary` is its plain-data view."""
+
+    fits: dict[str, dfit.ModelFit]
+    posteriors: dict[str, dsample.ModelPosterior]
+    table: list[dict]
+    verdict: dict
+    requested: str
+    chosen: str
+    psd_ratio: float
+    psd_ratios: dict[str, float]
+    whiteness: dict[str, dict]
+    windows: list[curve.Window]
+    slope: dict | None
+    window_cycles: float
+    amplitudes: dict[str, float]  # ref, start, end [m]
+    mass: float | None
+    quantities: dict[str, dict[str, np.ndarray]]
+    t0: float
+    pipeline_psd_ratio: float | None = None  # r of the viscous pipeline's NoiseModel
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def preferred(self) -> str:
+        """The law the evidence prefers (viscous unless amplitude dependence is detected)."""
+        return self.verdict["preferred"]
+
+    @property
+    def amplitude_dependent(self) -> bool:
+        return bool(self.verdict["amplitude_dependent"])
+
+    def c_report(self) -> dict[str, Any]:
+        """What to report as c: the chosen law's c (viscous) or c_eq at a_ref [N·s/m]."""
+        q = self.quantities[self.chosen]
+        name = "c" if self.chosen == "viscous" else "c_eq_ref"
+        zname = "zeta" if self.chosen == "viscous" else "zeta_eq_ref"
+        return {
+            "model": self.chosen,
+            "c": quantities.summarise(q[name], "N s/m") if name in q else None,
+            "zeta": quantities.summarise(q[zname], "1") if zname in q else None,
+            "amplitude_m": self.amplitudes["ref"],
+            "note": ("viscous c" if self.chosen == "viscous" else
+                     f"energy-equivalent viscous c of the {self.chosen} law at "
+                     f"{self.amplitudes['ref']:.3g} m displacement amplitude"),
+        }
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe dict with keys ``model_checks``, ``damping_models``, ``amplitude_curve``."""
+        return _summary(self)
+
+
+def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_cycles) -> None:
+    if model not in CHOICES:
+        raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
+    if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
+        raise InputError("the reference amplitude must be a positive displacement in m, "
+                         f"got {amplitude!r}")
+    if mass is not None and not (np.isfinite(mass) and mass > 0):
+        raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
+    if mass_sd is not None and not (np.isfinite(mass_sd) and mass_sd >= 0):
+        raise InputError(f"mass standard deviation must be ≥ 0 kg, got {mass_sd!r}")
+    if posterior not in POSTERIORS:
+        raise InputError(f"posterior must be one of {', '.join(POSTERIORS)}, got {posterior!r}")
+    if window_cycles is not None and not (np.isfinite(window_cycles) and window_cycles >= 2):
+        raise InputError(f"amplitude windows must span at least 2 cycles, got {window_cycles!r}")
+
+
+def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float = 0.0, *,
+           model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
+           window_cycles: float | None = None, seed: int = 0, progress: bool = False,
+           max_steps: int = 20000, min_ess: float = 1000.0) -> DampingAssessment:
+    """Compare damping laws on a prepared recording (see the module docstring).
+
+    ``prep`` :class:`~dampfit.preprocess.Prepared`, ``fd`` :class:`~dampfit.preprocess.FitData`,
+    ``ls`` the viscous :class:`~dampfit.fit.LeastSquaresResult` (start values; None: from the
+    envelope), ``noise_model`` its :class:`~dampfit.noise.NoiseModel` or None (its r is
+    reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
+    [kg]; ``model`` one of :data:`CHOICES` (``auto`` = the preferred law); ``amplitude`` [m]
+    the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`) ``"chosen"`` = emcee for the chosen law and the
+    Laplace approximation for the others, ``"emcee"`` for all, ``"laplace"`` for none
+    (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
+    ζ(amplitude) windows (automatic if None).
+    """
+    _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
+    mass_sd = float(mass_sd or 0.0)
+    data = dfit.Data.from_fit_data(fd)
+    f0 = float(prep.f0)
+    p_start, w_start = (ls.p, ls.omega_d) if ls is not None else _initial_guess(prep)
+
+    def ratio(mf):
+        return _noise.estimate(mf.residuals, fd.fs, f0, 0.25 * f0, data.q + mf.k).psd_ratio
+
+    visc = _viscous_with_drift(fd, data, p_start, w_start, ratio)
+    p_start, w_start = (visc.p0, visc.omega) if visc.converged else (p_start, w_start)
+    phase0 = visc.theta[2:]
+    fits = {"viscous": visc}
+    fits.update({m: dfit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
+                 for m in models.MODELS[1:]})
+    warns = [f"{m} damping law: least squares did not converge ({mf.message})"
+             for m, mf in fits.items() if not mf.converged]
+    ok = [mf for mf in fits.values() if mf.converged] or [fits["viscous"]]
+    best = min(ok, key=lambda mf: mf.rss)
+
+    r = ratio(best)
+    fits = {m: dfit.laplace(mf, data, 1.0 / r, prep.band) for m, mf in fits.items()}
+    table, verdict = compare.compare(fits, data, f0)
+    chosen = verdict["preferred"] if model == "auto" else model
+
+    # posteriors
+    posts: dict[str, dsample.ModelPosterior] = {}
+    for i, (m, mf) in enumerate(fits.items()):
+        use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen)
+        if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
+            posts[m] = dsample.sample_emcee(mf, data, prep.band, seed=seed + i,
+                                            min_ess=min_ess, max_steps=max_steps,
+                                            progress=progress)
+        else:
+            posts[m] = dsample.sample_laplace(mf, data, seed=seed + i)
+        warns.extend(posts[m].warnings)
+
+    # ζ(amplitude) windows on the drift-free signal of the best law
+    ref = fits[verdict["preferred"]] if fits[verdict["preferred"]].converged else best
+    y_free = fd.y - fd.drift @ ref.beta[2:]
+    spc = fd.fs / f0
+    n_cyc = float((fd.tau[-1] - fd.tau[0]) * f0)
+    cyc = window_cycles or curve.auto_cycles(n_cyc, spc)
+    wins = curve.windows(fd.tau, y_free, ref.omega, p_start, cycles=cyc, psd_ratio=r, gain=ref.gain)
+    slope = curve.slope(wins)
+
+    amps = _amplitudes(fits[chosen], wins, fd, amplitude)
+    rng = np.random.default_rng(seed + 101)
+    qts = {}
+    for m, post in posts.items():
+        md = quantities.mass_draws(mass, mass_sd, len(post.a0), rng)
+        qts[m] = quantities.draws(m, post.theta, post.a0, md, amps) if len(post.a0) else {}
+
+    ratios = {m: float(ratio(mf)) for m, mf in fits.items() if mf.converged}
+    white = {m: checks.envelope_whiteness(fd.tau, fits[m].residuals, fits[m].omega)
+             for m in dict.fromkeys(("viscous", verdict["preferred"], chosen))}
+    out = DampingAssessment(
+        fits=fits, posteriors=posts, table=table, verdict=verdict, requested=model,
+        chosen=chosen, psd_ratio=float(r), psd_ratios=ratios, whiteness=white, windows=wins,
+        slope=slope, window_cycles=float(cyc), amplitudes=amps, mass=mass, quantities=qts,
+        t0=float(fd.t0), warnings=warns,
+        pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
+    )
+    text = _warning(out)
+    if text:
+        out.warnings.append(text)
+    if model != "auto" and model != verdict["preferred"]:
+        out.warnings.append(
+            f"the {model} damping law was requested, but the evidence prefers "
+            f"{verdict['preferred']} (P = {_weight(table, verdict['preferred']):.2g})")
+    return out
+
+
+def from_analysis(an, **kw) -> DampingAssessment:
+    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
+    kw.setdefault("seed", an.seed)
+    return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
+
+
+def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> dfit.ModelFit:
+    """The viscous fit with J = 0…MAX_PHASE frequency-drift terms (K4), J chosen by BIC.
+
+    The score is ℓ/r − ½·J·ln(n/r), with one r (that of the richest fit) for every J: the
+    tempered likelihood and an effective sample size n/r. The chosen J is then shared by
+    every law, so the laws are compared with the same nuisance model.
+    """
+    base = dfit.fit_model("viscous", fd, data, p_start, w_start)
+    if not base.converged:
+        return base
+    cands = [base] + [dfit.fit_model("viscous", fd, data, base.p0, base.omega,
+                                     phase0=np.zeros(j)) for j in range(1, models.MAX_PHASE + 1)]
+    cands = [c for c in cands if c.converged]
+    r = ratio(min(cands, key=lambda c: c.rss))
+    n_eff = max(data.n / r, 2.0)
+    return max(cands, key=lambda c: c.loglik / r - 0.5 * (c.k - 2) * np.log(n_eff))
+
+
+def _initial_guess(prep) -> tuple[float, float]:
+    """Decay rate [1/s] from a log-linear fit of the band-passed envelope, and 2π·f₀ [rad/s]."""
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1]) & (prep.envelope > 0)
+    w = 2 * np.pi * prep.f0
+    if sel.sum() < 4:
+        return 1e-3 * w, w
+    slope = np.polyfit(prep.grid[sel] - prep.window[0], np.log(prep.envelope[sel]), 1)[0]
+    return (float(-slope) if slope < 0 else 1e-3 * w), w
+
+
+def _weight(table, name) -> float:
+    return next((r["weight"] for r in table if r["model"] == name), float("nan"))
+
+
+def _amplitudes(mf: dfit.ModelFit, wins, fd, amplitude) -> dict[str, float]:
+    """Displacement amplitudes [m] at the window start and end and the reference one."""
+    start = mf.a0
+    e_end = float(models.envelope(mf.model, mf.theta, np.array([fd.tau[-1] - fd.tau[0]]),
+                                  xp=np)[0][..., 0])
+    end = start * e_end
+    measured = [w.amplitude for w in wins if w.amplitude > 0]
+    if measured:  # the smallest amplitude a window measured, if the model decays below it
+        end = max(end, min(measured))
+    if not (np.isfinite(end) and end > 0):
+        end = 0.5 * start
+    ref = float(amplitude) if amplitude is not None else float(np.sqrt(start * end))
+    return {"ref": ref, "start": float(start), "end": float(end)}
+
+
+def _q50(q: dict, name: str) -> float:
+    x = q.get(name)
+    return float(np.nanmedian(x)) if x is not None and len(x) else float("nan")
+
+
+def _warning(a: DampingAssessment) -> str | None:
+    """The amplitude-dependence warning; ζ from the first and last windows, else from the law."""
+    if not a.amplitude_dependent:
+        return None
+    m = a.preferred
+    q = a.quantities.get(m, {})
+    c_ref = _q50(q, "c_eq_ref") if a.mass is not None else None
+    if len(a.windows) >= 4:
+        first, last = a.windows[0], a.windows[-1]
+        zeta_hi, zeta_lo, a_hi, a_lo = first.zeta, last.zeta, first.amplitude, last.amplitude
+        source = "windowed fits"
+    else:
+        zeta_hi, zeta_lo = _q50(q, "zeta_eq_start"), _q50(q, "zeta_eq_end")
+        a_hi, a_lo = a.amplitudes["start"], a.amplitudes["end"]
+        source = f"{m} law"
+    return checks.warning_text(m, a.verdict["p_viscous"], zeta_hi, zeta_lo, a_hi, a_lo, c_ref,
+                               a.amplitudes["ref"], source)

@@ -1,0 +1,419 @@
+r"""Least squares, tempered likelihood and Laplace evidence for each damping law.
+
+The data and noise model are those of the viscous fit (:mod:`dampfit.fit`, :mod:`dampfit.noise`):
+the acceleration is ``y = X(θ)·(A, B) + Q·d + noise`` with the law's two oscillation columns
+(:func:`dampfit.damping.models.columns`), the orthonormal drift basis Q of
+:func:`dampfit.model.drift_basis`, and Gaussian noise of unknown σ. The linear coefficients
+(A, B, d) are solved exactly at every θ (variable projection, drift projected out once — the
+Schur complement of :func:`dampfit.model.profile`), so Levenberg–Marquardt sees only the
+nonlinear parameters θ (two to six: the law's, ln ω and the frequency-drift terms). With flat
+priors on (A, B, d) and a Jeffreys prior on σ, the marginal log likelihood is (as
+:func:`dampfit.model.log_marginal_likelihood`)
+
+    ℓ(θ) = −½·ln det(X⊥ᵀX⊥) − ½·(n − q)·ln RSS(θ),                                     (L1)
+
+used tempered, ℓ/r, with the Whittle factor r (:mod:`dampfit.noise`). **Evidence** with the
+priors of :func:`log_prior` (ln p₀ uniform on [ln 10⁻⁶ω, ln ω], ln ω uniform over the pass band,
+the shape parameter s — friction or drag fraction, or exponent α — uniform on its support
+:data:`~dampfit.damping.models.PRIOR_SHAPE`):
+
+* viscous: Laplace, ln Z ≈ ℓ(θ̂)/r + ln π(θ̂) + (k/2)·ln 2π − ½·ln det H,  H = −∇²ℓ/r;  (L2)
+* nonlinear laws: the shape s is integrated *numerically* over its support and only
+  (ln p₀, ln ω) by Laplace at each s (a nested Laplace approximation):
+
+    Z = ∫ π(s)·exp[ℓ(s, φ̂_s)/r]·π(φ̂_s)·(2π)^{m/2}·det H_s^{−½} ds,  φ = (ln p₀, ln ω, c_j), (L3)
+
+  on a grid of s that resolves the peak (nodes every 2σ_s/3 within ±6σ_s of the optimum,
+  plus a uniform grid over the support), trapezoidal rule. This stays accurate when the
+  likelihood in s is skewed or peaks outside the support (a negative friction fraction on
+  viscous data), where a Gaussian in s would not. H = Gauss–Newton information (below).
+  The frequency-drift coefficients c_j (K4 of :mod:`~dampfit.damping.models`) get a flat
+  prior common to every law, so ln Z is defined up to a constant that cancels in comparisons.
+
+A handful of nonlinear parameters on a few thousand samples needs no compiled kernel: this
+module runs on NumPy (the models' ``xp=numpy`` path) with scipy's MINPACK Levenberg–Marquardt
+and central-difference Jacobians, so a fit costs milliseconds and nothing is compiled.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy import optimize
+
+from ..fit import amplitude_gain
+from ..preprocess import FitData
+from . import models
+
+__all__ = ["Data", "ModelFit", "ShapeGrid", "fit_model", "laplace", "log_prior", "loglik_batch",
+           "loglik_jax",
+           "profile", "information", "jacobian"]
+
+#: Width of the log-uniform prior on p₀: [10⁻⁶·ω, ω].
+P_RANGE = 1e-6
+#: Central-difference step in θ [1] (ln-rates, fraction or exponent, ln ω).
+STEP = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Data:
+    """Fit samples: ``tau`` [s], ``y`` [m/s²], orthonormal ``drift`` basis (n, d) [1]."""
+
+    tau: np.ndarray
+    y: np.ndarray
+    drift: np.ndarray
+
+    @classmethod
+    def from_fit_data(cls, fd: FitData) -> "Data":
+        return cls(np.asarray(fd.tau, float), np.asarray(fd.y, float), np.asarray(fd.drift, float))
+
+    @property
+    def n(self) -> int:
+        return int(self.y.size)
+
+    @property
+    def q(self) -> int:
+        """Number of linear coefficients (A, B and the drift terms)."""
+        return int(self.drift.shape[1] + 2)
+
+
+def profile(model: str, theta, data: Data):
+    """Variable projection at θ (shape (..., k)): β, RSS, ln det X⊥ᵀX⊥, M⁻¹ and the fit.
+
+    X⊥ᵀX⊥ = M is 2×2 and solved in closed form; M⁻¹ gives the conditional covariance
+    s²·M⁻¹ of (A, B). Returns ``(beta (..., q), rss (...), logdet (...), minv (..., 2, 2),
+    fitted (..., n))``.
+    """
+    theta = np.asarray(theta, dtype=float)
+    batch = theta.shape[:-1]
+    th = theta.reshape(-1, theta.shape[-1])
+    q_, y, n = data.drift, data.y, data.n
+    xo = models.columns(model, th, data.tau, xp=np)  # (b, n, 2)
+    # drift projection as one BLAS product over all columns of the batch
+    flat = np.moveaxis(xo, 1, 0).reshape(n, -1)
+    xp = np.moveaxis((flat - q_ @ (q_.T @ flat)).reshape(n, -1, 2), 0, 1)
+    yp = y - q_ @ (q_.T @ y)
+    a = np.einsum("bn,bn->b", xp[..., 0], xp[..., 0])
+    b = np.einsum("bn,bn->b", xp[..., 0], xp[..., 1])
+    c = np.einsum("bn,bn->b", xp[..., 1], xp[..., 1])
+    det = a * c - b * b
+    g0, g1 = xp[..., 0] @ yp, xp[..., 1] @ yp
+    beta_osc = np.stack([c * g0 - b * g1, a * g1 - b * g0], axis=-1) / det[:, None]
+    osc = xo[..., 0] * beta_osc[:, :1] + xo[..., 1] * beta_osc[:, 1:]
+    beta_drift = (y - osc) @ q_
+    fitted = osc + beta_drift @ q_.T
+    resid = y - fitted
+    rss = np.einsum("bn,bn->b", resid, resid)
+    minv = np.stack([np.stack([c, -b], -1), np.stack([-b, a], -1)], -2) / det[:, None, None]
+    beta = np.concatenate([beta_osc, beta_drift], axis=-1)
+    return (beta.reshape(batch + beta.shape[-1:]), rss.reshape(batch), np.log(det).reshape(batch),
+            minv.reshape(batch + (2, 2)), fitted.reshape(batch + (n,)))
+
+
+def loglik_batch(model: str, thetas, data: Data) -> np.ndarray:
+    """Untempered ℓ(θ) of (L1) for θ of shape (..., k); NaN-safe (−inf where undefined)."""
+    with np.errstate(all="ignore"):
+        _, rss, logdet, _, _ = profile(model, thetas, data)
+        ll = -0.5 * logdet - 0.5 * (data.n - data.q) * np.log(rss)
+    return np.where(np.isfinite(ll), ll, -np.inf)
+
+
+def loglik_jax(model: str, data: Data):
+    """A compiled, vectorised ℓ(θ) of (L1) (JAX, float64): thetas (b, k) NumPy → (b,) NumPy.
+
+    Same algebra as :func:`profile`; worth its compilation (seconds) where the likelihood is
+    evaluated thousands of times on one data set — the emcee sampler.
+    """
+    import jax
+    import jax.numpy as jnp
+
+    with jax.enable_x64(True):
+        tau, y, q_ = (jnp.asarray(x) for x in (data.tau, data.y, data.drift))
+    n, q = data.n, data.q
+
+    def one(th):
+        xo = models.columns(model, th, tau)
+        xp = xo - q_ @ (q_.T @ xo)
+        yp = y - q_ @ (q_.T @ y)
+        a, b, c = xp[:, 0] @ xp[:, 0], xp[:, 0] @ xp[:, 1], xp[:, 1] @ xp[:, 1]
+        det = a * c - b * b
+        g0, g1 = xp[:, 0] @ yp, xp[:, 1] @ yp
+        rss = yp @ yp - (c * g0 * g0 - 2 * b * g0 * g1 + a * g1 * g1) / det
+        ll = -0.5 * jnp.log(det) - 0.5 * (n - q) * jnp.log(rss)
+        return jnp.where(jnp.isfinite(ll) & (det > 0) & (rss > 0), ll, -jnp.inf)
+
+    batched = jax.jit(jax.vmap(one))
+
+    def fn(thetas):
+        with jax.enable_x64(True):
+            return np.asarray(batched(jnp.asarray(thetas, dtype=jnp.float64)))
+
+    return fn
+
+
+@dataclass(frozen=True)
+class ModelFit:
+    """Least-squares optimum of one law (and, after :func:`laplace`, its Laplace evidence).
+
+    ``theta`` (see :mod:`~dampfit.damping.models`); ``beta`` = (A, B [m/s²], drift…);
+    ``rss`` [(m/s²)²]; ``loglik`` untempered ℓ(θ̂) of (L1); ``residuals``, ``fitted`` [m/s²];
+    ``a0`` [m] displacement amplitude at the window start; ``gain`` |G| [1] of the decimation
+    filter on the decay. ``cov`` = Σ, ``ln_evidence`` of (L2) and ``temper`` = 1/r are set by
+    :func:`laplace`, and for a nonlinear law the ``grid`` of (L3).
+    """
+
+    model: str
+    theta: np.ndarray
+    beta: np.ndarray
+    rss: float
+    loglik: float
+    residuals: np.ndarray
+    fitted: np.ndarray
+    a0: float
+    gain: float
+    converged: bool
+    message: str
+    cov: np.ndarray | None = None
+    ln_evidence: float = float("nan")
+    temper: float = float("nan")
+    grid: "ShapeGrid | None" = None
+
+    @property
+    def k(self) -> int:
+        """Number of nonlinear parameters."""
+        return int(self.theta.size)
+
+    @property
+    def omega(self) -> float:
+        """Carrier angular frequency ω [rad/s] (ω_d of the viscous model)."""
+        return float(np.exp(self.theta[models.omega_index(self.model)]))
+
+    @property
+    def p0(self) -> float:
+        """Total decay rate at the window start [1/s]."""
+        return float(np.exp(self.theta[0]))
+
+
+def _start_grid(model: str, p_visc: float, w: float, span: float, phase0) -> np.ndarray:
+    ph = list(phase0)
+    if model == "viscous":  # ω over ±3 Fourier bins of the window, as dampfit.fit does
+        ws = w + 2 * np.pi / span * np.linspace(-3, 3, 25)
+        return np.array([[np.log(p_visc * x), np.log(ww)] + ph
+                         for x in (0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0) for ww in ws if ww > 0])
+    lo, hi = models.PRIOR_SHAPE[model]
+    shapes = np.linspace(lo - 0.1 * (hi - lo), hi, 14)
+    rates = p_visc * np.array([0.5, 0.7, 1.0, 1.4, 2.0, 3.0])
+    return np.array([[np.log(r), s, np.log(w)] + ph for r in rates for s in shapes])
+
+
+def jacobian(fun, theta: np.ndarray) -> np.ndarray:
+    """Central-difference Jacobian (n, k) of ``fun``, which takes a batch of θ (b, k) → (b, n)."""
+    d = STEP * np.eye(theta.size)
+    vals = fun(np.concatenate([theta + d, theta - d]))
+    return ((vals[:theta.size] - vals[theta.size:]) / (2 * STEP)).T
+
+
+def fit_model(model: str, fd: FitData, data: Data, p_visc: float, omega: float, *,
+              phase0=(), max_nfev: int = 600) -> ModelFit:
+    """Least-squares fit of one law from the viscous rate ``p_visc`` [1/s] and ``omega`` [rad/s].
+
+    ``phase0`` [rad] starts the frequency-drift coefficients (K4); their number is the J of
+    the fit. A coarse grid over (p₀, shape) at ω (viscous: over p and ω ± 3 Fourier bins)
+    picks the start; MINPACK's Levenberg–Marquardt then minimises the projected residual.
+    Failure is data (``converged=False``), never raised.
+    """
+    p_visc = p_visc if np.isfinite(p_visc) and p_visc > 0 else 1e-3 * omega
+    grid = _start_grid(model, p_visc, omega, float(data.tau[-1] - data.tau[0]), phase0)
+    with np.errstate(all="ignore"):
+        rss = profile(model, grid, data)[1]
+    theta0 = grid[int(np.nanargmin(np.where(np.isfinite(rss), rss, np.inf)))]
+
+    def resid(th):
+        with np.errstate(all="ignore"):
+            return data.y - profile(model, th, data)[4]
+
+    try:
+        sol = optimize.least_squares(resid, theta0, jac=lambda th: jacobian(resid, th),
+                                     method="lm", xtol=1e-12, ftol=1e-12, max_nfev=max_nfev)
+        theta, ok, message = sol.x, bool(sol.success), str(sol.message)
+    except (ValueError, np.linalg.LinAlgError) as exc:  # non-finite residuals at the start
+        theta, ok, message = theta0, False, f"least squares failed: {exc}"
+    with np.errstate(all="ignore"):
+        beta, rss_v, logdet, _, fitted = profile(model, theta, data)
+    ll = float(-0.5 * logdet - 0.5 * (data.n - data.q) * np.log(rss_v))
+    finite = bool(np.all(np.isfinite(theta)) and np.isfinite(ll))
+    w = float(np.exp(theta[models.omega_index(model)]))
+    if finite:
+        gain = abs(amplitude_gain(fd, float(models.local_rate(model, theta, 1.0)), w))
+        a0 = float(np.hypot(beta[0], beta[1]) / (w * w * gain))
+    else:
+        gain = a0 = float("nan")
+    return ModelFit(
+        model=model, theta=np.asarray(theta, float), beta=beta, rss=float(rss_v), loglik=ll,
+        residuals=data.y - fitted, fitted=fitted, a0=a0, gain=gain, converged=ok and finite,
+        message="converged" if ok and finite else message,
+    )
+
+
+def log_prior(model: str, theta, band: tuple[float, float]) -> np.ndarray:
+    """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz]."""
+    th = np.asarray(theta, dtype=float)
+    lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
+    lnw, lnp = th[..., models.omega_index(model)], th[..., 0]
+    inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(P_RANGE))
+    lp = -np.log(lw_hi - lw_lo) - np.log(-np.log(P_RANGE)) + np.zeros_like(lnw)
+    if model != "viscous":
+        lo, hi = models.PRIOR_SHAPE[model]
+        inside &= (th[..., 1] >= lo) & (th[..., 1] <= hi)
+        lp = lp - np.log(hi - lo)
+    return np.where(inside, lp, -np.inf)
+
+
+def information(model: str, theta, beta, rss: float, data: Data, idx=None) -> np.ndarray:
+    r"""Gauss–Newton −∇²ℓ of (L1) in the coordinates ``idx`` of θ (all by default), untempered.
+
+    J_θ⊥ᵀ·J_θ⊥/s² [1/θ²]: J_θ⊥ is the θ-Jacobian of the model at fixed (A, B) = ``beta[:2]``
+    with the linear columns (X, Q) projected out, s² = RSS/(n − q − k) — the inverse of the
+    θ-block of s²·(JᵀJ)⁻¹ for the full Jacobian J = [∂f/∂θ, X, Q], the covariance
+    :mod:`dampfit.fit` uses (Golub & Pereyra 2003).
+    """
+    theta = np.asarray(theta, dtype=float)
+    idx = list(range(theta.size)) if idx is None else list(idx)
+    ab = np.asarray(beta)[:2]
+
+    def f(subs):
+        th = np.repeat(theta[None, :], len(subs), axis=0)
+        th[:, idx] = subs
+        return models.columns(model, th, data.tau, xp=np) @ ab
+
+    q_ = data.drift  # orthonormal: project it out directly, then the two columns X⊥
+    jt = jacobian(f, theta[idx])
+    jt = jt - q_ @ (q_.T @ jt)
+    xo = models.columns(model, theta, data.tau, xp=np)
+    xo = xo - q_ @ (q_.T @ xo)
+    jp = jt - xo @ np.linalg.solve(xo.T @ xo, xo.T @ jt)
+    s2 = rss / max(data.n - data.q - theta.size, 1)
+    return jp.T @ jp / s2
+
+
+@dataclass(frozen=True)
+class ShapeGrid:
+    """The integrand of (L3) on a grid of the shape parameter ``s``.
+
+    ``log_density`` [1] (ln of the integrand without π(s)), ``phi`` (m, k − 1) the profile
+    optimum of the other parameters (ln p₀, ln ω, phase terms) at each node and ``phi_cov``
+    (m, k − 1, k − 1) its Laplace covariance (tempered).
+    """
+
+    s: np.ndarray
+    log_density: np.ndarray
+    phi: np.ndarray
+    phi_cov: np.ndarray
+    loglik: np.ndarray  # untempered profile ℓ(s, φ̂_s) [1]
+
+
+def _with_shape(phi: np.ndarray, s: float) -> np.ndarray:
+    """θ from the other parameters ``phi`` (..., k − 1) and the shape ``s``."""
+    phi = np.asarray(phi, dtype=float)
+    return np.concatenate([phi[..., :1], np.full(phi.shape[:-1] + (1,), s), phi[..., 1:]], axis=-1)
+
+
+def _fit_at_shape(mf: ModelFit, data: Data, s: float, phi0: np.ndarray):
+    def resid(phi):
+        with np.errstate(all="ignore"):
+            return data.y - profile(mf.model, _with_shape(phi, s), data)[4]
+
+    sol = optimize.least_squares(resid, phi0, jac=lambda ph: jacobian(resid, ph), method="lm",
+                                 xtol=1e-10, ftol=1e-12, max_nfev=100)
+    th = _with_shape(sol.x, s)
+    beta, rss, logdet, _, _ = profile(mf.model, th, data)
+    return th, beta, float(rss), float(-0.5 * logdet - 0.5 * (data.n - data.q) * np.log(rss))
+
+
+def shape_grid(mf: ModelFit, data: Data, temper: float, band, sd: float) -> ShapeGrid:
+    """Evaluate the integrand of (L3) around the optimum ``mf.theta`` (``sd`` ≈ σ of s)."""
+    lo, hi = models.PRIOR_SHAPE[mf.model]
+    centre = float(np.clip(mf.theta[1], lo, hi))
+    sd = float(np.clip(sd, 1e-4 * (hi - lo), hi - lo)) if np.isfinite(sd) else 0.1 * (hi - lo)
+    nodes = np.concatenate([np.linspace(lo, hi, 9), centre + sd * np.linspace(-6, 6, 19)])
+    nodes = np.unique(np.clip(nodes, lo, hi))
+    out = np.full(nodes.size, -np.inf)
+    rest = [i for i in range(mf.k) if i != 1]
+    phis = np.full((nodes.size, len(rest)), np.nan)
+    covs = np.full((nodes.size, len(rest), len(rest)), np.nan)
+    lls = np.full(nodes.size, -np.inf)
+    i0 = int(np.argmin(np.abs(nodes - centre)))
+    # march outwards from the optimum, warm-starting each node from its neighbour
+    for order in (range(i0, nodes.size), range(i0 - 1, -1, -1)):
+        phi = mf.theta[rest].copy()
+        for i in order:
+            th, beta, rss, ll = _fit_at_shape(mf, data, float(nodes[i]), phi)
+            if not np.isfinite(ll):
+                continue
+            h = temper * information(mf.model, th, beta, rss, data, idx=rest)
+            ev = np.linalg.eigvalsh(h)
+            if not (np.all(np.isfinite(ev)) and ev.min() > 0):
+                continue
+            phi = th[rest]
+            lp = float(log_prior("viscous", phi, band))  # (ln p₀, ln ω, …) as the viscous law
+            out[i] = (temper * ll + lp + 0.5 * len(rest) * np.log(2 * np.pi)
+                      - 0.5 * float(np.sum(np.log(ev))))
+            phis[i], covs[i], lls[i] = phi, np.linalg.inv(h), ll
+    return ShapeGrid(s=nodes, log_density=out, phi=phis, phi_cov=covs, loglik=lls)
+
+
+def laplace(mf: ModelFit, data: Data, temper: float, band: tuple[float, float]) -> ModelFit:
+    """Add the covariance Σ at θ̂ and ln Z of (L2)/(L3) for the likelihood ℓ·``temper`` (= ℓ/r)."""
+    k = mf.k
+    cov, ln_z, grid = np.full((k, k), np.nan), float("nan"), None
+    if mf.converged:
+        h = temper * information(mf.model, mf.theta, mf.beta, mf.rss, data)
+        ev = np.linalg.eigvalsh(h)
+        if np.all(np.isfinite(h)) and ev.min() > 0:
+            cov = np.linalg.inv(h)
+        if mf.model == "viscous":
+            if np.all(np.isfinite(cov)):
+                lp = float(log_prior("viscous", mf.theta, band))
+                ln_z = (temper * mf.loglik + lp + 0.5 * k * np.log(2 * np.pi)
+                        - 0.5 * float(np.sum(np.log(ev))))
+        else:
+            grid = shape_grid(mf, data, temper, band, float(np.sqrt(cov[1, 1])))
+            ok = np.isfinite(grid.log_density)
+            if ok.sum() >= 3:
+                lo, hi = models.PRIOR_SHAPE[mf.model]
+                x, y = grid.s[ok], grid.log_density[ok]
+                top = float(y.max())
+                dens = np.exp(y - top)
+                area = float(np.sum(0.5 * (dens[1:] + dens[:-1]) * np.diff(x)))
+                ln_z = top + np.log(area) - np.log(hi - lo)
+    out = replace(mf, cov=cov, ln_evidence=float(ln_z), temper=float(temper), grid=grid)
+    return _constrain(out, data) if grid is not None else out
+
+
+def _constrain(mf: ModelFit, data: Data) -> ModelFit:
+    """Move an optimum whose shape parameter lies outside the prior support onto the support.
+
+    The best node of the evidence grid (a boundary, since ℓ is unimodal in s there) replaces θ̂,
+    with β, residuals, a₀ and the covariance recomputed; ln Z and the grid are unchanged.
+    """
+    lo, hi = models.PRIOR_SHAPE[mf.model]
+    g = mf.grid
+    if lo <= mf.theta[1] <= hi or not np.any(np.isfinite(g.loglik)):
+        return mf
+    i = int(np.argmax(g.loglik))
+    theta = _with_shape(g.phi[i], g.s[i])
+    beta, rss, logdet, _, fitted = profile(mf.model, theta, data)
+    w = float(np.exp(theta[models.omega_index(mf.model)]))
+    h = mf.temper * information(mf.model, theta, beta, float(rss), data)
+    try:
+        cov = np.linalg.inv(h)
+    except np.linalg.LinAlgError:
+        cov = np.full((mf.k, mf.k), np.nan)
+    return replace(
+        mf, theta=theta, beta=beta, rss=float(rss), loglik=float(g.loglik[i]), fitted=fitted,
+        residuals=data.y - fitted, a0=float(np.hypot(beta[0], beta[1]) / (w * w * mf.gain)),
+        cov=cov, message=f"optimum on the prior boundary {models.SHAPE[mf.model]} = {g.s[i]:g}",
+    )
+
+

@@ -1,0 +1,87 @@
+r"""Physical quantities of each damping law from posterior draws, and their summaries.
+
+For draws of θ and the start amplitude a₀ [m] (:mod:`dampfit.damping.sample`) and, with a
+mass, draws of m [kg] (normal, truncated at m > 0, independent of the data — the recording
+identifies only rates per unit mass, exactly as in :mod:`dampfit.posterior`), this module
+evaluates the law's coefficients (:func:`dampfit.damping.models.physical`), the natural
+frequency f_n = ω/2π [Hz] (first-order averaging: ω_n = ω), k = m·ω² [N/m], and the
+equivalent viscous damping at chosen displacement amplitudes,
+
+    ζ_eq(a) = ρ(a)/ω,   c_eq(a) = 2·m·ρ(a)   (Jacobsen 1930; (K2) of
+    :mod:`~dampfit.damping.models`).
+
+Summaries are plain JSON-safe dicts (unit, mean, sd, q05, q50, q95).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import models
+
+__all__ = ["UNITS", "draws", "summarise", "mass_draws"]
+
+#: Unit of every reported quantity.
+UNITS = {
+    "p0": "1/s", "p": "1/s", "zeta": "1", "f_n": "Hz", "u0": "m", "k": "N/m", "c": "N s/m",
+    "F_c": "N", "mu_c": "m/s^2", "friction_fraction": "1", "c2": "N s^2/m^2", "beta": "1/m",
+    "drag_fraction": "1", "alpha": "1", "c_alpha": "N (s/m)^alpha", "gamma": "(m/s)^(1-alpha)/s",
+    "zeta_eq_ref": "1", "zeta_eq_start": "1", "zeta_eq_end": "1",
+    "c_eq_ref": "N s/m", "c_eq_start": "N s/m", "c_eq_end": "N s/m",
+}
+
+
+def mass_draws(mass: float | None, mass_sd: float, size: int, rng) -> np.ndarray | None:
+    """Mass draws [kg]: normal(mass, mass_sd) truncated at m > 0; None without a mass."""
+    if mass is None:
+        return None
+    if not mass_sd:
+        return np.full(size, float(mass))
+    m = rng.normal(mass, mass_sd, size)
+    bad = m <= 0
+    while bad.any():
+        m[bad] = rng.normal(mass, mass_sd, int(bad.sum()))
+        bad = m <= 0
+    return m
+
+
+def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,
+          amplitudes: dict[str, float]) -> dict[str, np.ndarray]:
+    """All reported quantities as arrays of draws.
+
+    ``theta`` (N, k), ``a0`` (N,) [m], ``m`` (N,) [kg] or None, ``amplitudes`` maps the suffixes
+    ``ref``, ``start``, ``end`` to displacement amplitudes [m] for ζ_eq and c_eq.
+    """
+    theta = np.asarray(theta, dtype=float)
+    w = np.exp(theta[:, models.omega_index(model)])
+    out: dict[str, np.ndarray] = {"p0": np.exp(theta[:, 0]), "f_n": w / (2 * np.pi), "u0": a0}
+    phys = models.physical(model, theta, a0, m)
+    if model == "viscous":
+        out["p"] = out["p0"]
+        out["zeta"] = out["p0"] / np.hypot(out["p0"], w)
+    elif model in ("coulomb", "quadratic"):
+        out[models.SHAPE[model]] = theta[:, 1]
+    keep = {"c", "F_c", "mu_c", "c2", "beta", "alpha", "c_alpha", "gamma"}
+    out.update({k_: v for k_, v in phys.items() if k_ in keep})
+    if m is not None:
+        out["k"] = m * w * w
+    for name, a in amplitudes.items():
+        if a is None or not np.isfinite(a) or a <= 0:
+            continue
+        rho = models.local_rate(model, theta, a / a0)
+        out[f"zeta_eq_{name}"] = rho / w
+        if m is not None:
+            out[f"c_eq_{name}"] = 2.0 * m * rho
+    return out
+
+
+def summarise(x: np.ndarray, unit: str) -> dict:
+    """``{"unit", "mean", "sd", "q05", "q50", "q95"}`` of draws ``x`` (NaN-free part)."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return {"unit": unit, "mean": None, "sd": None, "q05": None, "q50": None, "q95": None}
+    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+    sd = float(x.std(ddof=1)) if x.size > 1 else 0.0
+    return {"unit": unit, "mean": float(x.mean()), "sd": sd,
+            "q05": float(q05), "q50": float(q50), "q95": float(q95)}
