@@ -27,6 +27,7 @@ effective sample size of every reported quantity exceeds ``min_ess`` — or unti
 from __future__ import annotations
 
 import warnings as _warnings
+from contextlib import nullcontext as _nullcontext
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -146,7 +147,8 @@ def _conditional_amplitudes(fd: FitData, thetas: np.ndarray, temper: float, rng)
     return out
 
 
-def _mass_draws(mass: float | None, mass_sd: float, size, rng) -> np.ndarray | None:
+def mass_draws(mass: float | None, mass_sd: float, size, rng) -> np.ndarray | None:
+    """Mass draws [kg]: normal(mass, mass_sd) truncated at m > 0; None without a mass."""
     if mass is None:
         return None
     if not mass_sd:
@@ -184,33 +186,17 @@ def sample(
         cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
     start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
     sampler = emcee.EnsembleSampler(N_WALKERS, 2, log_prob, vectorize=True, moves=MOVES())
-    state = start
     warns: list[str] = []
     bar = _progress(max_steps, progress)
-    steps, tau = 0, np.full(2, np.nan)
-    rhat, ess, converged, reason = np.inf, 0.0, False, ""
     try:
-        while steps < max_steps:
-            n = min(block, max_steps - steps)
-            with jax.enable_x64(True):  # once per block, not once per likelihood call
-                state = sampler.run_mcmc(state, n, progress=False)
-            steps += n
-            bar.update(n)
-            tau = sampler.get_autocorr_time(tol=0)
-            if steps < 50 * np.nanmax(tau):
-                reason = f"chain shorter than 50 autocorrelation times ({np.nanmax(tau):.0f} steps)"
-                continue
-            burn, thin = _burn_thin(tau)
-            rhat, ess = _diagnose(sampler.get_chain(discard=burn, thin=thin))
-            if rhat < 1.01 and ess >= min_ess:
-                converged = True
-                break
-            reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
+        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, block=block,
+                           bar=bar, x64=True)
     finally:
         bar.close()
+    steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
     if not converged:
         warns.append(f"posterior NOT converged after {steps} steps: {reason}")
-    burn, thin = _burn_thin(tau)
+    burn, thin = burn_thin(tau)
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, 2)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     idata = _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng)
@@ -226,21 +212,65 @@ def sample(
     )
 
 
-def _burn_thin(tau: np.ndarray) -> tuple[int, int]:
+@dataclass(frozen=True)
+class AdaptiveRun:
+    """Outcome of :func:`run_adaptive`: steps taken, autocorrelation times [steps] per
+    dimension, whether the stopping rule was met, and otherwise why not."""
+
+    steps: int
+    tau: np.ndarray
+    converged: bool
+    reason: str
+
+
+def run_adaptive(sampler: "emcee.EnsembleSampler", start: np.ndarray, *, min_ess: float,
+                 max_steps: int, block: int = 500, bar=None, x64: bool = False) -> AdaptiveRun:
+    """Run ``sampler`` from ``start`` in blocks until the stopping rule of the module
+    docstring holds (≥ 50 τ_int, R-hat < 1.01, bulk ESS ≥ ``min_ess``) or ``max_steps``.
+
+    ``bar`` (tqdm) is advanced per block; ``x64`` runs each block inside
+    ``jax.enable_x64(True)`` (a JAX log-probability called once per half-ensemble).
+    """
+    state, steps = start, 0
+    tau = np.full(sampler.ndim, np.nan)
+    converged, reason = False, ""
+    while steps < max_steps:
+        n = min(block, max_steps - steps)
+        with jax.enable_x64(True) if x64 else _nullcontext():
+            state = sampler.run_mcmc(state, n, progress=False)
+        steps += n
+        if bar is not None:
+            bar.update(n)
+        tau = sampler.get_autocorr_time(tol=0)
+        if steps < 50 * np.nanmax(tau):
+            reason = f"chain shorter than 50 autocorrelation times ({np.nanmax(tau):.0f} steps)"
+            continue
+        burn, thin = burn_thin(tau)
+        rhat, ess = diagnose(sampler.get_chain(discard=burn, thin=thin))
+        if rhat < 1.01 and ess >= min_ess:
+            converged = True
+            break
+        reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
+    return AdaptiveRun(steps=steps, tau=np.asarray(tau), converged=converged, reason=reason)
+
+
+def burn_thin(tau: np.ndarray) -> tuple[int, int]:
+    """Burn-in (3 τ) and thinning (τ/4) [steps] from autocorrelation times ``tau``."""
     t = float(np.nanmax(tau)) if np.all(np.isfinite(tau)) else 50.0
     return int(np.ceil(3 * t)), max(1, int(t / 4))
 
 
-def _diagnose(chain: np.ndarray) -> tuple[float, float]:
-    """Worst R-hat and bulk ESS over (ln p, ln ω_d) of a (draw, walker, 2) chain."""
+def diagnose(chain: np.ndarray) -> tuple[float, float]:
+    """Worst rank-normalised R-hat and bulk ESS over the dimensions of a (draw, walker, k)
+    chain, walkers taken as chains."""
     if chain.shape[0] < 8:
         return np.inf, 0.0
     x = np.transpose(chain, (1, 0, 2))  # (chain, draw, dim)
     az = _arviz()
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
-        rh = [float(az.rhat(x[..., i])) for i in range(2)]
-        es = [float(az.ess(x[..., i], method="bulk")) for i in range(2)]
+        rh = [float(az.rhat(x[..., i])) for i in range(x.shape[-1])]
+        es = [float(az.ess(x[..., i], method="bulk")) for i in range(x.shape[-1])]
     return max(rh), min(es)
 
 
@@ -256,7 +286,7 @@ def _to_idata(fd, ls, chain, lp, temper, mass, mass_sd, rng) -> "az.InferenceDat
         "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "Q": 0.5 * np.sqrt(wn2) / p,
         "u0": u0,
     }
-    m = _mass_draws(mass, mass_sd, p.size, rng)
+    m = mass_draws(mass, mass_sd, p.size, rng)
     if m is not None:
         post.update({"mass": m, "c": 2 * m * p, "k": m * wn2, "c_crit": 2 * m * np.sqrt(wn2)})
 

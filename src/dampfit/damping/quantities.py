@@ -32,17 +32,10 @@ UNITS = {
 
 
 def mass_draws(mass: float | None, mass_sd: float, size: int, rng) -> np.ndarray | None:
-    """Mass draws [kg]: normal(mass, mass_sd) truncated at m > 0; None without a mass."""
-    if mass is None:
-        return None
-    if not mass_sd:
-        return np.full(size, float(mass))
-    m = rng.normal(mass, mass_sd, size)
-    bad = m <= 0
-    while bad.any():
-        m[bad] = rng.normal(mass, mass_sd, int(bad.sum()))
-        bad = m <= 0
-    return m
+    """Mass draws [kg] (:func:`dampfit.posterior.mass_draws`)."""
+    from ..posterior import mass_draws as draws
+
+    return draws(mass, mass_sd, size, rng)
 
 
 def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,

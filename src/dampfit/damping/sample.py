@@ -21,12 +21,12 @@ a₀ = |(A, B)|/(ω²·|G|) [m].
 
 from __future__ import annotations
 
-import warnings as _warnings
 from dataclasses import dataclass, field
 
 import emcee
 import numpy as np
 
+from ..posterior import burn_thin, diagnose, run_adaptive
 from . import fit as dfit
 from . import models
 
@@ -120,53 +120,19 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
             np.full(k, 1e-6))
         start = rng.multivariate_normal(mf.theta, cov, size=N_WALKERS)
     sampler = emcee.EnsembleSampler(N_WALKERS, k, log_prob, vectorize=True)
-    state, steps, tau = start, 0, np.full(k, np.nan)
-    rhat, ess, converged, reason = np.inf, 0.0, False, ""
     from tqdm.auto import tqdm
 
     with tqdm(total=max_steps, desc=f"{model} posterior", unit="step", disable=not progress,
               leave=False) as bar:
-        while steps < max_steps:
-            n = min(block, max_steps - steps)
-            state = sampler.run_mcmc(state, n, progress=False)
-            steps += n
-            bar.update(n)
-            tau = sampler.get_autocorr_time(tol=0)
-            if steps < 50 * np.nanmax(tau):
-                reason = f"chain shorter than 50 autocorrelation times ({np.nanmax(tau):.0f} steps)"
-                continue
-            burn, thin = _burn_thin(tau)
-            rhat, ess = _diagnose(sampler.get_chain(discard=burn, thin=thin))
-            if rhat < 1.01 and ess >= min_ess:
-                converged = True
-                break
-            reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
+        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, block=block,
+                           bar=bar)
+    steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
     warns = () if converged else (f"{model} posterior NOT converged after {steps} steps: {reason}",)
-    burn, thin = _burn_thin(tau)
+    burn, thin = burn_thin(tau)
     chain = sampler.get_chain(discard=burn, thin=thin)
-    if not converged:
-        rhat, ess = _diagnose(chain)
+    rhat, ess = diagnose(chain)
     th = chain.reshape(-1, k)
     a0 = _amplitudes(mf, th, data, rng)
     return ModelPosterior(model, th, a0, "emcee", converged, n_steps=steps, max_r_hat=rhat,
                           min_ess_bulk=ess, acceptance=float(np.mean(sampler.acceptance_fraction)),
                           warnings=warns)
-
-
-def _burn_thin(tau: np.ndarray) -> tuple[int, int]:
-    t = float(np.nanmax(tau)) if np.all(np.isfinite(tau)) else 50.0
-    return int(np.ceil(3 * t)), max(1, int(t / 4))
-
-
-def _diagnose(chain: np.ndarray) -> tuple[float, float]:
-    """Worst rank-normalised R-hat and bulk ESS over θ of a (draw, walker, k) chain."""
-    if chain.shape[0] < 8:
-        return np.inf, 0.0
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        import arviz as az
-
-        x = np.transpose(chain, (1, 0, 2))
-        rh = [float(az.rhat(x[..., i])) for i in range(x.shape[-1])]
-        es = [float(az.ess(x[..., i], method="bulk")) for i in range(x.shape[-1])]
-    return max(rh), min(es)
