@@ -18,7 +18,7 @@ import pytest
 from dampfit import analysis, plots, simulate
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-ALL = {"signal", "spectrum", "fit", "displacement", "posterior", "trace"}
+ALL = {"signal", "spectrum", "fit", "displacement", "posterior", "trace", "amplitude"}
 
 
 @pytest.fixture(scope="module")

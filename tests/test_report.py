@@ -29,7 +29,7 @@ from dampfit.errors import InputError
 
 from .conftest import REAL
 
-FIGS = ("signal", "spectrum", "fit", "displacement", "posterior", "trace")
+FIGS = ("signal", "spectrum", "fit", "displacement", "posterior", "trace", "amplitude")
 CHROMIUM = shutil.which("chromium") or next(
     (p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser") if Path(p).is_file()), None)
 needs_chromium = pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium (/usr/bin/chromium) "
