@@ -66,7 +66,10 @@ def benchmark() -> str:
             ["dampfit.analyze, cold (with compilation)", f"{cold['time_s']:.1f}",
              f"{cold['ess_c']:.0f}", f"{cold['ess_c_per_s']:.1f}", f"{b['ess_ratio_cold']:.0f}"],
             ["dampfit.analyze, warm", f"{warm['time_s']:.1f}", f"{warm['ess_c']:.0f}",
-             f"{warm['ess_c_per_s']:.1f}", f"{b['ess_ratio_warm']:.0f}"]]
+             f"{warm['ess_c_per_s']:.1f}", f"{b['ess_ratio_warm']:.0f}"],
+            ["dampfit posterior stage only, warm", f"{warm['posterior_time_s']:.1f}",
+             f"{warm['ess_c']:.0f}", f"{warm['posterior_ess_c_per_s']:.1f}",
+             f"{b['ess_ratio_sampler']:.0f}"]]
     return _md(rows, ["run", "time [s]", "ESS(c)", "ESS(c)/s", "ratio"]) + (
         f"\n\nWhole `dampfit analyze` in a fresh process (start-up, compilation, fit, posterior, "
         f"figures): {b['cli_time_s']:.1f} s, 1/{b['reference_time_over_cli_time']:.0f} of the "

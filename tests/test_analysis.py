@@ -214,3 +214,24 @@ def test_analyze_validates_mass(short_paper):
         analysis.analyze(rec, mass_sd=0.1)
     with pytest.raises(InputError, match="Recording"):
         analysis.analyze(np.zeros((10, 2)), mass=1.0)
+
+
+def test_damping_law_checks_in_summary(analysed):
+    """Every analysis compares the damping laws; a viscous simulation is not flagged and
+    reports no equivalent c (the viscous posterior is the answer)."""
+    an, _ = analysed
+    s = an.summary()
+    mc = s["model_checks"]
+    assert mc["amplitude_dependence"]["detected"] is False
+    assert mc["single_viscous_c_adequate"] is True
+    assert s["c_equivalent"] is None
+    assert {"windows"} <= set(s["amplitude_curve"])
+    assert not any("amplitude" in w for w in s["diagnostics"]["warnings"])
+
+
+def test_damping_options_are_validated_before_work(short_paper):
+    rec, _ = short_paper
+    with pytest.raises(InputError, match="unknown damping model 'linear'"):
+        analysis.analyze(rec, mass=5.3, model="linear")
+    with pytest.raises(InputError, match="positive displacement amplitude"):
+        analysis.analyze(rec, mass=5.3, amplitude=0.0)

@@ -36,6 +36,8 @@ def test_analyze_writes_outputs_and_prints_table(csv_file, tmp_path, capsys):
                  "--quiet"]) == 0
     text = capsys.readouterr().out
     assert "c      [N s/m]" in text and "log decrement" in text and "converged       yes" in text
+    # a viscous simulation: the damping-law check runs and finds no amplitude dependence
+    assert "damping law" in text and "no amplitude dependence" in text
     names = {p.name for p in out.iterdir()}
     assert {"summary.json", "posterior.nc", "signal.png", "spectrum.png", "fit.png",
             "posterior.png", "trace.png"} <= names
@@ -172,6 +174,8 @@ def test_usage_errors(tmp_path, monkeypatch, capsys, argv, match):
     (["--mass", "1", "--axis", "q"], "axis 'q'"),
     (["--mass", "1", "--band", "3", "1"], "pass band"),
     (["--mass", "1", "--window", "9", "2"], "after its start"),
+    (["--mass", "1", "--amplitude", "-0.01"], "positive displacement amplitude"),
+    (["--mass", "1", "--model", "linear"], "invalid choice: 'linear'"),
 ])
 def test_bad_options_exit_2(csv_file, tmp_path, capsys, extra, match):
     path, _ = csv_file

@@ -7,6 +7,7 @@ Fixed pipeline (each stage its own module):
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import platform
@@ -31,7 +32,7 @@ PARAMETER_UNITS = {
     "c": "N s/m", "k": "N/m", "u0": "m", "zeta": "1", "f_n": "Hz",
     "p": "1/s", "f_d": "Hz", "delta": "1", "Q": "1", "c_crit": "N s/m",
 }
-#: A PSD ratio r above this signals residual structure worth a warning.
+#: A PSD ratio r above this many times its white-noise value signals residual structure.
 R_WARN = 3.0
 #: A free decay must explain at least this fraction of the window's variance beyond the drift
 #: (a real decay explains ≈ 1 − 1/SNR; random hand motion or noise far less).
@@ -268,6 +269,7 @@ def analyze(
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
     m, sd = _check_mass(mass, mass_sd)
+    _check_damping_options(model, amplitude)
     warns: list[str] = []
     prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
@@ -295,10 +297,13 @@ def analyze(
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)
-    if nm.psd_ratio > R_WARN:
+    nm = dataclasses.replace(nm, white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs,
+                                                         prep.f0))
+    if nm.excess > R_WARN:
         warns.append(
-            f"residuals near f0 are {nm.psd_ratio:.1f}x the white-noise level (coloured noise, "
-            "amplitude-dependent damping or a second mode?); intervals were widened to match"
+            f"residuals near f0 are {nm.excess:.1f}x what sensor noise alone would leave "
+            "(coloured noise, amplitude-dependent damping or a second mode?); intervals were "
+            "widened to match"
         )
     bound = _crlb(prep, fd, ls, nm, m, sd, warns)
     post = posterior.sample(
@@ -327,6 +332,17 @@ def _initial_decay_rate(base: dict) -> float:
             if p is not None and np.isfinite(p) and p > 0:
                 return float(p)
     return float("nan")
+
+
+def _check_damping_options(model: str, amplitude: float | None) -> None:
+    """Validate ``model`` and ``amplitude`` before any work is done."""
+    from .damping import CHOICES
+
+    if model not in CHOICES:
+        raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
+    if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
+        raise InputError("--amplitude must be a positive displacement amplitude in metres, "
+                         f"got {amplitude!r}")
 
 
 def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, progress,

@@ -26,9 +26,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
+from scipy import integrate, signal
 
-__all__ = ["NoiseModel", "estimate", "R_FLOOR"]
+__all__ = ["NoiseModel", "estimate", "white_ratio", "R_FLOOR"]
 
 #: Smallest calibration factor used (a guard; r below ≈ 0.3 is not seen on real or simulated data).
 R_FLOOR = 0.2
@@ -49,6 +49,7 @@ class NoiseModel:
     lag1: float
     fs: float
     kind: str
+    white: float = 1.0  # r that white sensor noise alone would give on this path [1]
 
     def summary(self) -> dict:
         """JSON-safe description for ``summary.json``."""
@@ -60,7 +61,37 @@ class NoiseModel:
             "psd_ratio_at_f0_unclipped": float(self.psd_ratio_raw),
             "residual_lag1_autocorrelation": float(self.lag1),
             "sample_rate_hz": float(self.fs),
+            "psd_ratio_expected_for_white_noise": float(self.white),
         }
+
+    @property
+    def excess(self) -> float:
+        """r relative to what white sensor noise would give on this path [1] (≈ 1 when the
+        residuals are sensor noise; ≫ 1 for misfit, a second mode or red noise at f₀)."""
+        return float(self.psd_ratio / self.white) if self.white > 0 else float("nan")
+
+
+def white_ratio(sos: np.ndarray | None, fs_filter: float, fs_fit: float, f0: float) -> float:
+    """r that white noise would give after the zero-phase low-pass ``sos`` (at ``fs_filter``
+    [Hz]) and decimation to ``fs_fit`` [Hz]; 1 without a filter.
+
+    filtfilt applies H twice, so white noise of density N₀ leaves with N₀·|H(f)|⁴. Decimation
+    keeps the total power and folds it onto [0, f_fit/2]: the mean level there is
+    ∫₀^{f_filter/2} N₀|H|⁴ df / (f_fit/2), and the level at f₀ is N₀·Σ_k |H(f_k)|⁴ over f₀ and
+    its aliases f_k = |k·f_fit ± f₀|. r_white is their ratio (≈ (f_fit/2)/f_cut, e.g. ≈ 4 when
+    a 20 s window keeps 400 samples of a 2.6 Hz band).
+    """
+    if sos is None:
+        return 1.0
+    f = np.linspace(0.0, fs_filter / 2, 40001)
+    _, h = signal.sosfreqz(sos, worN=f, fs=fs_filter)
+    power = np.abs(h) ** 4
+    mean_level = integrate.trapezoid(power, f) / (fs_fit / 2)
+    k = np.arange(0, int(np.ceil(fs_filter / fs_fit)) + 2)
+    aliases = np.concatenate([k * fs_fit + f0, k[1:] * fs_fit - f0])
+    aliases = aliases[aliases <= fs_filter / 2]
+    at_f0 = float(np.sum(np.interp(aliases, f, power)))
+    return at_f0 / mean_level if mean_level > 0 else 1.0
 
 
 def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params: int) -> NoiseModel:
