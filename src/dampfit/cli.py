@@ -47,6 +47,10 @@ def _number(kind):
     return conv
 
 
+#: argparse type for a float option with a one-line error (shared by the sub-command modules).
+float_arg = _number(float)
+
+
 def get_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``dampfit`` command."""
     p = _Parser(prog="dampfit", description=(

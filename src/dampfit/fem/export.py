@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from .._files import atomic_write_text
+from ..cli import float_arg
 from ..errors import InputError
 from . import sdof as sdof_mod
 from . import timestep
@@ -103,13 +104,6 @@ def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5
     return text, info
 
 
-def _number(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit export``."""
     parser.add_argument("folder", metavar="DIR", help="dampfit result folder (with summary.json)")
@@ -117,12 +111,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="lsdyna (.k), opensees (OpenSeesPy .py) or calculix (.inp)")
     parser.add_argument("--units", default="SI", choices=list(units_mod.UNIT_SYSTEMS),
                         help="SI (m, s, kg, N), mm-ms-kg (mm, ms, kg, kN) or mm-s-t (mm, s, t, N)")
-    parser.add_argument("--quantile", type=_number, default=0.5, metavar="Q",
+    parser.add_argument("--quantile", type=float_arg, default=0.5, metavar="Q",
                         help="posterior quantile of k, c, u0 (0.05/0.5/0.95 from summary.json, "
                              "others from posterior.nc); default 0.5")
     parser.add_argument("--gravity", action=argparse.BooleanOptionalAction, default=False,
                         help="hang the mass under gravity, released from static equilibrium + u0")
-    parser.add_argument("--duration", type=_number, metavar="S",
+    parser.add_argument("--duration", type=float_arg, metavar="S",
                         help="simulated time [s] (default: the analysed window)")
     parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")

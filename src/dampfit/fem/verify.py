@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._files import atomic_write_text, publish
+from ..cli import float_arg
 from ..errors import InputError
 from . import compare, timestep
 from . import sdof as sdof_mod
@@ -230,17 +231,10 @@ def _table(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _number(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit verify``."""
     parser.add_argument("folder", metavar="DIR", help="dampfit result folder (summary.json, signals.npz)")
-    parser.add_argument("--dt", type=_number, metavar="S",
+    parser.add_argument("--dt", type=float_arg, metavar="S",
                         help="time step [s] (default: from the period and the window)")
     parser.add_argument("--out", metavar="FIG", help="figure file (default: DIR/verify.png)")
 
