@@ -331,8 +331,6 @@ def test_local_cluster_study_writes_tables_and_figures(small_study):
     assert {"study.json", "runs.jsonl", "runs.csv", "aggregate.csv", "ranking.csv",
             "summary.md", "ranking.png", "coverage.png"} <= names
     # Parquet is written exactly when pyarrow is installed (an optional dependency)
-    import importlib.util
-
     assert ("runs.parquet" in names) == (importlib.util.find_spec("pyarrow") is not None)
     runs = pd.read_csv(out / "runs.csv")
     assert len(runs) == N_SMALL * 3
