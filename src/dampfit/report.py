@@ -38,8 +38,7 @@ from ._files import atomic_write_text
 from .errors import InputError
 
 __all__ = ["write_report", "load", "build", "render_html", "render_markdown", "GENERATOR",
-           "PNG_MAGIC",
-           "add_arguments", "command"]
+           "PNG_MAGIC", "add_arguments", "command"]
 
 
 MAIN = ("c", "k", "u0", "zeta", "f_n")
