@@ -178,12 +178,9 @@ class Analysis:
         return atomic_write_text(path, json.dumps(self.summary(), indent=2) + "\n")
 
     def true_quadratures(self) -> tuple[float, float]:
-        """Least-squares acceleration quadratures (A, B) [m/s²] at the window start with the
-        decimation filter's complex gain G divided out: the fitted data carry Re[G·C·e^{sτ}]
-        with C = A − iB (eq. M1), so C_true = C_fit / G."""
-        ls = self.least_squares
-        cc = complex(ls.beta[0], -ls.beta[1]) / complex(ls.gain)
-        return cc.real, -cc.imag
+        """Least-squares acceleration quadratures (A, B) [m/s²] at the window start, filter
+        gain removed (:meth:`dampfit.fit.LeastSquaresResult.true_quadratures`)."""
+        return self.least_squares.true_quadratures()
 
     def signals(self) -> dict[str, np.ndarray]:
         """Measured and modelled signals on the analysis window (plain arrays, SI units).
@@ -375,10 +372,10 @@ def _crlb(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] |
     sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
     density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))
     sigma = crlb.from_noise_density(density, prep.fs)
-    cc = complex(ls.beta[0], -ls.beta[1]) / complex(ls.gain)
+    a_cos, a_sin = ls.true_quadratures()
     try:
         out = crlb.bound(prep.time[sel] - fd.t0, sigma, p=ls.p, omega_d=ls.omega_d,
-                         a_cos=cc.real, a_sin=-cc.imag, mass=mass, mass_sd=mass_sd,
+                         a_cos=a_cos, a_sin=a_sin, mass=mass, mass_sd=mass_sd,
                          drift_degree=fd.drift_degree)
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
         warns.append(f"Cramér–Rao bound not computed: {exc}")

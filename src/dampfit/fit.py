@@ -70,6 +70,13 @@ class LeastSquaresResult:
     def n_params(self) -> int:
         return int(self.beta.size + 2)
 
+    def true_quadratures(self) -> tuple[float, float]:
+        """Acceleration quadratures (A, B) [m/s²] at τ = 0 with the decimation filter's complex
+        gain G divided out: the fitted data carry Re[G·C·e^{sτ}] with C = A − iB (eq. M1), so
+        C_true = C_fit / G."""
+        cc = complex(self.beta[0], -self.beta[1]) / complex(self.gain)
+        return cc.real, -cc.imag
+
     def u0(self, beta=None, p=None, omega_d=None) -> np.ndarray:
         """Displacement envelope amplitude at the window start, eq. (M2), [m]."""
         beta = self.beta if beta is None else beta
