@@ -136,7 +136,7 @@ def test_posterior_is_converged_and_diagnosed(analysed):
 
 def test_non_convergence_is_flagged_not_raised(short_paper):
     rec, truth = short_paper
-    an = analysis.analyze(rec, mass=truth["mass"], max_steps=200, seed=2)
+    an = analysis.analyze(rec, mass=truth["mass"], max_steps=40, seed=2)  # < 50 τ
     s = an.summary()
     assert s["diagnostics"]["converged"] is False
     assert any("NOT converged" in w for w in s["diagnostics"]["warnings"])
@@ -235,3 +235,14 @@ def test_damping_options_are_validated_before_work(short_paper):
         analysis.analyze(rec, mass=5.3, model="linear")
     with pytest.raises(InputError, match="positive displacement amplitude"):
         analysis.analyze(rec, mass=5.3, amplitude=0.0)
+
+
+def test_amplitude_draws_follow_their_moments():
+    """posterior.conditional_amplitudes: one (A, B) per row of stored moments, with that mean
+    and covariance (correlated case)."""
+    from dampfit import posterior
+
+    mom = np.tile([1.0, -2.0, 4e-4, -1.5e-4, 1e-4], (200_000, 1))
+    ab = posterior.conditional_amplitudes(mom, np.random.default_rng(0))
+    np.testing.assert_allclose(ab.mean(axis=0), [1.0, -2.0], atol=2e-4)
+    np.testing.assert_allclose(np.cov(ab.T), [[4e-4, -1.5e-4], [-1.5e-4, 1e-4]], rtol=0.02)

@@ -150,3 +150,26 @@ def test_physics_round_trip(zeta):
 def test_physics_rejects_overdamped():
     with pytest.raises(ValueError, match="overdamped"):
         physics.to_decay(c=200.0, k=100.0, mass=1.0)
+
+
+def test_amplitude_moments_are_the_regression_posterior():
+    """Â, B̂ and their covariance equal the textbook linear-regression answer with the drift
+    projected out: β̂ = (XᵀX)⁻¹Xᵀy, Cov = s²/temper·[(XᵀX)⁻¹]_osc, s² = RSS/(n − q)."""
+    rng = np.random.default_rng(4)
+    p, wd, _ = params(2.1, 0.015)
+    tau = np.sort(rng.uniform(0, 12, 600))
+    drift = model.drift_basis(tau, 3)
+    y = (np.asarray(model.acceleration(tau, p, wd, 0.8, -0.5)) + 0.05 + 0.02 * tau / 12
+         + 0.01 * rng.standard_normal(tau.size))
+    theta = jnp.array([np.log(p) + 0.01, np.log(wd) - 1e-4])  # off the optimum on purpose
+    temper = 0.4
+    ll, mom = model.marginal_and_amplitudes(theta, jnp.asarray(tau), jnp.asarray(y),
+                                            jnp.asarray(drift), temper)
+    x = np.asarray(model.design_matrix(theta, jnp.asarray(tau), jnp.asarray(drift)))
+    beta, *_ = np.linalg.lstsq(x, y, rcond=None)
+    s2 = np.sum((y - x @ beta) ** 2) / (tau.size - x.shape[1])
+    cov = s2 / temper * np.linalg.inv(x.T @ x)[:2, :2]
+    np.testing.assert_allclose(np.asarray(mom)[:2], beta[:2], rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(mom)[2:], [cov[0, 0], cov[0, 1], cov[1, 1]], rtol=1e-8)
+    assert float(ll) == pytest.approx(float(model.log_marginal_likelihood(
+        theta, jnp.asarray(tau), jnp.asarray(y), jnp.asarray(drift), temper)), rel=1e-12)

@@ -43,6 +43,7 @@ __all__ = [
     "design_matrix",
     "profile",
     "log_marginal_likelihood",
+    "marginal_and_amplitudes",
 ]
 
 
@@ -161,7 +162,23 @@ def log_marginal_likelihood(theta, tau, y, drift, temper, mask=None, n=None, q=N
     filtered, decimated samples. With padded inputs give ``mask`` and the real sample count
     ``n`` and coefficient count ``q``.
     """
-    _, rss, logdet, _ = profile(theta, tau, y, drift, mask)
+    return marginal_and_amplitudes(theta, tau, y, drift, temper, mask, n, q)[0]
+
+
+def marginal_and_amplitudes(theta, tau, y, drift, temper, mask=None, n=None, q=None):
+    r""":func:`log_marginal_likelihood` and, from the same profile, the conditional posterior
+    of the acceleration quadratures (A, B) [m/s²] given θ (drift marginalised):
+
+        (A, B) | θ, y ~ N(β̂_osc, s²/temper · (X⊥ᵀX⊥)⁻¹),   s² = RSS/(n − q)
+
+    (the Student-t of the σ-marginal, replaced by its Gaussian moment match; n − q ≫ 1).
+    Returns ``(ln L, moments)`` with moments = [Â, B̂, Σ_AA, Σ_AB, Σ_BB] — what the sampler
+    stores per draw, so that the amplitudes need no second pass over the data.
+    """
+    beta, rss, logdet, (chol, scale) = profile(theta, tau, y, drift, mask)
     n = y.shape[0] if n is None else n
     q = drift.shape[1] + 2 if q is None else q
-    return temper * (-0.5 * logdet - 0.5 * (n - q) * jnp.log(rss))
+    ll = temper * (-0.5 * logdet - 0.5 * (n - q) * jnp.log(rss))
+    ginv = jsl.cho_solve((chol, True), jnp.eye(2)) / jnp.outer(scale, scale)
+    cov = (rss / (n - q) / temper) * ginv
+    return ll, jnp.stack([beta[0], beta[1], cov[0, 0], cov[0, 1], cov[1, 1]])
