@@ -74,7 +74,7 @@ def test_analyze_without_mass_says_why(csv_file, tmp_path, capsys):
 def test_non_converged_result_exits_zero_but_warns_loudly(csv_file, tmp_path, capsys):
     path, _ = csv_file
     code = main(["analyze", str(path), "--mass", "5.3", "--out", str(tmp_path / "nc"),
-                 "--quiet", "--no-figures", "--max-steps", "200"])
+                 "--quiet", "--no-figures", "--max-steps", "40"])
     assert code == 0
     err = capsys.readouterr().err
     assert "did NOT converge" in err
@@ -209,3 +209,29 @@ def test_internal_error_exits_1_without_traceback(csv_file, tmp_path, capsys, mo
 def test_parser_is_documented():
     text = cli.get_parser().format_help()
     assert "analyze" in text and "simulate" in text and "demo" in text
+
+
+def test_compile_cache_is_private_optional_and_used(tmp_path, monkeypatch):
+    """CLI runs keep compiled kernels in a private folder (a second run loads instead of
+    compiling); DAMPFIT_JAX_CACHE=off and a user's own JAX_COMPILATION_CACHE_DIR win."""
+    import stat
+    import subprocess
+    import sys
+
+    from dampfit import cli
+
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    monkeypatch.setenv("DAMPFIT_JAX_CACHE", "off")
+    assert cli._compile_cache() is None
+    monkeypatch.setenv("JAX_COMPILATION_CACHE_DIR", str(tmp_path / "users"))
+    monkeypatch.setenv("DAMPFIT_JAX_CACHE", str(tmp_path / "ours"))
+    assert cli._compile_cache() is None and not (tmp_path / "ours").exists()
+    # a fresh process, as the CLI runs: the cache folder is created private and filled
+    code = ("import os; os.environ.pop('JAX_COMPILATION_CACHE_DIR', None); "
+            f"os.environ['DAMPFIT_JAX_CACHE'] = {str(tmp_path / 'fresh')!r}; "
+            "from dampfit import cli; cli._compile_cache(); "
+            "import jax, jax.numpy as jnp; jax.jit(lambda x: jnp.sin(x) * 2)(jnp.ones(3))")
+    subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
+    folder = tmp_path / "fresh"
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o700
+    assert any(folder.iterdir())

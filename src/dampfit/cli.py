@@ -322,10 +322,50 @@ def _cmd_demo(args) -> int:
     return 0
 
 
+#: Where compiled JAX kernels are kept between CLI runs (see :func:`_compile_cache`).
+CACHE_ENV = "DAMPFIT_JAX_CACHE"
+
+
+def _compile_cache() -> Path | None:
+    """Switch on JAX's persistent compilation cache for this run and its child processes.
+
+    A fresh process otherwise compiles every kernel again (least squares, CRLB, sampler: ≈ 6 s
+    of a 60 s recording's ≈ 16 s CLI run); with the cache a second run loads them from disk.
+    Location: ``$DAMPFIT_JAX_CACHE``, else ``$XDG_CACHE_HOME/dampfit/jax`` (``~/.cache/…``);
+    ``DAMPFIT_JAX_CACHE=off`` switches it off, and a ``JAX_COMPILATION_CACHE_DIR`` the user
+    set is left alone. The directory is private (0700): JAX trusts what it loads from it.
+    Set through environment variables so that Dask workers of ``dampfit study`` inherit it;
+    it takes effect only if nothing was compiled yet in this process (as in a CLI run).
+    Size: ≈ 1 MB per shape bucket of recordings (:class:`dampfit.preprocess.Padded`); entries
+    of other JAX or dampfit versions are never read again, so deleting the folder is safe.
+    """
+    choice = os.environ.get(CACHE_ENV, "")
+    if choice.lower() in ("off", "0", "no", "false") or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        return None
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    path = Path(choice) if choice else base / "dampfit" / "jax"
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+    except OSError:
+        return None  # read-only home etc.: run without the cache, only slower
+    settings = {"JAX_COMPILATION_CACHE_DIR": str(path),
+                "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",  # many small kernels add up
+                "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "-1"}
+    os.environ.update(settings)
+    if "jax" in sys.modules:  # imported with the package: configure it directly as well
+        import jax
+
+        for key, value in settings.items():
+            jax.config.update(key.lower(), int(value) if key.endswith("_BYTES")
+                              else float(value) if key.endswith("_SECS") else value)
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     warnings.filterwarnings("ignore", category=FutureWarning)
     try:
+        _compile_cache()
         args = get_parser().parse_args(argv)
         if args.command is None:
             raise InputError("no command given; use analyze, simulate, demo, report, export, verify "
