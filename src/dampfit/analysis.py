@@ -352,9 +352,8 @@ def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, pro
 
     common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
                   min_ess=min_ess, progress=progress)
-    res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="laplace", **common)
-    if res.chosen != "viscous":
-        res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen", **common)
+    res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen-nonviscous",
+                         **common)
     warns.extend(res.warnings)
     return res
 

@@ -37,7 +37,7 @@ __all__ = ["assess", "from_analysis", "DampingAssessment", "CHOICES", "POSTERIOR
 #: Accepted values of ``model``.
 CHOICES = ("auto",) + models.MODELS
 #: Accepted values of ``posterior``: emcee for every law, for the chosen law only, or none.
-POSTERIORS = ("chosen", "emcee", "laplace")
+POSTERIORS = ("chosen", "chosen-nonviscous", "emcee", "laplace")
 
 
 @dataclass
@@ -119,9 +119,11 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     envelope), ``noise_model`` its :class:`~dampfit.noise.NoiseModel` or None (its r is
     reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
     [kg]; ``model`` one of :data:`CHOICES` (``auto`` = the preferred law); ``amplitude`` [m]
-    the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`) ``"chosen"`` = emcee for the chosen law and the
-    Laplace approximation for the others, ``"emcee"`` for all, ``"laplace"`` for none
-    (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
+    the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
+    ``"chosen"`` = emcee for the chosen law and the Laplace approximation for the others,
+    ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
+    posterior :func:`dampfit.analyze` has already), ``"emcee"`` for all, ``"laplace"`` for
+    none (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
     ζ(amplitude) windows (automatic if None).
     """
     _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
@@ -152,7 +154,8 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     # posteriors
     posts: dict[str, dsample.ModelPosterior] = {}
     for i, (m, mf) in enumerate(fits.items()):
-        use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen)
+        use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen) or (
+            posterior == "chosen-nonviscous" and m == chosen and m != "viscous")
         if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
             posts[m] = dsample.sample_emcee(mf, data, prep.band, seed=seed + i,
                                             min_ess=min_ess, max_steps=max_steps,
