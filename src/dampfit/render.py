@@ -20,6 +20,11 @@ def _g(x: Any, digits: int = 5) -> str:
     return "—" if x is None else f"{x:.{digits}g}"
 
 
+def _f(x: Any, fmt: str) -> str:
+    """Fixed-point: R-hat 1.0099 must not print as "1.01" next to a "< 1.01" rule."""
+    return "—" if x is None else format(x, fmt)
+
+
 def text(s: dict[str, Any]) -> str:
     """A readable multi-line table of a summary dict."""
     inp, win, band = s["input"], s["window"], s["band"]
@@ -36,14 +41,14 @@ def text(s: dict[str, Any]) -> str:
         f"  mass {m['value']:.6g} ± {m['sd']:.3g} kg" if m["value"] is not None
         else "  mass not given: c and k cannot be identified (give --mass KG)"
     )
-    lines += ["", f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} {'R-hat':>6s} {'ESS':>6s}"]
+    lines += ["", f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} {'R-hat':>7s} {'ESS':>6s}"]
     for name in ("c", "k", "u0", "zeta", "f_n", "p"):
         q = s["parameters"].get(name)
         if q is None:
             continue
         lines.append(
             f"  {_LABELS[name]:15s} {_g(q['q50'], 6):>12s}   [{_g(q['q05'], 6):>11s}, {_g(q['q95'], 6):>11s}]"
-            f" {_g(q['sd'], 3):>10s} {_g(q['r_hat'], 4):>6s} {_g(q['ess_bulk'], 4):>6s}"
+            f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
         )
     ls = s["least_squares"]
     lines += ["", "  least squares   " + ", ".join(
@@ -77,8 +82,8 @@ def text(s: dict[str, Any]) -> str:
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"
     lines.append(
-        f"  converged       {state} (max R-hat {_g(d['max_r_hat'], 4)}, min bulk ESS "
-        f"{_g(d['min_ess_bulk'], 4)}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
+        f"  converged       {state} (max R-hat {_f(d['max_r_hat'], '.4f')}, min bulk ESS "
+        f"{_f(d['min_ess_bulk'], '.0f')}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
     )
     if d["warnings"]:
         lines.append("")

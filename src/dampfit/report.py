@@ -310,7 +310,7 @@ def _status(s: dict) -> list[Block]:
     if mc_warn:
         warns.append(f"model checks: {_num(mc_warn)}")
     converged = d.get("converged")
-    facts = (f"max R-hat {_fixed(d.get('max_r_hat'), '.3f')}, min bulk ESS "
+    facts = (f"max R-hat {_fixed(d.get('max_r_hat'), '.4f')}, min bulk ESS "
              f"{_fixed(d.get('min_ess_bulk'), '.0f')}, {_num(d.get('n_steps'))} steps × "
              f"{_num(d.get('n_walkers'))} walkers")
     if not d:
@@ -367,7 +367,7 @@ def _parameter_table(s: dict, names: tuple[str, ...]) -> list[Block]:
             sd = q.get("sd")
             ratio = sd / c if _isnum(c) and c > 0 and _isnum(sd) else None
             row += [_num(c, 3), _fixed(ratio, ".2f")]
-        rows.append(row + [_fixed(q.get("r_hat"), ".3f"), _fixed(q.get("ess_bulk"), ".0f")])
+        rows.append(row + [_fixed(q.get("r_hat"), ".4f"), _fixed(q.get("ess_bulk"), ".0f")])
     return [("table", head, rows)]
 
 
