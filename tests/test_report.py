@@ -153,7 +153,7 @@ def test_numbers_come_from_summary(folder, summary):
     assert "| R-hat | bulk ESS |" in table
     rows = [r for r in table.splitlines() if r.startswith("| ") and "---" not in r][1:6]
     assert [r.split(" | ")[0][2:] for r in rows] == [_document._md(report.NAMES[n]) for n in report.MAIN]
-    assert f"{p['c']['r_hat']:.3f}" in rows[0] and f"{p['c']['ess_bulk']:.0f}" in rows[0]
+    assert f"{p['c']['r_hat']:.4f}" in rows[0] and f"{p['c']['ess_bulk']:.0f}" in rows[0]
     assert "| sha256 | — |" in md  # an in-memory recording has no file hash
     # the Cramér–Rao bound, when the analysis computed it, beside each posterior sd
     if isinstance(summary.get("crlb"), dict):
