@@ -64,7 +64,8 @@ PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
 
 
 def MOVES():
-    """emcee proposal mixture for the 2-D θ = (ln p, ln ω_d).
+    """emcee proposal mixture for the 2-D θ = (ln p, ln ω_d) (and, in
+    :mod:`dampfit.damping.sample`, the 3–6 parameters of a nonlinear damping law).
 
     80 % :class:`emcee.moves.KDEMove` — an independence proposal from a Gaussian kernel density
     estimate of the complementary half-ensemble (Scott's bandwidth). The posterior of θ is
