@@ -160,6 +160,19 @@ def test_emcee_posterior_agrees_with_laplace(cases):
     assert np.median(em.a0) == pytest.approx(np.median(la.a0), rel=0.01)
 
 
+def test_emcee_draws_depend_on_the_seed_only(cases):
+    """Same seed → same draws, whatever NumPy's global random state (a fresh process's)."""
+    prep, fd, res = cases["quadratic"]
+    from dampfit.damping.fit import Data
+
+    mf, data = res.fits["quadratic"], Data.from_fit_data(fd)
+    draws = []
+    for glob in (1, 2):
+        np.random.seed(glob)
+        draws.append(sample_emcee(mf, data, prep.band, seed=5, min_ess=200, max_steps=400).theta)
+    np.testing.assert_array_equal(draws[0], draws[1])
+
+
 def test_from_analysis_uses_the_pipeline_stages(cases):
     """from_analysis takes prepared data, the viscous fit (start values), noise, mass and seed."""
     from types import SimpleNamespace

@@ -54,7 +54,7 @@ def _arviz():
 
     return arviz
 
-__all__ = ["PosteriorResult", "sample", "N_WALKERS"]
+__all__ = ["PosteriorResult", "sample", "seed_sampler", "N_WALKERS"]
 
 #: Ensemble size: with the KDE proposal (:func:`MOVES`) a larger ensemble describes the target
 #: better (τ ≈ 2 steps at 64 walkers, ≈ 2.6 at 32) and amortises emcee's per-step Python cost;
@@ -193,6 +193,7 @@ def sample(
         cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
     start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
     sampler = emcee.EnsembleSampler(N_WALKERS, 2, log_prob, vectorize=True, moves=MOVES())
+    seed_sampler(sampler, rng)
     warns: list[str] = []
     bar = _progress(max_steps, progress)
     try:
@@ -218,6 +219,16 @@ def sample(
         autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
         max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns),
     )
+
+
+def seed_sampler(sampler: "emcee.EnsembleSampler", rng: np.random.Generator) -> None:
+    """Give ``sampler`` its own random stream drawn from ``rng``.
+
+    emcee otherwise copies NumPy's *global* random state, which a fresh process seeds from
+    the operating system — the same ``--seed`` then gave different draws in every CLI run.
+    (A start array passed to ``run_mcmc`` carries no random state, so this one is kept.)
+    """
+    sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import emcee
 import numpy as np
 
-from ..posterior import MOVES, burn_thin, diagnose, run_adaptive
+from ..posterior import MOVES, burn_thin, diagnose, run_adaptive, seed_sampler
 from . import fit as dfit
 from . import models
 
@@ -123,6 +123,7 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
             np.full(k, 1e-6))
         start = rng.multivariate_normal(mf.theta, cov, size=N_WALKERS)
     sampler = emcee.EnsembleSampler(N_WALKERS, k, log_prob, vectorize=True, moves=MOVES())
+    seed_sampler(sampler, rng)
     from tqdm.auto import tqdm
 
     with tqdm(total=max_steps, desc=f"{model} posterior", unit="step", disable=not progress,
