@@ -171,7 +171,8 @@ def marginal_and_amplitudes(theta, tau, y, drift, temper, mask=None, n=None, q=N
 
         (A, B) | θ, y ~ N(β̂_osc, s²/temper · (X⊥ᵀX⊥)⁻¹),   s² = RSS/(n − q)
 
-    (the Student-t of the σ-marginal, replaced by its Gaussian moment match; n − q ≫ 1).
+    (the σ-marginal is a Student-t with n − q degrees of freedom and this scale; with
+    n − q ≫ 1 — hundreds of samples — the Gaussian is indistinguishable from it).
     Returns ``(ln L, moments)`` with moments = [Â, B̂, Σ_AA, Σ_AB, Σ_BB] — what the sampler
     stores per draw, so that the amplitudes need no second pass over the data.
     """
