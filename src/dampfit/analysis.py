@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from . import baselines, fit, noise, posterior, preprocess
+from ._json import jsonable
 from ._files import atomic_write_text, publish
 from .errors import InputError
 from .recording import Recording
@@ -116,7 +117,7 @@ class Analysis:
         lsd = _ls_physical(ls, self.mass, self.noise.psd_ratio)
         lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
         s = self.sampling
-        return _jsonable({
+        return jsonable({
             "dampfit_version": _version(),
             "input": {
                 "path": rec.path, "format": rec.format, "sha256": rec.sha256,
@@ -423,20 +424,3 @@ def _versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[pkg] = "missing"
     return out
-
-
-def _jsonable(obj):
-    """Recursively turn numpy scalars/arrays into JSON-safe Python; non-finite → None."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    return obj

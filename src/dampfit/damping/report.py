@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .._json import jsonable
 from . import checks, compare, models, quantities
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -28,22 +29,6 @@ __all__ = ["summary"]
 N_GRID = 60
 #: Posterior draws used for the band of the chosen law.
 N_BAND = 800
-
-
-def _clean(obj):
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    return obj
 
 
 def _model_checks(a: "DampingAssessment") -> dict[str, Any]:
@@ -147,7 +132,7 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
 
 def summary(a: "DampingAssessment") -> dict[str, Any]:
     """The plain-data view of ``a`` (module docstring)."""
-    return _clean({
+    return jsonable({
         "model_checks": _model_checks(a),
         "damping_models": {
             "criterion": "log evidence (Laplace; a nonlinear law's shape parameter integrated "
