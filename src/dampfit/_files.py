@@ -3,17 +3,32 @@
 Files are written to a temporary name in the target folder and renamed into place
 (``os.replace`` is atomic on one file system). Temporary files and folders are created private
 (``mkstemp``/``mkdtemp``); :func:`publish` gives them the mode the user's umask asks for.
+
+Whole result folders (``dampfit analyze``/``demo``) go through :class:`ResultFolder`: a marker
+file :data:`MARKER` identifies a folder dampfit wrote (only such a folder is ever replaced), a
+lock file keeps two dampfit processes from writing the same folder, write permission and free
+space are checked before the work starts, and the folder is staged beside its target and
+swapped in only when complete.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
+import json
 import os
+import re
+import secrets
+import shutil
+import signal
+import stat
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["atomic_write_text", "publish"]
+__all__ = ["atomic_write_text", "publish", "MARKER", "ResultFolder", "read_marker"]
 
 
 def _umask() -> int:
@@ -43,3 +58,321 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+# ----------------------------------------------------------------- result folders
+#: File in every result folder dampfit writes (analyze, demo): JSON ``{"kind", "dampfit"}``.
+#: ``--force`` replaces only a real directory holding it.
+MARKER = ".dampfit-result"
+
+#: Hidden helpers beside a target ``NAME``: ``.NAME.dampfit-stage-PID-XXXX`` (being written),
+#: ``.NAME.dampfit-old-PID-XXXX`` (previous result while it is swapped out) and the lock file.
+_HELPER = re.compile(r"^\.(?P<name>.+)\.dampfit-(?P<what>stage|old)-(?P<pid>\d+)-[A-Za-z0-9_]+$")
+_LOCK_SUFFIX = ".dampfit-lock"
+
+#: Free space [bytes] a result folder is assumed to need at least (posterior, signals, figures).
+MIN_FREE = 50 * 2**20
+
+
+def read_marker(folder: str | os.PathLike) -> dict | None:
+    """The marker of a result folder dampfit wrote, or None (missing, a link, not ours)."""
+    path = Path(folder) / MARKER
+    try:
+        st = os.lstat(path)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > 4096:
+            return None
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) and "kind" in data else None
+
+
+def _reason(exc: BaseException) -> str:
+    """One short line describing an I/O failure."""
+    if isinstance(exc, OSError) and exc.strerror:
+        text = exc.strerror
+    else:
+        text = str(exc) or type(exc).__name__
+    text = " ".join(text.split())
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _os_error_in(exc: BaseException) -> OSError | None:
+    """The OSError ``exc`` is or was caused by (h5py, matplotlib and PIL wrap them)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, OSError):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # another user's process
+    except OSError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def _signals_blocked():
+    """Hold SIGINT/SIGTERM back for a few system calls (the swap of the old and new result)."""
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - no pthread_sigmask
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+class ResultFolder:
+    """Write a result folder so that nothing is deleted by mistake and nothing is half-written.
+
+    Use as a context manager::
+
+        with ResultFolder(out, kind="analyze", force=args.force, protect=[input_file]) as rf:
+            ...                         # expensive work; rf.stage is the staging folder
+            with rf.writing():
+                write files into rf.stage
+            rf.publish()                # rf.stage becomes ``out``; a previous result is removed
+            ...                         # e.g. a report written into ``out``
+
+    On entry, before any work: the parent folder must exist and be writable; ``out`` must not
+    be the current folder or one of its parents, nor the folder of (or a folder above) any
+    path in ``protect`` (the input); an existing ``out`` is replaced only if it is a real
+    directory (not a symbolic link) holding dampfit's :data:`MARKER` and ``force`` is set (or
+    its marker's kind is in ``free_kinds``, or ``legacy(out)`` is true). A non-blocking
+    exclusive lock (``.NAME.dampfit-lock`` beside ``out``) keeps a second dampfit process
+    writing the same ``out`` away until this one is finished; stale staging folders of dead
+    processes are removed; the staging folder ``.NAME.dampfit-stage-PID-XXXX`` is created
+    (with the marker) and the free space is checked against ``need_bytes``. Every refusal is
+    an :class:`~dampfit.errors.InputError` with one line. On any exception (including
+    KeyboardInterrupt) the staging folder is removed and an existing result stays untouched.
+    """
+
+    def __init__(self, target: str | os.PathLike, *, kind: str, force: bool = False,
+                 protect: Sequence[str | os.PathLike] = (), need_bytes: int = MIN_FREE,
+                 free_kinds: Sequence[str] = (), legacy=None, version: str = "unknown") -> None:
+        try:
+            absolute = Path(os.path.abspath(target))
+            Path.cwd()
+        except OSError:  # the current folder was deleted under us
+            raise InputError("the current folder no longer exists; cd into an existing "
+                             "folder first") from None
+        if not absolute.name:
+            raise InputError(f"refusing to write the output to {absolute}; choose another --out")
+        if not absolute.parent.is_dir():
+            raise InputError(f"output folder {absolute.parent} does not exist")
+        self.parent = absolute.parent.resolve()
+        self.target = self.parent / absolute.name
+        self.kind, self.force, self.version = kind, force, version
+        self.protect = [Path(p) for p in protect]
+        self.need_bytes = int(need_bytes)
+        self.free_kinds, self.legacy = tuple(free_kinds), legacy
+        self.stage: Path | None = None
+        self.published = False
+        self.replaced = False
+        self._lock_fd: int | None = None
+        self._lock_path = self.parent / f".{absolute.name}{_LOCK_SUFFIX}"
+
+    # ---------------------------------------------------------------- checks
+    def _refuse(self, why: str) -> InputError:
+        return InputError(f"refusing to replace {self.target}: {why}; choose another --out "
+                          "or remove it yourself")
+
+    def _check_protected(self) -> None:
+        real = self.target.resolve()
+        cwd = Path.cwd().resolve()  # exists: checked in __init__
+        if real == cwd or real in cwd.parents:
+            raise self._refuse("it is the current folder or contains it")
+        for p in self.protect:
+            p = Path(os.path.abspath(p))
+            for candidate in {p, p.resolve()}:
+                if real == candidate or real in candidate.parents:
+                    raise self._refuse(f"it is or holds the input {p}")
+
+    def _check_existing(self) -> bool:
+        """True if ``target`` exists (and may be replaced); raise if it must not be."""
+        try:
+            st = os.lstat(self.target)
+        except FileNotFoundError:
+            return False
+        except OSError as exc:
+            raise InputError(f"cannot inspect {self.target}: {_reason(exc)}") from None
+        if stat.S_ISLNK(st.st_mode):
+            raise self._refuse("it is a symbolic link (dampfit never replaces a link or its target)")
+        if not stat.S_ISDIR(st.st_mode):
+            raise self._refuse("it exists and is not a directory")
+        marker = read_marker(self.target)
+        if marker is None and not (self.legacy is not None and self.legacy(self.target)):
+            raise self._refuse(f"it was not written by dampfit (no {MARKER} marker)")
+        # here the folder is dampfit's: marked, or an old folder ``legacy`` recognises
+        free = marker is None or marker.get("kind") in self.free_kinds
+        if not self.force and not free:
+            raise InputError(f"{self.target} exists; use --force to replace it")
+        return True
+
+    # ------------------------------------------------------------------ lock
+    def _lock(self) -> None:
+        for _ in range(20):
+            try:
+                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+            except OSError as exc:
+                raise InputError(f"cannot create the lock file {self._lock_path}: "
+                                 f"{_reason(exc)}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                try:
+                    pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+                finally:
+                    os.close(fd)
+                raise InputError(f"{self.target} is being written by another dampfit process "
+                                 f"(pid {pid}); wait for it or choose another --out") from None
+            try:  # the file may have been removed by its previous holder: lock the one there
+                same = os.path.samestat(os.fstat(fd), os.stat(self._lock_path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+                self._lock_fd = fd
+                return
+            os.close(fd)
+        raise InputError(f"cannot lock {self._lock_path}: it keeps changing")  # pragma: no cover
+
+    def _unlock(self) -> None:
+        if self._lock_fd is None:
+            return
+        try:
+            if os.path.samestat(os.fstat(self._lock_fd), os.stat(self._lock_path)):
+                os.unlink(self._lock_path)
+        except OSError:
+            pass
+        os.close(self._lock_fd)
+        self._lock_fd = None
+
+    # --------------------------------------------------------------- helpers
+    def _clean_stale(self) -> None:
+        """Remove staging/old folders of this target left by dampfit processes that died."""
+        try:
+            entries = list(os.scandir(self.parent))
+        except OSError:
+            return
+        for entry in entries:
+            m = _HELPER.match(entry.name)
+            if not m or m["name"] != self.target.name or _pid_alive(int(m["pid"])):
+                continue
+            if m["what"] == "old" and not os.path.lexists(self.target):
+                continue  # the swap was interrupted: this is the only copy of the old result
+            path = Path(entry.path)
+            if entry.is_dir(follow_symlinks=False) and read_marker(path) is not None:
+                shutil.rmtree(path, ignore_errors=True)
+
+    def _make_stage(self) -> None:
+        name = self.target.name
+        try:
+            self.stage = Path(tempfile.mkdtemp(
+                prefix=f".{name}.dampfit-stage-{os.getpid()}-", dir=self.parent))
+            marker = json.dumps({"kind": self.kind, "dampfit": self.version}) + "\n"
+            atomic_write_text(self.stage / MARKER, marker)
+            publish(self.stage)
+        except OSError as exc:
+            raise InputError(f"cannot write into {self.parent}: {_reason(exc)}") from None
+        try:
+            free = shutil.disk_usage(self.parent).free
+        except OSError:  # pragma: no cover - statvfs unsupported
+            return
+        if free < self.need_bytes:
+            raise InputError(f"not enough free space in {self.parent}: {free / 2**20:.1f} MB "
+                             f"free, about {self.need_bytes / 2**20:.0f} MB needed")
+
+    def _discard_stage(self) -> None:
+        if self.stage is not None and os.path.lexists(self.stage):
+            shutil.rmtree(self.stage, ignore_errors=True)
+
+    # --------------------------------------------------------------- protocol
+    def __enter__(self) -> "ResultFolder":
+        if not os.access(self.parent, os.W_OK | os.X_OK):
+            raise InputError(f"cannot write into {self.parent}: permission denied")
+        self._check_protected()
+        self._lock()
+        try:
+            self._check_existing()
+            self._clean_stale()
+            self._make_stage()
+        except BaseException:
+            self._discard_stage()
+            self._unlock()
+            raise
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        try:
+            if not self.published:
+                self._discard_stage()
+        finally:
+            self._unlock()
+
+    @contextlib.contextmanager
+    def writing(self):
+        """Turn an I/O failure while writing into the staging folder into one InputError."""
+        try:
+            yield self.stage
+        except InputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - h5py/matplotlib wrap their OSErrors
+            os_error = _os_error_in(exc)
+            if os_error is None:
+                try:
+                    full = shutil.disk_usage(self.parent).free < 2**20
+                except OSError:
+                    full = False
+                if not full:
+                    raise
+                reason = "no space left on the device"
+            else:
+                reason = _reason(os_error)
+            fate = ("the previous result is unchanged" if os.path.lexists(self.target)
+                    else "nothing was written")
+            raise InputError(f"cannot write {self.target}: {reason}; {fate}") from None
+
+    def publish(self) -> Path:
+        """Move the staging folder onto the target (replacing a previous result); return it."""
+        if self.stage is None:
+            raise RuntimeError("ResultFolder.publish outside its with-block")
+        existed = self._check_existing()  # nobody swapped in something foreign meanwhile
+        old = None
+        try:
+            with _signals_blocked():
+                if existed:
+                    old = self.parent / (f".{self.target.name}.dampfit-old-{os.getpid()}-"
+                                         f"{secrets.token_hex(4)}")
+                    os.replace(self.target, old)
+                try:
+                    os.replace(self.stage, self.target)
+                except OSError:
+                    if old is not None:
+                        os.replace(old, self.target)
+                        old = None
+                    raise
+                self.published = True
+                self.replaced = existed
+        except OSError as exc:
+            raise InputError(f"cannot move the result into place at {self.target}: "
+                             f"{_reason(exc)}; the previous result is unchanged") from None
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+        return self.target

@@ -46,6 +46,10 @@ def run_study(cfg, out, **kw):
     return _run(cfg, out, **kw)
 
 
+#: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
+MAX_WORKERS = 256
+
+
 def _positive_int(text: str) -> int:
     try:
         v = int(text)
@@ -53,6 +57,8 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if v < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    if v > MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_WORKERS}, got {v}")
     return v
 
 
@@ -68,7 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR",
                         help="study folder (default: CONFIG's name + '.study'); reused to resume")
     parser.add_argument("--workers", type=_positive_int, metavar="N", default=None,
-                        help="local worker processes (default: the number of CPUs)")
+                        help=f"local worker processes, 1 to {MAX_WORKERS} "
+                             "(default: the number of CPUs)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="use an existing Dask scheduler, e.g. tcp://host:8786 (ignores --workers)")
     parser.add_argument("--force", action="store_true",
