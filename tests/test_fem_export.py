@@ -195,6 +195,7 @@ def test_calculix_real_always_has_a_point():
 # -- OpenSees script -------------------------------------------------------------------------
 
 
+@pytest.mark.usefixtures("requires_opensees")
 @pytest.mark.parametrize("name,gravity", [("SI", False), ("mm-ms-kg", True)])
 def test_exported_opensees_script_runs_and_matches_the_closed_form(tmp_path, name, gravity):
     s, u = _system(gravity), units.get(name)

@@ -5,7 +5,11 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -46,6 +50,7 @@ def write_result(folder, noise=0.0, mass=M, drop=()):
 # -- the engine and the integrator -----------------------------------------------------------
 
 
+@pytest.mark.usefixtures("requires_opensees")
 def test_opensees_free_decay_matches_the_closed_form():
     """Known (m, k, c, u0), Δt = T/2000 over 5 periods: OpenSees within 1e-4 (relative)."""
     period = 2 * math.pi / math.sqrt(K / M)
@@ -60,6 +65,7 @@ def test_opensees_free_decay_matches_the_closed_form():
     assert np.max(np.abs(g["u"] + M * 9.81 / K - u[:2001])) / U0 < 1e-4
 
 
+@pytest.mark.usefixtures("requires_opensees")
 def test_newmark_period_error_formula_is_what_opensees_does():
     """Coarse step T/16, undamped: the measured period elongation equals (ωΔt/2)/atan(ωΔt/2) − 1."""
     wn = math.sqrt(K / M)
@@ -116,6 +122,7 @@ def test_peak_decay_rate_and_errors():
 # -- verify on results -----------------------------------------------------------------------
 
 
+@pytest.mark.usefixtures("requires_opensees")
 def test_verify_reproduces_a_clean_simulated_decay(tmp_path, capsys):
     folder = write_result(tmp_path / "r")
     assert main(["verify", str(folder)]) == 0
@@ -135,6 +142,7 @@ def test_verify_reproduces_a_clean_simulated_decay(tmp_path, capsys):
     assert "decay rate p" in out and "NMSE" in out and "verification.json" in out
 
 
+@pytest.mark.usefixtures("requires_opensees")
 def test_verify_with_noise_and_custom_figure(tmp_path):
     folder = write_result(tmp_path / "r", noise=0.3)
     fig = tmp_path / "fig.png"
@@ -148,6 +156,7 @@ def test_verify_with_noise_and_custom_figure(tmp_path):
 
 
 @pytest.mark.slow  # ~2 s itself, but the shared 'analysed' fixture costs ~40 s when run alone
+@pytest.mark.usefixtures("requires_opensees")
 def test_verify_on_an_analysed_recording(analysed, tmp_path):
     """The full pipeline: a simulated phone recording analysed by dampfit, then verified."""
     an, _ = analysed
@@ -163,6 +172,7 @@ def test_verify_on_an_analysed_recording(analysed, tmp_path):
     assert rep["acceleration"]["vs_model"]["nmse"] < 1e-3
 
 
+@pytest.mark.usefixtures("requires_opensees")
 def test_verify_without_measured_displacement(tmp_path):
     """The paper's displacement pipeline may fail (NaN): acceleration is still compared."""
     folder = write_result(tmp_path / "r")
@@ -178,7 +188,8 @@ def test_verify_without_measured_displacement(tmp_path):
     assert verify.plot(result, tmp_path / "v.png").is_file()
 
 
-def test_verify_input_errors(tmp_path, capsys):
+def test_verify_input_errors(tmp_path):
+    """Bad result folders are input errors before OpenSees runs (so OpenSees is not needed)."""
     with pytest.raises(InputError, match="summary.json not found"):
         verify.run(tmp_path)
     folder = write_result(tmp_path / "a")
@@ -195,8 +206,93 @@ def test_verify_input_errors(tmp_path, capsys):
     (tmp_path / "f" / "signals.npz").write_bytes(b"junk")
     with pytest.raises(InputError, match="not a readable .npz"):
         verify.run(tmp_path / "f")
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_cli_input_errors_are_one_line(tmp_path, capsys):
     assert main(["verify", str(tmp_path / "missing")]) == 2
     assert main(["verify", str(write_result(tmp_path / "g")), "--out", str(tmp_path / "no" / "f.png")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and "is not a directory" in err[0] and "does not exist" in err[1]
     assert not (tmp_path / "g" / "verification.json").exists()
+
+
+# -- is OpenSeesPy usable, and what CI does when it is not -----------------------------------
+
+
+def _import_failure(message: str) -> BaseException:
+    """The exception chain OpenSeesPy's Linux wrapper raises when its binary cannot load."""
+    try:
+        try:
+            raise ImportError(message)
+        except ImportError:
+            raise RuntimeError("Failed to import openseespy on Linux.")  # noqa: B904 - as it does
+    except RuntimeError as exc:
+        return exc
+
+
+def test_unavailable_names_the_fix(monkeypatch):
+    import importlib.util
+
+    err = "libblas.so.3: cannot open shared object file: No such file or directory"
+    assert opensees._reason(_import_failure(err)) == opensees.BLAS_REASON
+    assert "sudo apt-get install libblas3 liblapack3" in opensees.BLAS_REASON
+    other = opensees._reason(_import_failure("libfoo.so.7: cannot open shared object file: x"))
+    assert "libfoo.so.7" in other and "\n" not in other
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "openseespy" else real(name, *a))
+    assert opensees.unavailable() == opensees.NOT_INSTALLED_REASON
+    assert "pip install 'dampfit[fem]'" in opensees.NOT_INSTALLED_REASON
+
+
+def test_unavailable_agrees_with_a_real_import():
+    reason = opensees.unavailable()
+    if reason is None:
+        import openseespy.opensees as ops
+
+        ops.wipe()
+    else:
+        assert "\n" not in reason
+        with pytest.raises(InputError, match="OpenSeesPy"):
+            opensees.free_decay(M, K, C, U0, 0.0, 1e-3, 10)
+
+
+def test_require_skips_or_fails_under_require_all(monkeypatch, request):
+    from tests.conftest import require
+
+    monkeypatch.delenv("DAMPFIT_REQUIRE_ALL", raising=False)
+    require(True, "present")  # no-op
+    with pytest.raises(pytest.skip.Exception, match="libfoo missing"):
+        require(False, "libfoo missing")
+    monkeypatch.setenv("DAMPFIT_REQUIRE_ALL", "1")
+    require(True, "present")
+    with pytest.raises(pytest.fail.Exception, match="DAMPFIT_REQUIRE_ALL=1.*libfoo missing"):
+        require(False, "libfoo missing")
+    # the OpenSees fixture follows it: a missing OpenSees fails the test in CI
+    monkeypatch.setattr(opensees, "unavailable", lambda: opensees.BLAS_REASON)
+    with pytest.raises(pytest.fail.Exception, match="libblas3 liblapack3"):
+        request.getfixturevalue("requires_opensees")
+
+
+def test_require_all_turns_every_other_skip_into_a_failure(tmp_path):
+    """The conftest hook: under DAMPFIT_REQUIRE_ALL=1 a skipif/pytest.skip fails, except a
+    skip_optional (what CI does not install either); without it all three skip."""
+    (tmp_path / "test_deps.py").write_text(
+        "import pytest\n"
+        "from tests.conftest import require, skip_optional\n"
+        "def test_required():\n    require(False, 'thing A missing')\n"
+        "@pytest.mark.skipif(True, reason='thing B missing')\n"
+        "def test_marked():\n    pass\n"
+        "def test_optional():\n    skip_optional('pyarrow missing')\n")
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "tests.conftest",
+           "--rootdir", str(tmp_path), str(tmp_path / "test_deps.py")]
+    env = {k: v for k, v in os.environ.items() if k != "DAMPFIT_REQUIRE_ALL"}
+    loose = subprocess.run(cmd, cwd=root, env=env, capture_output=True, text=True, timeout=120)
+    assert "3 skipped" in loose.stdout and loose.returncode == 0, loose.stdout
+    strict = subprocess.run(cmd, cwd=root, env={**env, "DAMPFIT_REQUIRE_ALL": "1"},
+                            capture_output=True, text=True, timeout=120)
+    # a skipif mark skips in setup, so its failure is reported as an error: both fail the run
+    assert "1 failed, 1 skipped, 1 error" in strict.stdout and strict.returncode == 1, strict.stdout
+    assert "thing A missing" in strict.stdout and "thing B missing" in strict.stdout

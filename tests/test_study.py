@@ -367,6 +367,7 @@ def test_rerun_of_a_finished_study_is_a_no_op_and_another_config_is_refused(smal
     assert main(["study", str(cfg), "--out", str(out), "--workers", "1"]) == 0
     captured = capsys.readouterr()
     assert "16 already stored" in captured.err and "(0 new)" in captured.out
+    assert "dampfit study: 16 runs (4 scenarios × 4 replicates)" in captured.err
     assert (out / "runs.jsonl").read_bytes() == before
     pd.testing.assert_frame_equal(frame(out), frame(ref))
     # another configuration in the same folder is refused unless --force

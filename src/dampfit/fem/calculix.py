@@ -27,6 +27,7 @@ import math
 from typing import Any
 
 from .lsdyna import reference_length
+from .sanitize import ascii_line, calculix_comment
 from .sdof import Sdof
 from .timestep import newmark_period_error
 from .units import UnitSystem, factor
@@ -46,7 +47,11 @@ def real(x: float) -> str:
 
 
 def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float) -> str:
-    """The .inp text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI)."""
+    """The .inp text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+
+    Outside text (source folder, dampfit version) is sanitised (:mod:`dampfit.fem.sanitize`):
+    it only appears inside ``**`` comment lines, never starts a keyword card.
+    """
     L, T = factor("length", units), factor("time", units)
     m = sdof.mass * factor("mass", units)
     k = sdof.k * factor("stiffness", units)
@@ -58,18 +63,22 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     every = max(1, round(output_dt / dt))
     lab = units.label
     src = sdof.source
-    out = [
-        f"** Written by dampfit {src.get('dampfit_version') or ''} from {src.get('folder', '?')}",
-        (f"** (summary.json sha256 {str(src.get('summary_sha256', '?'))[:16]}...), posterior "
-         f"quantile q = {src.get('quantile', 0.5):g}."),
-        f"** Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, c = {sdof.c:.6g} N*s/m,",
-        f"** u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.",
-        (f"** Units: length {lab('length')}, time {lab('time')}, mass {lab('mass')}, force "
+    head = [
+        (f"Written by dampfit {ascii_line(src.get('dampfit_version') or '', 80)} from "
+         f"{ascii_line(src.get('folder', '?'), 300)} (summary.json sha256 "
+         f"{ascii_line(str(src.get('summary_sha256', '?'))[:16])}...), posterior quantile "
+         f"q = {float(src.get('quantile', 0.5)):g}."),
+        (f"Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, c = {sdof.c:.6g} N*s/m, "
+         f"u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz."),
+        (f"Units: length {lab('length')}, time {lab('time')}, mass {lab('mass')}, force "
          f"{lab('force')}; k in {lab('stiffness')}, c in {lab('damping')}."),
-        "** Step 1 (static) prescribes node 2 at u0 above static equilibrium (static sag",
-        f"** s = m*g/k = {sdof.sag * L!r} {lab('length')}); step 2 releases it at rest: Newmark average",
-        (f"** acceleration (ALPHA=0), fixed increment {dt * T!r} {lab('time')} = T/"
+        ("Step 1 (static) prescribes node 2 at u0 above static equilibrium (static sag "
+         f"s = m*g/k = {sdof.sag * L!r} {lab('length')}); step 2 releases it at rest: Newmark "
+         f"average acceleration (ALPHA=0), fixed increment {dt * T!r} {lab('time')} = T/"
          f"{sdof.period / dt:.0f}, period error {newmark_period_error(sdof.omega_n, dt):.2e}."),
+    ]
+    out = [line for text in head for line in calculix_comment(text, limit=None)]
+    out += [
         "*HEADING",
         "dampfit SDOF free decay",
         "*NODE, NSET=NALL",

@@ -32,6 +32,7 @@ from ..errors import InputError
 from . import sdof as sdof_mod
 from . import timestep
 from . import units as units_mod
+from .sanitize import shown
 
 __all__ = ["FORMATS", "add_arguments", "build", "command", "output_interval"]
 
@@ -55,16 +56,27 @@ def output_interval(period: float, sample_rate: float | None) -> float:
     return min(allowed, key=lambda x: abs(math.log(x / target)))
 
 
-def _duration(summary: dict[str, Any], duration: float | None) -> float:
+def _duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
+    """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``."""
     if duration is None:
         w = summary.get("window") or {}
-        try:
-            duration = float(w["end_s"]) - float(w["start_s"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError("summary.json has no analysis window; give --duration S") from None
-    if not (math.isfinite(duration) and duration > 0):
+        if w.get("start_s") is None or w.get("end_s") is None:
+            raise InputError(f"{shown(path)} has no analysis window; give --duration S")
+        start = sdof_mod.number(w["start_s"], "window.start_s", path)
+        end = sdof_mod.number(w["end_s"], "window.end_s", path)
+        if not end > start:
+            raise InputError(f"{shown(path)}: window.end_s ({end:g}) must be after window.start_s "
+                             f"({start:g}); give --duration S")
+        duration = end - start
+    if isinstance(duration, bool) or not (math.isfinite(duration) and duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, got {duration!r}")
     return float(duration)
+
+
+def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
+    """``input.sample_rate_hz`` [Hz] of the summary (``None`` if absent), checked."""
+    fs = (summary.get("input") or {}).get("sample_rate_hz")
+    return None if fs is None else sdof_mod.number(fs, "input.sample_rate_hz", path, positive=True)
 
 
 def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5,
@@ -73,15 +85,18 @@ def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5
     """Text of the ``fmt`` deck for result ``folder`` and a plain-data description of it.
 
     ``duration`` [s] (default: the analysed window); ``name`` is the script's file name
-    (OpenSees only, used in its help text). Raises :class:`InputError` for bad input.
+    (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
+    summary.json field the deck uses is checked first (type, finite, range; see
+    :func:`dampfit.fem.sdof.number`), so a bad value is one error line and no deck.
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     system = units_mod.get(units)
     sdof = sdof_mod.load(folder, quantile, gravity)
-    _, summary = sdof_mod.read_summary(folder)
-    dur = _duration(summary, duration)
-    fs = (summary.get("input") or {}).get("sample_rate_hz")
+    folder, summary = sdof_mod.read_summary(folder)
+    path = folder / "summary.json"
+    dur = _duration(summary, duration, path)
+    fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
     dt = timestep.choose(sdof.omega_n, dur, output_dt)
     if dur / dt > 5e7:
@@ -129,9 +144,9 @@ def command(args: argparse.Namespace) -> int:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     out = Path(args.out) if args.out else Path(args.folder) / FORMATS[fmt][1]
     if out.is_dir():
-        raise InputError(f"{out} is a directory; give a file name with --out")
+        raise InputError(f"{shown(out)} is a directory; give a file name with --out")
     if out.exists() and not args.force:
-        raise InputError(f"{out} exists; use --force to replace it")
+        raise InputError(f"{shown(out)} exists; use --force to replace it")
     text, info = build(args.folder, fmt, args.units, args.quantile, args.gravity,
                        args.duration, name=out.name)
     atomic_write_text(out, text)

@@ -32,10 +32,10 @@ a discrete element from its nodal masses and rejects massless nodes.
 from __future__ import annotations
 
 import math
-import textwrap
 from typing import Any
 
 from . import keyword as kw
+from .sanitize import ascii_line, lsdyna_comment, lsdyna_title
 from .sdof import Sdof
 from .timestep import central_difference_period_error
 from .units import UnitSystem
@@ -56,12 +56,18 @@ def reference_length(sdof: Sdof) -> float:
 
 
 def _comment(text: str) -> list[str]:
-    return ["$ " + line for line in textwrap.wrap(text, 76)] or ["$"]
+    """``$`` comment lines (≤ 80 columns, printable ASCII) holding ``text``."""
+    return lsdyna_comment(text, limit=None)
 
 
 def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
          title: str = "dampfit SDOF free decay") -> str:
-    """The .k deck text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI)."""
+    """The .k deck text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+
+    Outside text (source folder, dampfit version, ``title``) is sanitised
+    (:mod:`dampfit.fem.sanitize`): it can only appear inside ``$`` comments or as the
+    ``*TITLE`` line, never start a card.
+    """
     from .units import factor
 
     L, T, M = (factor(q, units) for q in ("length", "time", "mass"))
@@ -75,10 +81,10 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     period_err = central_difference_period_error(sdof.omega_n, dt)
     src = sdof.source
     lines = ["*KEYWORD"]
-    lines += _comment(f"Written by dampfit {src.get('dampfit_version') or ''} from "
-                      f"{src.get('folder', '?')} (summary.json sha256 "
-                      f"{str(src.get('summary_sha256', '?'))[:16]}…), posterior quantile "
-                      f"q = {src.get('quantile', 0.5):g}.")
+    lines += _comment(f"Written by dampfit {ascii_line(src.get('dampfit_version') or '', 80)} from "
+                      f"{ascii_line(src.get('folder', '?'), 300)} (summary.json sha256 "
+                      f"{ascii_line(str(src.get('summary_sha256', '?'))[:16])}...), posterior "
+                      f"quantile q = {float(src.get('quantile', 0.5)):g}.")
     lines += _comment(f"Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, "
                       f"c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, "
                       f"f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
@@ -96,7 +102,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     lines += _comment(f"Time step capped at {step:.6g} {lab('time')} by curve {LC_DT} (LCTM): "
                       f"{sdof.period / dt:.0f} steps per period, central-difference period error "
                       f"{period_err:.2e}.")
-    lines += ["*TITLE", title[:80]]
+    lines += ["*TITLE", lsdyna_title(title)]
     lines += ["*CONTROL_TERMINATION", kw.header(["endtim", "endcyc", "dtmin", "endeng", "endmas"]),
               kw.card([end, 0, 0.0, 0.0, 0.0])]
     lines += ["*CONTROL_TIMESTEP",

@@ -18,18 +18,72 @@ numerical damping, period elongation (ωΔt/2)/atan(ωΔt/2) − 1 ≈ (ωΔt)²
 
 from __future__ import annotations
 
+import ctypes.util
+import importlib
+import importlib.util
 import math
+import re
 from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
-
+from .sanitize import python_comment, python_literal
 from .sdof import Sdof
 from .timestep import newmark_period_error
 from .units import UnitSystem, factor
 
-__all__ = ["engine_version", "free_decay", "script"]
+__all__ = ["BLAS_REASON", "NOT_INSTALLED_REASON", "engine_version", "free_decay", "script",
+           "unavailable"]
+
+#: Why OpenSeesPy cannot run when its binary misses the system BLAS/LAPACK (Debian packages).
+BLAS_REASON = ("OpenSeesPy needs the system BLAS/LAPACK libraries: "
+               "sudo apt-get install libblas3 liblapack3")
+#: Why OpenSeesPy cannot run when it is not installed.
+NOT_INSTALLED_REASON = "OpenSeesPy is not installed: pip install 'dampfit[fem]'"
+
+
+def unavailable() -> str | None:
+    """``None`` if OpenSeesPy can be imported, else a one-line reason with the remedy.
+
+    The reasons: not installed (:data:`NOT_INSTALLED_REASON`); its binary cannot load
+    ``libblas.so.3``/``liblapack.so.3`` (:data:`BLAS_REASON`; OpenSeesPy hides the loader's
+    message behind "Failed to import openseespy on Linux", so the exception chain is searched,
+    and ``ctypes.util.find_library`` decides if the chain says nothing); another shared library
+    missing; any other import failure.
+    """
+    try:
+        found = importlib.util.find_spec("openseespy") is not None
+    except (ImportError, ValueError):
+        found = False
+    if not found:
+        return NOT_INSTALLED_REASON
+    try:
+        importlib.import_module("openseespy.opensees")
+    except Exception as exc:  # noqa: BLE001 - OpenSeesPy raises RuntimeError, not ImportError
+        return _reason(exc)
+    return None
+
+
+def _reason(exc: BaseException) -> str:
+    """One-line reason for an OpenSeesPy import failure ``exc`` (searching its chain)."""
+    texts, seen, e = [], set(), exc
+    while e is not None and id(e) not in seen:
+        seen.add(id(e))
+        texts.append(f"{type(e).__name__}: {e}")
+        e = e.__cause__ or e.__context__
+    chain = " | ".join(texts)
+    if re.search(r"lib(blas|lapack)\.so", chain):
+        return BLAS_REASON
+    lib = re.search(r"([\w.+-]+\.so[\w.]*): cannot open shared object file", chain)
+    if lib:
+        return (f"OpenSeesPy cannot load the system library {lib.group(1)}: install the "
+                "package that provides it (Debian: apt-file search " + lib.group(1) + ")")
+    if ctypes.util.find_library("blas") is None or ctypes.util.find_library("lapack") is None:
+        return BLAS_REASON
+    last = " ".join(texts[-1].split())[:160]
+    return (f"OpenSeesPy cannot be imported ({last}); reinstall it: "
+            "pip install --force-reinstall 'dampfit[fem]'")
 
 
 def engine_version() -> str:
@@ -50,13 +104,10 @@ def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt
     displacement ``u_init`` and velocity ``v_init`` of node 2, fixed step ``dt``, ``n_steps``
     steps, constant external ``force`` on the mass (e.g. −m·g). Arrays have n_steps + 1 entries.
     """
-    try:
-        import openseespy.opensees as ops  # lazy: heavy, and global state
-    except ImportError as exc:  # not installed, or its BLAS/LAPACK libraries are missing
-        raise InputError(
-            f"OpenSeesPy is not usable ({exc}); install it with 'pip install \"dampfit[fem]\"' "
-            "(on Debian it also needs: apt-get install libblas3 liblapack3)"
-        ) from None
+    reason = unavailable()
+    if reason is not None:  # not installed, or its BLAS/LAPACK libraries are missing
+        raise InputError(reason)
+    import openseespy.opensees as ops  # lazy: heavy, and global state
 
     ops.wipe()
     try:
@@ -99,6 +150,7 @@ _TEMPLATE = '''\
 """OpenSeesPy model of an identified spring-damper-mass system (written by dampfit {version}).
 
 {provenance}
+The exact source folder and dampfit version are SOURCE_FOLDER and DAMPFIT_VERSION below.
 
 Units: length {L}, time {T}, mass {M}, force {F} (k in {K}, c in {C}).
 Model: node 1 fixed, node 2 carries the mass m; a zeroLength element holds an Elastic (k)
@@ -116,6 +168,8 @@ import sys
 
 import openseespy.opensees as ops
 
+SOURCE_FOLDER = {source_literal}  # result folder the system was read from
+DAMPFIT_VERSION = {version_literal}  # dampfit version that wrote its summary.json
 m = {m!r}  # mass [{M}]
 k = {k!r}  # stiffness [{K}]
 c = {c!r}  # viscous damping [{C}]
@@ -168,24 +222,39 @@ print(f"wrote {{n_rows + 1}} rows to {{out}}; omega_n = {{math.sqrt(k / m):.6g}}
 
 def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
            name: str = "sdof_opensees.py") -> str:
-    """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI."""
+    """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI.
+
+    Text from outside (the source folder, the dampfit version of the summary, ``name``) is
+    written into the docstring only through :func:`~dampfit.fem.sanitize.python_comment` and
+    kept exactly as ``repr`` literals (SOURCE_FOLDER, DAMPFIT_VERSION): nothing a folder name
+    or an edited summary.json holds can become code.
+    """
     src = sdof.source
-    prov = (f"Source: {src.get('folder', '?')} (summary.json sha256 "
-            f"{str(src.get('summary_sha256', '?'))[:16]}...), posterior quantile "
-            f"q = {src.get('quantile', 0.5):g}.\nIdentified (SI): m = {sdof.mass:.6g} kg, "
+    folder = str(src.get("folder", "?"))
+    version = src.get("dampfit_version") or ""
+    prov = (f"Source: {python_comment(folder)} (summary.json sha256 "
+            f"{python_comment(str(src.get('summary_sha256', '?'))[:16])}...), posterior quantile "
+            f"q = {float(src.get('quantile', 0.5)):g}.\nIdentified (SI): m = {sdof.mass:.6g} kg, "
             f"k = {sdof.k:.6g} N/m, c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, "
             f"zeta = {sdof.zeta:.6g}, f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
     T = factor("time", units)
+    # unit names also land in an f-string of the script: no braces
+    label = lambda q: python_comment(units.label(q), 40).replace("{", "(").replace("}", ")")  # noqa: E731
     fields: dict[str, Any] = {
-        "version": src.get("dampfit_version") or "", "provenance": prov, "name": name,
-        "L": units.label("length"), "T": units.label("time"), "M": units.label("mass"),
-        "F": units.label("force"), "K": units.label("stiffness"), "C": units.label("damping"),
-        "A": units.label("acceleration"),
-        "m": sdof.mass * factor("mass", units), "k": sdof.k * factor("stiffness", units),
-        "c": sdof.c * factor("damping", units), "u0": sdof.u0 * factor("length", units),
-        "g": sdof.g * factor("acceleration", units), "duration": duration * T, "dt": dt * T,
-        "every": max(1, round(output_dt / dt)),
+        "version": python_comment(version, 80), "provenance": prov,
+        "name": python_comment(name, 200),
+        "source_literal": python_literal(folder), "version_literal": python_literal(version),
+        "L": label("length"), "T": label("time"), "M": label("mass"),
+        "F": label("force"), "K": label("stiffness"), "C": label("damping"),
+        "A": label("acceleration"),
+        "m": float(sdof.mass * factor("mass", units)), "k": float(sdof.k * factor("stiffness", units)),
+        "c": float(sdof.c * factor("damping", units)), "u0": float(sdof.u0 * factor("length", units)),
+        "g": float(sdof.g * factor("acceleration", units)), "duration": float(duration * T),
+        "dt": float(dt * T), "every": int(max(1, round(output_dt / dt))),
         "steps_per_period": sdof.period / dt,
         "period_error": newmark_period_error(sdof.omega_n, dt),
     }
+    for key in ("m", "k", "c", "u0", "g", "duration", "dt"):
+        if not math.isfinite(fields[key]):
+            raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
     return _TEMPLATE.format(**fields)

@@ -37,6 +37,7 @@ from ..cli import float_arg
 from ..errors import InputError
 from . import compare, timestep
 from . import sdof as sdof_mod
+from .sanitize import shown
 
 __all__ = ["SIGNAL_KEYS", "add_arguments", "command", "load_signals", "plot", "run"]
 
@@ -52,31 +53,31 @@ def load_signals(folder: str | Path) -> dict[str, Any]:
     """Arrays of ``folder/signals.npz`` as float64 NumPy arrays/floats; :class:`InputError` if unusable."""
     path = Path(folder) / "signals.npz"
     if not path.is_file():
-        raise InputError(f"{path} not found; re-run 'dampfit analyze' (it writes signals.npz)")
+        raise InputError(f"{shown(path)} not found; re-run 'dampfit analyze' (it writes signals.npz)")
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in SIGNAL_KEYS if k not in data.files]
             if missing:
-                raise InputError(f"{path} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
+                raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
             sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
     except InputError:
         raise
     except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
-        raise InputError(f"{path} is not a readable .npz ({type(exc).__name__})") from None
+        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
     t = sig["t"]
     n = t.size
     if t.ndim != 1 or n < 16 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise InputError(f"{path}: 't' must be at least 16 finite, increasing times")
+        raise InputError(f"{shown(path)}: 't' must be at least 16 finite, increasing times")
     for key in ("accel", "accel_model", "displacement", "displacement_model"):
         if sig[key].shape != (n,):
-            raise InputError(f"{path}: '{key}' has shape {sig[key].shape}, expected ({n},)")
+            raise InputError(f"{shown(path)}: '{key}' has shape {sig[key].shape}, expected ({n},)")
     if not (np.all(np.isfinite(sig["accel"])) and np.all(np.isfinite(sig["accel_model"]))):
-        raise InputError(f"{path}: 'accel' and 'accel_model' must be finite")
+        raise InputError(f"{shown(path)}: 'accel' and 'accel_model' must be finite")
     for key in ("p", "omega_d", "t0"):
         sig[key] = float(sig[key])
     if not (math.isfinite(sig["p"]) and sig["p"] >= 0 and math.isfinite(sig["omega_d"])
             and sig["omega_d"] > 0 and math.isfinite(sig["t0"])):
-        raise InputError(f"{path}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
+        raise InputError(f"{shown(path)}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
     return sig
 
 
@@ -89,6 +90,7 @@ def run(folder: str | Path, dt: float | None = None) -> dict[str, Any]:
 
     folder, summary = sdof_mod.read_summary(folder)
     ident = sdof_mod.load(folder, 0.5)
+    p_id = sdof_mod.summary_quantile(summary, "p", 0.5, folder)  # checked before any work
     sig = load_signals(folder)
     t, tau = sig["t"], sig["t"] - sig["t0"]
     spacing = float(np.median(np.diff(t)))
@@ -110,7 +112,6 @@ def run(folder: str | Path, dt: float | None = None) -> dict[str, Any]:
     t_fem = t[0] + fem["t"]
     u_fem = np.interp(t, t_fem, fem["u"])
     a_fem = np.interp(t, t_fem, fem["a"])
-    p_id = sdof_mod.summary_quantile(summary, "p", 0.5, folder)
     decay = compare.peak_decay_rate(t_fem, fem["u"])
     measured_decay = compare.peak_decay_rate(t, sig["displacement"])
     rel = None if decay["p"] is None or p_id == 0 else decay["p"] / p_id - 1.0
@@ -189,7 +190,7 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
                    f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}", fontsize=10)
     path = Path(path)
     if not path.parent.is_dir():
-        raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
+        raise InputError(f"cannot write {shown(path)}: directory {shown(path.parent)} does not exist")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix or ".png")
     os.close(fd)
     try:
@@ -240,11 +241,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
-    """Run ``dampfit verify``; return the exit code."""
+    """Run ``dampfit verify``; return the exit code.
+
+    First of all OpenSeesPy must be usable (:func:`dampfit.fem.opensees.unavailable`): if not,
+    one error line says why and how to fix it, before any file is read or written.
+    """
+    from . import opensees
+
+    reason = opensees.unavailable()
+    if reason is not None:
+        raise InputError(reason)
     folder = Path(args.folder)
     fig = Path(args.out) if args.out else folder / "verify.png"
     if args.out and not fig.parent.is_dir():
-        raise InputError(f"cannot write {fig}: directory {fig.parent} does not exist")
+        raise InputError(f"cannot write {shown(fig)}: directory {shown(fig.parent)} does not exist")
     result = run(folder, args.dt)
     plot(result, fig)
     rep = result["report"]

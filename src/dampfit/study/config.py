@@ -24,6 +24,13 @@ the simulator's k and c follow from them and the mass, see
 options except ``mass`` (set in ``[study]``), ``k``, ``c`` and ``seed`` (set per run). Fields
 not given keep the simulator's defaults (60 s at 500 Hz, 150 µg/√Hz, u0 = 4 cm, no drift…).
 
+Size: a study may have at most :data:`MAX_RUNS` = 100,000 runs (scenarios × replicates).
+The count is the product of the [grid] list lengths times ``replicates``, computed before any
+scenario is built, so a grid of 10¹⁰ scenarios is refused at once (one error line saying how
+many runs it would be) instead of hanging. At ≈ 900 cheap fits per minute and core, 100,000
+runs are already a day on a workstation; larger studies should be split (e.g. by estimator or
+by a grid axis) into separate study files.
+
 Determinism: a scenario's id is a hash of its canonical parameters (numbers normalised to
 float, keys sorted), and the seed of a run is drawn from
 ``numpy.random.SeedSequence(study_seed, spawn_key=(scenario hash, replicate))``. A run
@@ -47,7 +54,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["FIELDS", "StudyConfig", "Task", "load", "parse"]
+__all__ = ["FIELDS", "MAX_RUNS", "StudyConfig", "Task", "load", "parse"]
 
 #: Simulator fields a study may set, with their kind: float, int, bool, str or bias.
 FIELDS: dict[str, str] = {
@@ -60,6 +67,8 @@ _SET_ELSEWHERE = {"mass": "set it as [study] mass", "k": "give f_n and the mass 
                   "c": "give zeta instead", "seed": "each run's seed is derived from [study] seed"}
 _STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates"}
 _DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
+#: Most runs (scenarios × replicates) one study may have; see the module docstring.
+MAX_RUNS = 100_000
 
 
 @dataclass(frozen=True)
@@ -96,6 +105,16 @@ class StudyConfig:
     source: str = ""
 
     @property
+    def n_scenarios(self) -> int:
+        """Number of scenarios: the product of the grid's list lengths (nothing is built)."""
+        return math.prod(len(v) for v in self.grid.values())
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs (tasks): scenarios × replicates."""
+        return self.n_scenarios * self.replicates
+
+    @property
     def varying(self) -> list[str]:
         """Grid fields with more than one value (they label the scenarios)."""
         return [k for k, v in self.grid.items() if len(v) > 1]
@@ -111,7 +130,9 @@ class StudyConfig:
         return "c" if self.mass is not None else "zeta"
 
     def scenarios(self) -> list[tuple[str, dict[str, Any]]]:
-        """``(scenario id, parameters)`` of the cartesian product of the grid, in grid order."""
+        """``(scenario id, parameters)`` of the cartesian product of the grid, in grid order
+        (refused beyond :data:`MAX_RUNS` runs before anything is built)."""
+        _check_size(self)
         keys = list(self.grid)
         out = []
         for values in itertools.product(*(self.grid[k] for k in keys)):
@@ -232,6 +253,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
 
     cfg = StudyConfig(name.strip(), replicates, seed, estimators, None if mass is None else float(mass),
                       max_rep, norm_grid, norm_fixed, source)
+    _check_size(cfg)
     _check_scenarios(cfg)
     return cfg
 
@@ -314,6 +336,15 @@ def _number(where: str, value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise InputError(f"{where} must be a finite number, got {value!r}")
     return float(value)
+
+
+def _check_size(cfg: StudyConfig) -> None:
+    """Refuse a study of more than :data:`MAX_RUNS` runs, from the list lengths alone."""
+    n = cfg.n_runs
+    if n > MAX_RUNS:
+        raise InputError(f"the study would be {n:,} runs ({cfg.n_scenarios:,} scenarios × "
+                         f"{cfg.replicates:,} replicates), more than the limit of {MAX_RUNS:,}; "
+                         "shorten the [grid] lists or replicates, or split the study")
 
 
 def _check_scenarios(cfg: StudyConfig) -> None:

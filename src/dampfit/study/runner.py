@@ -143,9 +143,9 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
         todo = [t for t in tasks if t.key not in done]
         if not quiet:
             where = scheduler or f"a local cluster of {workers} worker process(es)"
-            print(f"dampfit study {cfg.name!r}: {len(tasks)} runs ({len(cfg.scenarios())} scenarios "
-                  f"x {cfg.replicates} replicates), {len(done)} already stored in {store.root}; "
-                  f"{len(todo)} to run on {where}", file=stderr)
+            print(f"dampfit study: {len(tasks)} runs ({cfg.n_scenarios} scenarios × "
+                  f"{cfg.replicates} replicates) of {cfg.name!r}, {len(done)} already stored in "
+                  f"{store.root}; {len(todo)} to run on {where}", file=stderr)
         failures: list[str] = []
         if todo:
             with _client(workers, scheduler) as client:
