@@ -29,6 +29,10 @@ Formats (``Recording.format``)
     header; ``#`` comment lines). Columns and units come from the header where written
     (``Time (ms)``, ``acc [g]``, ``micros`` …), else from the data (see below), or from the
     options ``time_column``, ``accel_columns``, ``time_unit``, ``accel_unit``.
+``"matlab"``
+    MATLAB ``.mat`` files, v4–v7 and v7.3 (HDF5): one numeric variable, found through structs
+    or named by ``variable="Fe.Out.Acc"``, with a time row, a sibling time vector or sample
+    rate; ``row=`` picks the acceleration row (:mod:`dampfit.matfile`).
 ``"npy"`` / ``"npz"``
     NumPy arrays: ``.npy`` of shape (2, N) / (N, 2) = time, acceleration or (4, N) / (N, 4)
     = time, x, y, z; ``.npz`` with arrays named like ``t``/``time`` and ``a``/``acc``/``x``…
@@ -44,6 +48,19 @@ Unit inference when a unit is neither written nor given
   (peak > 20 or |mean| > 2); otherwise the format's default: m/s² for text tables, g for
   NumPy arrays (raw arrays come from MEMS logging scripts, which report g).
 
+Limits on hostile input
+-----------------------
+Only regular files are read (symlinks are resolved first); FIFOs, devices, sockets and
+directories are refused before they are opened, so a ``/dev/zero`` link or a named pipe can
+neither block nor read forever. Files larger than :data:`MAX_INPUT_BYTES` are refused. ZIP
+members (phyphox ZIP, ``.xlsx``, ``.npz``) are checked from the archive directory *before*
+anything is decompressed: at most :data:`MAX_UNPACKED_BYTES` in total and a compression ratio of
+at most :data:`MAX_ZIP_RATIO` for members over 1 MiB (a zip bomb); ``.npy`` headers are checked
+(declared shape × item size against the data present and the limit, no object arrays or
+pickles) before an array is allocated. Text lines may be at most :data:`MAX_LINE_BYTES` long
+and tables at most :data:`MAX_COLUMNS` wide and :data:`MAX_ROWS` long, checked before parsing. Line endings ``\r\n`` and
+lone ``\r`` (old Mac) are read as ``\n``; UTF-16 text with a byte-order mark is decoded.
+
 Every unusable input raises :class:`~dampfit.errors.InputError` with a one-line message
 that starts with the file name.
 """
@@ -53,7 +70,10 @@ from __future__ import annotations
 import csv
 import hashlib
 import io
+import math
+import os
 import re
+import stat
 import zipfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -62,10 +82,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from . import matfile
 from .errors import InputError
-from .recording import STANDARD_GRAVITY, Recording
+from .recording import STANDARD_GRAVITY, Recording, gap_summary, time_segments
 
-__all__ = ["read", "detect_format"]
+__all__ = ["read", "detect_format", "MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO",
+           "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS"]
 
 Column = str | int
 
@@ -100,10 +122,29 @@ _TYPICAL_RATE = 300.0
 #: Largest |a| that can still be g from a MEMS sensor (full scale ≤ ±16 g) [g].
 _MAX_G = 20.0
 
+# -- limits on hostile input -------------------------------------------------------------
+
+#: Largest input file [bytes] read at all (1 GiB: ~25 million rows of phone CSV).
+MAX_INPUT_BYTES = 1 << 30
+#: Largest total decompressed size [bytes] of the ZIP members read (ZIP, xlsx, npz) and of an
+#: array declared in an .npy header.
+MAX_UNPACKED_BYTES = 1 << 30
+#: Largest compression ratio (uncompressed / compressed) of a ZIP member over 1 MiB; text and
+#: float arrays compress ≤ 20:1, a zip bomb of zeros ≈ 1000:1.
+MAX_ZIP_RATIO = 200.0
+_RATIO_MIN_BYTES = 1 << 20
+#: Longest line [bytes] of a text table (a real row is < 1 KiB).
+MAX_LINE_BYTES = 64 * 1024
+#: Most columns of a text table.
+MAX_COLUMNS = 1000
+#: Most lines of a text table (11 hours at 500 Hz); bounds the parsed table's memory.
+MAX_ROWS = 20_000_000
+_LINE_CHUNK = 1 << 24
+
 # -- file types ------------------------------------------------------------------------
 
 _TEXT_EXTS = {".csv", ".txt", ".tsv", ".dat", ""}
-_SUPPORTED_EXTS = _TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz"}
+_SUPPORTED_EXTS = _TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz", ".mat"}
 _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGICS = (b"PK\x03\x04", b"PK\x05\x06")
 _OLE_MAGIC = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"  # legacy .xls
@@ -142,6 +183,8 @@ def read(
     time_unit: str | None = None,
     accel_unit: str | None = None,
     sheet: str | int | None = None,
+    variable: str | None = None,
+    row: int | None = None,
 ) -> Recording:
     """Read an accelerometer recording.
 
@@ -161,6 +204,11 @@ def read(
         (or ``mg``); default: from the header, else inferred.
     sheet
         Worksheet of an Excel workbook by name or 0-based position.
+    variable
+        MATLAB file: the array to read, a dotted struct path such as ``"Fe.Out.Acc"``;
+        default: detected (:mod:`dampfit.matfile`).
+    row
+        MATLAB file: 0-based row (variable) of that array holding the acceleration.
 
     Returns
     -------
@@ -172,7 +220,7 @@ def read(
     InputError
         One line naming the file and the problem, for every file that cannot be used.
     """
-    opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet)
+    opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable, row)
     p = Path(path)
     try:
         data = _read_bytes(p)
@@ -209,9 +257,14 @@ class _Options:
     time_unit: str | None = None
     accel_unit: str | None = None
     sheet: str | int | None = None
+    variable: str | None = None
+    row: int | None = None
 
     @classmethod
-    def make(cls, time_column, accel_columns, time_unit, accel_unit, sheet) -> _Options:
+    def make(cls, time_column, accel_columns, time_unit, accel_unit, sheet, variable=None,
+             row=None) -> _Options:
+        if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
+            raise InputError(f"row must be a 0-based row number, got {row!r}")
         if accel_columns is not None and isinstance(accel_columns, (str, int)):
             accel_columns = (accel_columns,)
         elif accel_columns is not None:
@@ -224,6 +277,8 @@ class _Options:
             time_unit=None if time_unit is None else _canonical_unit(time_unit, _TIME_ALIASES, "time"),
             accel_unit=None if accel_unit is None else _canonical_unit(accel_unit, _ACCEL_ALIASES, "acceleration"),
             sheet=sheet,
+            variable=variable,
+            row=row,
         )
 
 
@@ -267,20 +322,59 @@ def _located(path: Path, exc: InputError) -> InputError:
     return InputError(f"{path}: {msg}")
 
 
+def _file_kind(mode: int) -> str | None:
+    """What a non-regular file is, e.g. ``"a named pipe (FIFO)"``; None for a regular file."""
+    for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
 def _read_bytes(path: Path) -> bytes:
-    """The file's bytes, after checking it exists, is a file, has a supported type and is not empty."""
-    if path.is_dir():
+    """The file's bytes, after checking it exists, is a regular file (links resolved), has a
+    supported type, is not empty and not larger than :data:`MAX_INPUT_BYTES`.
+
+    The type is checked with ``stat`` before opening, and again on the open descriptor (opened
+    non-blocking, so a FIFO swapped in between cannot block), and at most
+    ``MAX_INPUT_BYTES + 1`` bytes are ever read.
+    """
+    try:
+        info = os.stat(path)  # follows symlinks: the target is what would be read
+    except FileNotFoundError:
+        raise InputError("file not found" + (" (broken link)" if path.is_symlink() else "")) from None
+    except OSError as exc:
+        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
+    kind = _file_kind(info.st_mode)
+    if kind == "a directory":
         raise InputError("is a directory, not a recording file")
-    if not path.exists():
-        raise InputError("file not found")
+    if kind is not None:
+        via = " (via a symbolic link)" if path.is_symlink() else ""
+        raise InputError(f"is {kind}{via}, not a regular file; only regular files are read")
     ext = path.suffix.lower()
     if ext not in _SUPPORTED_EXTS:
         supported = " ".join(sorted(e for e in _SUPPORTED_EXTS if e))
         raise InputError(f"unsupported file type {ext!r}; supported: {supported}")
+    if info.st_size > MAX_INPUT_BYTES:
+        raise InputError(f"is {info.st_size / 2**20:.0f} MiB, larger than the limit of "
+                         f"{MAX_INPUT_BYTES / 2**20:.0f} MiB; split or decimate the recording")
     try:
-        data = path.read_bytes()
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
     except OSError as exc:
         raise InputError(f"cannot be read ({exc.strerror or exc})") from None
+    try:
+        if _file_kind(os.fstat(fd).st_mode) is not None:  # replaced since the stat above
+            raise InputError("is not a regular file; only regular files are read")
+        with os.fdopen(fd, "rb", closefd=False) as fh:
+            data = fh.read(MAX_INPUT_BYTES + 1)
+    except OSError as exc:
+        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
+    finally:
+        os.close(fd)
+    if len(data) > MAX_INPUT_BYTES:
+        raise InputError(f"is larger than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MiB; "
+                         "split or decimate the recording")
     if not data:
         raise InputError("is empty (0 bytes)")
     return data
@@ -289,6 +383,10 @@ def _read_bytes(path: Path) -> bytes:
 def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> _Table:
     """Dispatch on the content (magic bytes), checked against the extension."""
     ext = path.suffix.lower()
+    if ext == ".mat" or matfile.is_mat(data):
+        return _mat_table(data, path.name, opts)
+    if opts.variable is not None or opts.row is not None:
+        raise InputError("--variable and --row apply to MATLAB .mat files only")
     if data.startswith(_NPY_MAGIC):
         return _npy_table(data, path.name)
     if data.startswith(_ZIP_MAGICS):
@@ -300,13 +398,50 @@ def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> _
     return _text_table(_decode(data), path.name, "text", nrows)
 
 
+def _mat_table(data: bytes, name: str, opts: _Options) -> _Table:
+    """One variable of a MATLAB file (:mod:`dampfit.matfile`) as a time + acceleration table."""
+    mat = matfile.load(data, variable=opts.variable, row=opts.row, max_bytes=MAX_UNPACKED_BYTES)
+    return _Table(pd.DataFrame(mat.columns), True, "matlab", name, list(mat.notes))
+
+
+def _longest_line(data: bytes) -> int:
+    """Length [bytes] of the longest line (``\n`` or ``\r`` ends a line), scanned in chunks;
+    stops early once a line exceeds :data:`MAX_LINE_BYTES`."""
+    longest, run = 0, 0  # run: the open line carried over from the previous chunk
+    for start in range(0, len(data), _LINE_CHUNK):
+        chunk = np.frombuffer(data, np.uint8, count=min(_LINE_CHUNK, len(data) - start), offset=start)
+        ends = np.flatnonzero((chunk == 10) | (chunk == 13))
+        if ends.size == 0:
+            run += chunk.size
+        else:
+            inner = int(np.diff(ends).max()) - 1 if ends.size > 1 else 0
+            longest = max(longest, run + int(ends[0]), inner)
+            run = chunk.size - int(ends[-1]) - 1
+        longest = max(longest, run)
+        if longest > MAX_LINE_BYTES:
+            break
+    return longest
+
 # -- text ------------------------------------------------------------------------------
 
 
 def _decode(data: bytes) -> str:
-    """Bytes → text (UTF-8 with or without BOM, else Latin-1); reject binary junk."""
+    """Bytes → text (UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1) with ``\n`` line
+    endings; reject binary junk and lines longer than :data:`MAX_LINE_BYTES` before parsing."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            data = data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError("is neither valid UTF-16 text (despite its byte-order mark) nor a table") from None
     if b"\x00" in data[:65536]:
         raise InputError("is binary, not a text table of time and acceleration")
+    longest = _longest_line(data)
+    if longest > MAX_LINE_BYTES:
+        what = "has no line breaks" if len(data) == longest else "has a line"
+        raise InputError(
+            f"{what} over {MAX_LINE_BYTES // 1024} KiB long ({len(data) / 2**20:.3g} MiB file); "
+            "a table of time and acceleration has one short row per sample"
+        )
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
@@ -315,6 +450,12 @@ def _decode(data: bytes) -> str:
     control = sum(1 for ch in head if (ch < " " and ch not in "\t\r\n") or "\x7f" <= ch <= "\x9f")
     if control > 0.01 * len(head):
         raise InputError("is binary, not a text table of time and acceleration")
+    if "\r" in text:  # Windows \r\n and old-Mac lone \r line endings
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    rows = text.count("\n")
+    if rows > MAX_ROWS:
+        raise InputError(f"has {rows} lines, more than the limit of {MAX_ROWS}; split or decimate "
+                         "the recording")
     return text
 
 
@@ -392,6 +533,10 @@ def _sniff(text: str) -> _Dialect:
         tokens = (tok.strip().strip('"') for line in data_lines for tok in _split(line, sep))
         if any(_DECIMAL_COMMA.match(tok) for tok in tokens):
             decimal = ","
+    width = max(len(_split(line, sep)) for line in lines)
+    if width > MAX_COLUMNS:
+        raise InputError(f"has {width} columns (more than {MAX_COLUMNS}); expected a table of "
+                         "time and acceleration")
     header = not all(_is_number(tok, decimal) for tok in _split(lines[0], sep))
     numeric_rows = [all(_is_number(t, decimal) for t in _split(line, sep)) for line in lines[header:]]
     if not any(numeric_rows):
@@ -444,16 +589,37 @@ def _container_table(data: bytes, name: str, ext: str, opts: _Options, nrows: in
     """A ZIP-based file: an xlsx workbook, an .npz archive or a phyphox/Sensor Logger ZIP."""
     try:
         with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            _check_zip(zf)
             members = zf.namelist()
             if "[Content_Types].xml" in members and any(m.startswith("xl/") for m in members):
                 return _xlsx_table(data, opts, nrows)
             if ext == ".npz" or (members and all(m.endswith(".npy") for m in members)):
-                return _npz_table(data, name)
+                return _npz_table(data, name, zf)
             return _zip_table(zf, nrows)
     except (zipfile.BadZipFile, zipfile.LargeZipFile, EOFError):
         raise InputError(f"is not a valid {ext or 'zip'} archive (corrupt or truncated); export it again") from None
     except (NotImplementedError, RuntimeError) as exc:  # unsupported compression, encryption
         raise InputError(f"cannot be unpacked ({' '.join(str(exc).split())}); export it again without a password") from None
+
+
+def _check_zip(zf: zipfile.ZipFile) -> None:
+    """Refuse a zip bomb from the archive directory, before anything is decompressed: more
+    than :data:`MAX_UNPACKED_BYTES` in total, or a member over 1 MiB compressed more than
+    :data:`MAX_ZIP_RATIO`:1. (``zipfile`` never returns more than a member's declared size.)"""
+    infos = zf.infolist()
+    total = sum(i.file_size for i in infos)
+    if total > MAX_UNPACKED_BYTES:
+        raise InputError(
+            f"would unpack to {total / 2**20:.0f} MiB, more than the limit of "
+            f"{MAX_UNPACKED_BYTES / 2**20:.0f} MiB (a zip bomb?); refused before unpacking"
+        )
+    for info in infos:
+        ratio = info.file_size / max(info.compress_size, 1)
+        if info.file_size > _RATIO_MIN_BYTES and ratio > MAX_ZIP_RATIO:
+            raise InputError(
+                f"member {info.filename!r} would unpack {ratio:.0f}:1 to {info.file_size / 2**20:.0f} MiB "
+                f"(more than {MAX_ZIP_RATIO:.0f}:1: a zip bomb?); refused before unpacking"
+            )
 
 
 def _zip_table(zf: zipfile.ZipFile, nrows: int | None) -> _Table:
@@ -592,6 +758,38 @@ def _load_numpy(data: bytes, what: str):
         raise InputError(f"is not a readable {what} file ({' '.join(str(exc).split())})") from None
 
 
+def _check_npy_header(fp, size: int, what: str) -> None:
+    """Check an .npy header at ``fp`` before any array is allocated.
+
+    ``size`` [bytes] is the whole .npy (header + data). Refuses object arrays (pickles) and a
+    declared shape × item size beyond the bytes present or :data:`MAX_UNPACKED_BYTES`.
+    """
+    from numpy.lib import format as npformat
+
+    try:
+        version = npformat.read_magic(fp)
+        if version == (1, 0):
+            shape, _, dtype = npformat.read_array_header_1_0(fp)
+        elif version == (2, 0):
+            shape, _, dtype = npformat.read_array_header_2_0(fp)
+        else:
+            shape, _, dtype = npformat._read_array_header(fp, version)
+    except (ValueError, TypeError, SyntaxError, OSError, EOFError) as exc:
+        raise InputError(f"{what} has an unreadable .npy header ({' '.join(str(exc).split())})") from None
+    if dtype.hasobject:
+        raise InputError(f"is not a readable {'.npz' if what.startswith('array ') else '.npy'} file: "
+                         f"{what} holds Python objects (pickled data), which are never loaded; "
+                         "save plain numeric arrays")
+    declared = math.prod(int(d) for d in shape) * dtype.itemsize
+    present = size - fp.tell()
+    if declared > MAX_UNPACKED_BYTES:
+        raise InputError(f"{what} declares shape {tuple(shape)} = {declared / 2**20:.3g} MiB, more than "
+                         f"the limit of {MAX_UNPACKED_BYTES / 2**20:.0f} MiB; refused before loading")
+    if declared > present:
+        raise InputError(f"{what} declares shape {tuple(shape)} ({declared} bytes) but holds only "
+                         f"{max(present, 0)} bytes of data (corrupt or truncated)")
+
+
 def _numeric_array(arr: np.ndarray, what: str) -> np.ndarray:
     if arr.dtype.kind not in "iuf":
         raise InputError(f"{what} has dtype {arr.dtype}; expected numbers")
@@ -617,6 +815,7 @@ def _array_columns(rows: np.ndarray) -> list[str]:
 
 def _npy_table(data: bytes, name: str) -> _Table:
     """An .npy array of shape (k, N) or (N, k): time, then acceleration."""
+    _check_npy_header(io.BytesIO(data), len(data), "the array")
     arr = _numeric_array(_load_numpy(data, ".npy"), "the array")
     rows = _variables_first(arr, "the array")
     columns = _array_columns(rows)
@@ -625,8 +824,12 @@ def _npy_table(data: bytes, name: str) -> _Table:
     return _Table(frame, True, "npy", name, notes)
 
 
-def _npz_table(data: bytes, name: str) -> _Table:
+def _npz_table(data: bytes, name: str, zf: zipfile.ZipFile) -> _Table:
     """An .npz archive: named arrays (t/time, a/acc/x/y/z…) or the first two arrays."""
+    for info in zf.infolist():  # every header checked before np.load allocates an array
+        if info.filename.endswith(".npy"):
+            with zf.open(info) as fp:
+                _check_npy_header(fp, info.file_size, f"array {info.filename[:-4]!r}")
     with _load_numpy(data, ".npz") as npz:
         try:
             loaded = {key: npz[key] for key in npz.files}
@@ -812,7 +1015,7 @@ def _generic_layout(cols: list, table: _Table) -> _Layout:
 
 
 def _format_name(source: str, kind: str) -> str:
-    if source in ("npy", "npz"):
+    if source in ("npy", "npz", "matlab"):
         return source
     if kind == "phyphox":
         return {"text": "phyphox-csv", "zip": "phyphox-zip", "xlsx": "phyphox-xlsx"}[source]
@@ -947,8 +1150,9 @@ def _infer_accel_unit(block: np.ndarray, default: str) -> tuple[str, str]:
     )
 
 
-def _time_axis(table: _Table, layout: _Layout, col: Column, opts: _Options) -> tuple[np.ndarray, list[str]]:
-    """Time [s] of column ``col`` and notes on its unit."""
+def _time_axis(table: _Table, layout: _Layout, col: Column, opts: _Options) -> tuple[np.ndarray, list[str], str, str]:
+    """Time [s] of column ``col``, notes on its unit, the unit and where it came from
+    (``given``, ``header``, ``format`` or ``inferred``)."""
     raw = _values(table, col)
     if opts.time_unit is not None:
         unit, source = opts.time_unit, "as given"
@@ -958,9 +1162,10 @@ def _time_axis(table: _Table, layout: _Layout, col: Column, opts: _Options) -> t
         unit, source = layout.units[col], "format default"
     else:
         unit, note = _infer_time_unit(raw[np.isfinite(raw)] if raw.dtype.kind == "f" else raw)
-        return _to_seconds(raw, unit), [note]
+        return _to_seconds(raw, unit), [note], unit, "inferred"
     notes = [f"time converted from {_TIME_LABELS[unit]} to s ({source})"] if unit != "s" else []
-    return _to_seconds(raw, unit), notes
+    origin = {"as given": "given", "from the header": "header", "format default": "format"}[source]
+    return _to_seconds(raw, unit), notes, unit, origin
 
 
 def _accel_block(table: _Table, layout: _Layout, cols: list[Column], opts: _Options) -> tuple[np.ndarray, list[str]]:
@@ -1004,11 +1209,14 @@ def _to_recording(table: _Table, opts: _Options, path: Path, sha256: str) -> Rec
     if set(axes) <= {"x", "y", "z"}:
         order = sorted(range(len(axes)), key=lambda i: axes[i])
         axes, accel_cols = [axes[i] for i in order], [accel_cols[i] for i in order]
-    time, time_notes = _time_axis(table, layout, time_col, opts)
+    time, time_notes, time_unit, time_source = _time_axis(table, layout, time_col, opts)
     accel, accel_notes = _accel_block(table, layout, accel_cols, opts)
     notes = list(table.notes) + list(layout.notes)
     if layout.kind == "generic" and table.header:
         notes.append(f"time from column {str(time_col)!r}; acceleration from {', '.join(repr(str(c)) for c in accel_cols)}")
+    segments = time_segments(time)
+    if len(segments) > 1:
+        time_notes.append(gap_summary(time, segments))
     return Recording(
         time=time,
         accel=accel,
@@ -1018,4 +1226,6 @@ def _to_recording(table: _Table, opts: _Options, path: Path, sha256: str) -> Rec
         gravity_removed=layout.gravity_removed,
         notes=tuple(notes + time_notes + accel_notes),
         sha256=sha256,
+        time_unit=time_unit,
+        time_unit_source=time_source,
     )

@@ -6,7 +6,13 @@ stage may rely on its invariants:
 * ``time`` is float64 [s], finite and strictly increasing (irregular spacing is allowed:
   phone timestamps jitter and have gaps);
 * ``accel`` is float64 [m/s²], finite, shape ``(n_samples, n_axes)``;
-* at least :data:`MIN_SAMPLES` samples.
+* at least :data:`MIN_SAMPLES` samples;
+* |acceleration| ≤ :data:`MAX_ACCEL` (a larger value is a wrong column, unit or a corrupt cell).
+
+The time stamps may have gaps: :func:`time_segments` splits them where a gap is far larger than
+the typical step (a dropout of many seconds, a clock jump or one corrupt time stamp), and the
+analysis uses one continuous segment (:func:`dampfit.preprocess.prepare`); the recording itself
+keeps every sample. :meth:`Recording.time_unit_hint` names a likely time-unit mix-up.
 
 Anything else is an :class:`~dampfit.errors.InputError` with a one-line message.
 """
@@ -19,12 +25,25 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["Recording", "MIN_SAMPLES", "STANDARD_GRAVITY"]
+__all__ = ["Recording", "MIN_SAMPLES", "STANDARD_GRAVITY", "MAX_ACCEL", "time_segments",
+           "gap_summary", "GAP_FACTOR", "MIN_GAP_S", "PLAUSIBLE_RATE_HZ"]
 
 #: Fewest samples a recording may have to be analysed at all.
 MIN_SAMPLES = 16
 #: Standard gravity [m/s²] (CGPM 1901), used to convert g to m/s².
 STANDARD_GRAVITY = 9.80665
+#: Largest |acceleration| [m/s²] accepted (≈ 100 000 g, beyond any shock accelerometer).
+MAX_ACCEL = 1e6
+#: A time step larger than GAP_FACTOR × the median step *and* MIN_GAP_S [s] splits the record
+#: into separate continuous segments. Ordinary phone dropouts (a few to a few hundred median
+#: steps, well under a second) stay inside one segment and are bridged by interpolation.
+GAP_FACTOR = 50.0
+MIN_GAP_S = 1.0
+#: Sample rates [Hz] a vibration recording plausibly has; outside them the time unit is suspect.
+PLAUSIBLE_RATE_HZ = (1.0, 1e5)
+_UNIT_SECONDS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+_UNIT_WORDS = {"s": "seconds", "ms": "milliseconds", "us": "microseconds", "ns": "nanoseconds"}
+_UNIT_HEADER = {"s": "(s)", "ms": "(ms)", "us": "(µs)", "ns": "(ns)"}
 
 
 @dataclass(frozen=True)
@@ -50,6 +69,11 @@ class Recording:
         What the reader did to the data (unit conversions, dropped columns, …).
     sha256 : str or None
         SHA-256 of the input file, for provenance.
+    time_unit : str or None
+        Unit the time column was read in (``s``, ``ms``, ``us``, ``ns``), None if not from a file.
+    time_unit_source : str or None
+        Where that unit came from: ``"given"`` (option), ``"header"``, ``"format"`` (the
+        format's fixed unit) or ``"inferred"`` (from the step size).
     """
 
     time: np.ndarray
@@ -60,6 +84,8 @@ class Recording:
     gravity_removed: bool | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
     sha256: str | None = None
+    time_unit: str | None = None
+    time_unit_source: str | None = None
 
     def __post_init__(self) -> None:
         t, a = _coerce(self.time, self.accel, len(self.axes))
@@ -89,6 +115,42 @@ class Recording:
         """Coefficient of variation of the sample interval [1]."""
         dt = np.diff(self.time)
         return float(np.std(dt) / np.mean(dt))
+
+    def time_unit_hint(self) -> str | None:
+        """One sentence naming a likely time-unit mix-up, or None if the time looks plausible.
+
+        Suspicious: a median sample rate outside :data:`PLAUSIBLE_RATE_HZ` (e.g. milliseconds
+        read as seconds: a 100 Hz phone looks like 0.1 Hz), or ≥ 10 kHz from a unit other than
+        seconds written in a header (seconds under a ``(ms)`` header). The hint names the unit
+        that gives a rate nearest a typical 300 Hz and the ``--time-unit`` option to use.
+        """
+        steps = np.diff(self.time)
+        step = float(np.median(steps))  # [s]
+        rate = 1.0 / step
+        unit = self.time_unit or "s"
+        lo, hi = PLAUSIBLE_RATE_HZ
+        too_fast_for_unit = (rate >= 1e4 and unit != "s"
+                             and self.time_unit_source in ("header", "format"))
+        if lo <= rate <= hi and not too_fast_for_unit:
+            return None
+        raw_step = step / _UNIT_SECONDS[unit]  # the median step in the file's own numbers
+        options = {u: 1.0 / (raw_step * f) for u, f in _UNIT_SECONDS.items() if u != unit}
+        plausible = {u: r for u, r in options.items() if lo <= r <= hi}
+        if too_fast_for_unit:  # only a larger unit can fix a rate that is too high
+            plausible = {u: r for u, r in plausible.items()
+                         if _UNIT_SECONDS[u] > _UNIT_SECONDS[unit]}
+        where = {"header": f"under a '{_UNIT_HEADER[unit]}' header",
+                 "format": f"in a format whose time is in {_UNIT_WORDS[unit]}",
+                 "given": f"with --time-unit {unit}",
+                 "inferred": f"read as {_UNIT_WORDS[unit]}"}.get(self.time_unit_source or "",
+                                                                   f"in {_UNIT_WORDS[unit]}")
+        fact = f"median time step {raw_step:.3g} {unit} = {rate:.3g} Hz sample rate"
+        if not plausible:
+            return (f"the time looks wrong ({fact}, outside {lo:g} Hz–{hi / 1e3:g} kHz); "
+                    "check the time column and unit")
+        best = min(plausible, key=lambda u: abs(np.log10(plausible[u] / 300.0)))
+        return (f"time looks like {_UNIT_WORDS[best]} {where} ({fact}; as {_UNIT_WORDS[best]} "
+                f"{plausible[best]:.4g} Hz); use --time-unit {best}")
 
     def axis(self, name: str) -> np.ndarray:
         """The acceleration [m/s²] of one axis by name."""
@@ -134,6 +196,13 @@ def _coerce(time, accel, n_axes: int) -> tuple[np.ndarray, np.ndarray]:
         raise InputError(
             f"acceleration has {int(bad_a.sum())} missing or non-finite values (first at sample {row})"
         )
+    big = np.abs(a) > MAX_ACCEL
+    if big.any():
+        row = int(np.argmax(big.any(axis=1)))
+        raise InputError(
+            f"acceleration of {float(np.abs(a).max()):.3g} m/s² (first at sample {row}) is not "
+            f"physical (> {MAX_ACCEL:g} m/s²); check the acceleration column and unit"
+        )
     dt = np.diff(t)
     if (dt == 0).any():
         i = int(np.argmax(dt == 0))
@@ -147,3 +216,31 @@ def _coerce(time, accel, n_axes: int) -> tuple[np.ndarray, np.ndarray]:
             "time stamps must increase"
         )
     return t, a
+
+
+def time_segments(time: np.ndarray) -> list[tuple[int, int]]:
+    """Continuous parts of strictly increasing ``time`` [s]: ``[(start, stop), …]`` index ranges.
+
+    A step larger than both ``GAP_FACTOR`` × the median step and ``MIN_GAP_S`` ends a segment
+    (a long dropout, a clock jump or a corrupt time stamp); one segment means no such gap.
+    """
+    t = np.asarray(time, dtype=np.float64)
+    if t.size < 2:
+        return [(0, int(t.size))]
+    dt = np.diff(t)
+    limit = max(GAP_FACTOR * float(np.median(dt)), MIN_GAP_S)
+    cuts = np.flatnonzero(dt > limit) + 1
+    bounds = [0, *cuts.tolist(), int(t.size)]
+    return list(zip(bounds[:-1], bounds[1:]))
+
+
+def gap_summary(time: np.ndarray, segments: list[tuple[int, int]]) -> str:
+    """One sentence on the gaps between ``segments`` of ``time`` [s] (see :func:`time_segments`)."""
+    t = np.asarray(time, dtype=np.float64)
+    gaps = [(t[a - 1], t[a]) for a, _ in segments[1:]]
+    widest = max(gaps, key=lambda g: g[1] - g[0])
+    step = float(np.median(np.diff(t)))
+    more = f" and {len(gaps) - 1} more" if len(gaps) > 1 else ""
+    return (f"time stamps jump by {widest[1] - widest[0]:.4g} s after t = {widest[0]:.6g} s{more} "
+            f"(> {GAP_FACTOR:g}× the median step {step:.3g} s and > {MIN_GAP_S:g} s: a long "
+            f"dropout, clock jump or corrupt time stamp); {len(segments)} continuous segments")
