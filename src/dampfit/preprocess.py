@@ -7,9 +7,14 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    repeat exactly on every axis, the repeats are dropped: their true sample time is unknown.
 2. **Offset / gravity** — the per-axis median is subtracted (gravity or bias); the slow drift
    that remains is modelled later as nuisance terms (:func:`dampfit.model.drift_basis`).
-3. **Uniform grid** — irregular phone timestamps are interpolated (cubic) onto a uniform grid at
-   the median rate, for the spectrum, filters and window detection only. The model itself is
-   fitted at the *recorded* sample times when no decimation is needed.
+3. **Continuous part and uniform grid** — a time step far larger than the typical one
+   (:func:`dampfit.recording.time_segments`: > 50× the median step and > 1 s; a long dropout,
+   clock jump or corrupt time stamp) splits the record; the longest continuous part is analysed
+   (with ``window``: the part holding it; a window across such a gap is an error), with a
+   warning. Irregular phone timestamps within it are interpolated (cubic) onto a uniform grid at
+   the median rate, for the spectrum, filters and window detection only; the grid never has
+   more than ``GRID_FACTOR`` × the samples (memory follows the samples, not the time span).
+   The model itself is fitted at the *recorded* sample times when no decimation is needed.
 4. **Axis** — ``x|y|z`` picks a column; ``auto`` projects the axes on the first principal
    direction of the band-passed signal (the oscillation direction, whatever the tilt).
 5. **Clipping and impact spikes** — samples at a saturated level and isolated spikes
@@ -19,7 +24,9 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
 7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
    the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
-   or rises again (a catch), overridable.
+   or rises again (a catch), before an impact spike 10× the oscillation, or before an abrupt
+   envelope drop (a catch, rattle or contact: :func:`envelope_drops`), overridable; a
+   user's window that contains such a drop is kept, with a warning.
 9. **Fit samples** — if the rate is far above what the band needs, a zero-phase low-pass at the
    band's upper edge and decimation to ≈2.5× that edge (near-white samples); otherwise the raw
    samples in the window.
@@ -35,7 +42,7 @@ from scipy import interpolate, ndimage, signal
 
 from . import filters, model
 from .errors import InputError
-from .recording import Recording
+from .recording import MIN_SAMPLES, Recording, gap_summary, time_segments
 
 __all__ = ["Prepared", "FitData", "prepare", "fit_data", "dominant_frequency", "auto_band"]
 
@@ -49,6 +56,10 @@ BAND_FACTOR = 1.5
 MIN_CYCLES = 3.0
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
+#: Abrupt envelope drops (catch, rattle, contact; :func:`envelope_drops`): the span [periods]
+#: over which a drop is measured, the running-median span of the decay trend [periods], the
+#: excess loss factor that ends the window, and the envelope-to-noise-floor ratio needed.
+DROP_PERIODS, DROP_TREND_PERIODS, DROP_FACTOR, DROP_MIN_SNR = 2.0, 15.0, 2.0, 20.0
 #: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
 RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
@@ -61,6 +72,9 @@ SETTLE_PERIODS = 3.0
 LONG_GAP = 0.1
 #: Samples the decimated path aims to keep at least (fewer only if the raw window has fewer).
 TARGET_DECIMATED = 400
+#: The uniform grid may have at most this many points per recorded sample (plus a few): more
+#: means the time stamps are far sparser than their median step (a gap or a unit error).
+GRID_FACTOR = 4
 
 
 @dataclass(frozen=True)
@@ -176,11 +190,62 @@ def _to_grid(
     """Cubic interpolation of ``y`` (n, …) at times ``t`` [s] onto a uniform grid at ``fs`` [Hz]."""
     if grid is None:
         n = int(np.floor((t[-1] - t[0]) * fs)) + 1
+        if n > GRID_FACTOR * len(t) + 64:
+            raise InputError(
+                f"the time stamps are too sparse for their median step: {len(t)} samples over "
+                f"{t[-1] - t[0]:.4g} s at {fs:.4g} Hz would need a grid of {n} points "
+                f"(> {GRID_FACTOR}× the samples); check the time column and unit"
+            )
         grid = t[0] + np.arange(n) / fs
         grid = grid[grid <= t[-1]]
     spline = interpolate.make_interp_spline(t, y, k=3, axis=0) if len(t) > 3 else None
     yg = spline(grid) if spline is not None else np.interp(grid, t, y)
     return grid, yg
+
+
+def _unit_hint(rec: Recording) -> str:
+    """``"; <hint>"`` naming a likely time-unit mix-up (:meth:`Recording.time_unit_hint`), or ""."""
+    hint = rec.time_unit_hint()
+    return f"; {hint}" if hint else ""
+
+
+def _continuous_part(
+    rec: Recording, window: tuple[float, float] | None
+) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
+    """Time [s], acceleration [m/s²], notes and warnings of the continuous part to analyse.
+
+    The recording is split at gaps (:func:`dampfit.recording.time_segments`); the part with
+    the most samples is used, or with ``window`` = (start, end) [s] the part holding it. A
+    window reaching across a gap or into one is an :class:`InputError` (a fit across a gap of
+    unknown length would be wrong, and silently cutting the user's window would hide it).
+    """
+    t, a = rec.time, rec.accel
+    segments = time_segments(t)
+    if len(segments) == 1:
+        return t, a, [], []
+    spans = ", ".join(f"{t[i]:.6g}–{t[j - 1]:.6g} s" for i, j in segments[:6])
+    spans += ", …" if len(segments) > 6 else ""
+    if window is None:
+        i, j = max(segments, key=lambda seg: seg[1] - seg[0])
+    else:
+        w0, w1 = float(window[0]), float(window[1])
+        inside = [(i, j) for i, j in segments if t[i] <= w0 and w1 <= t[j - 1]]
+        if not inside:
+            raise InputError(
+                f"window {w0:g}–{w1:g} s is not inside one continuous part of the recording: the "
+                f"time stamps have gaps ({gap_summary(t, segments)}); continuous parts: {spans}"
+            )
+        i, j = inside[0]
+    if j - i < MIN_SAMPLES:
+        raise InputError(
+            f"the longest continuous part of the recording has only {j - i} samples "
+            f"({gap_summary(t, segments)}); check the time column"
+        )
+    used = (f"only the continuous part {t[i]:.6g}–{t[j - 1]:.6g} s ({j - i} of {t.size} samples) "
+            "is analysed")
+    note = f"{gap_summary(t, segments)}; {used}; continuous parts: {spans}"
+    warning = f"{gap_summary(t, segments)}; {used}; give --window to analyse another part"
+    return t[i:j], a[i:j], [note], [warning]
 
 
 def _parabolic_peak(y: np.ndarray, i: int) -> float:
@@ -345,6 +410,47 @@ def _running_median(x: np.ndarray, width: int) -> np.ndarray:
     return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
 
 
+def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
+                   i0: int, i1: int) -> list[tuple[float, float]]:
+    """Abrupt envelope drops between grid indices ``i0`` and ``i1``: [(time [s], factor [1])].
+
+    A free decay loses amplitude smoothly: over ``DROP_PERIODS`` periods the log envelope
+    falls by 2π·ζ·``DROP_PERIODS`` (viscous) or by a slowly varying amount (any other smooth
+    law). A catch, rattle or contact takes energy out within a cycle. The drop over
+    ``DROP_PERIODS`` periods, d(t) = ln ē(t + D/2) − ln ē(t − D/2) (ē: the Hilbert envelope
+    averaged over one period), is compared with its running median over ``DROP_TREND_PERIODS``
+    periods (the decay trend, whatever the law); an excess loss of more than ``DROP_FACTOR``
+    (a factor, not a difference) where the envelope stands ≥ ``DROP_MIN_SNR`` × the noise
+    floor before the drop is reported, at the time of the steepest excess.
+    """
+    fs = 1.0 / (grid[1] - grid[0])
+    per = max(1, int(round(fs / f0)))
+    half = max(1, int(round(DROP_PERIODS * per / 2)))
+    lo, hi = max(i0, half), min(i1, len(env) - half - 1)
+    if hi - lo < 4 * per:
+        return []
+    sm = np.log(np.maximum(ndimage.uniform_filter1d(env, per), 1e-300))
+    idx = np.arange(lo, hi)
+    d = sm[idx + half] - sm[idx - half]
+    trend = _running_median(d, int(DROP_TREND_PERIODS * per))
+    excess = trend - d  # > 0: more loss than the trend
+    strong = env[np.maximum(idx - 2 * half, 0)] > DROP_MIN_SNR * floor
+    hits = (excess > np.log(DROP_FACTOR)) & strong
+    out = []
+    j = 0
+    while j < idx.size:
+        if hits[j]:
+            k = j
+            while k < idx.size and hits[k]:
+                k += 1
+            m = j + int(np.argmax(excess[j:k]))
+            out.append((float(grid[idx[m]]), float(np.exp(excess[m]))))
+            j = k + 2 * half
+        else:
+            j += 1
+    return out
+
+
 def _detect_window(
     grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
 ) -> tuple[float, float, list[str]]:
@@ -377,6 +483,13 @@ def _detect_window(
         if i_rise < i_end:
             i_end = i_rise
             notes.append("window ends before the envelope rises again (catch or new excitation)")
+    drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
+    if drops:
+        tc, factor = drops[0]
+        i_end = max(int(np.searchsorted(grid, tc)) - per, i_pk)
+        notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
+                     f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
+                     "catch, rattle or contact)")
     ev_t, ev_a = events
     after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
     for tc, ratio in zip(ev_t[after], ev_a[after]):
@@ -402,9 +515,7 @@ def prepare(
     ``axis`` is ``"auto"`` or an axis name of the recording; ``window`` = (start, end) [s] and
     ``band`` = (low, high) [Hz] override the automatic choices.
     """
-    notes: list[str] = []
-    warnings: list[str] = []
-    t, a = rec.time, rec.accel
+    t, a, notes, warnings = _continuous_part(rec, window)
     clipped = _clipped(a)  # before dropping repeats: a saturated run repeats exactly
     stale = _stale_mask(a)
     n_stale = 0
@@ -433,13 +544,20 @@ def prepare(
         filters.bandpass_sos((lo, hi), fs)  # validates the band against Nyquist
         fmin, fmax = lo, hi
     if fmin >= fmax:
+        hint = rec.time_unit_hint()
+        if hint:  # not too short: the time unit is wrong
+            raise InputError(f"{hint}; as read, the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) "
+                             "cannot hold an oscillation")
         raise InputError(
             f"the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) is too short to hold an oscillation"
         )
 
     # dominant frequency on the axis with the strongest peak, then the axis, then refine
     detr = signal.detrend(graw, axis=0)
-    f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
+    try:
+        f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
+    except InputError as exc:
+        raise InputError(f"{exc}{_unit_hint(rec)}") from None
     bnd = (float(band[0]), float(band[1])) if band is not None else auto_band(f0, fs)
     if axis == "auto":
         if graw.shape[1] == 1:
@@ -501,11 +619,17 @@ def prepare(
                 f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
             )
         window_auto = False
+        i0, i1 = np.searchsorted(grid, [w0, w1])
+        for tc, factor in envelope_drops(grid, env, f0, floor, int(i0), int(i1)):
+            warnings.append(f"the window {w0:g}–{w1:g} s contains an abrupt envelope drop at "
+                            f"{tc:.2f} s ({factor:.1f}x more loss than the decay trend within "
+                            f"{DROP_PERIODS:g} cycles: a catch, rattle or contact); the damping "
+                            "estimate mixes two regimes")
     if window_auto and (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
             f"no free decay found: the strongest oscillation ({f0:.3g} Hz) lasts only "
             f"{(w1 - w0) * f0:.1f} cycles after its peak in this {t[-1] - t[0]:.3g} s recording "
-            "(too short?); give --window START END if a decay is there"
+            f"(too short?); give --window START END if a decay is there{_unit_hint(rec)}"
         )
     if (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
