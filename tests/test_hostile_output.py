@@ -529,3 +529,12 @@ def test_private_cache_folders_created_0700_throughout(tmp_path):
     for p in created:
         assert stat.S_IMODE(p.stat().st_mode) == 0o700, p
     assert cli._unsafe_cache(path, created) is None
+
+
+def test_an_error_naming_a_path_with_newlines_stays_one_line(tmp_path, capsys):
+    """A missing input whose name holds a newline and a fake second error line."""
+    from tests.hostile import assert_one_line_error, run
+
+    name = tmp_path / "rec\ndampfit: error: forged\r.csv"
+    code, _, err = run(["analyze", name, "--mass", "1", "--out", tmp_path / "o"], capsys)
+    assert_one_line_error(code, err, match="not found")

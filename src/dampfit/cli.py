@@ -117,17 +117,21 @@ def get_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
     a = sub.add_parser("analyze", help="analyse a recording: summary.json, posterior.nc, figures")
-    a.add_argument("file", help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ")
+    a.add_argument("file", help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ, MATLAB .mat")
     _analysis_options(a)
     a.add_argument("--out", metavar="DIR", help="output directory (default: FILE's name + '.dampfit')")
     a.add_argument("--force", action="store_true",
                    help="replace an existing output directory that dampfit wrote")
-    g = a.add_argument_group("reading (generic CSV/NPY)")
+    g = a.add_argument_group("reading (generic CSV/NPY, MATLAB)")
     g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
     g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
     g.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column")
     g.add_argument("--accel-unit", choices=["m/s2", "g"], help="unit of the acceleration")
     g.add_argument("--sheet", help="Excel sheet name")
+    g.add_argument("--variable", metavar="PATH",
+                   help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
+    g.add_argument("--row", type=_integer(0, 1023), metavar="N",
+                   help="MATLAB .mat: 0-based row of that array holding the acceleration")
 
     s = sub.add_parser("simulate", help="write a synthetic phyphox CSV with known truth")
     s.add_argument("--preset", default="paper", help="starting configuration: paper | phone")
@@ -310,7 +314,8 @@ def _cmd_analyze(args) -> int:
     _check_analysis_options(args)
     out = Path(args.out) if args.out else Path(Path(args.file).name + ".dampfit")
     opts = {k: getattr(args, k) for k in ("time_column", "accel_columns", "time_unit",
-                                           "accel_unit", "sheet") if getattr(args, k)}
+                                           "accel_unit", "sheet", "variable", "row")
+            if getattr(args, k) is not None}
     with _result_folder(out, "analyze", args.force, inputs=[args.file]) as folder:
         rec = read(args.file, **opts)
         an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
@@ -535,7 +540,7 @@ def _main(argv: Sequence[str] | None) -> int:
         module = {name: mod for name, _, mod in _EXTERNAL}[args.command]
         return _load(module).command(args)
     except DampfitError as exc:
-        print(f"dampfit: error: {exc}", file=sys.stderr)
+        print(f"dampfit: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
@@ -544,9 +549,15 @@ def _main(argv: Sequence[str] | None) -> int:
     except Exception as exc:  # noqa: BLE001 - the last line of defence
         if os.environ.get("DAMPFIT_DEBUG"):
             traceback.print_exc()
-        print(f"dampfit: internal error: {type(exc).__name__}: {exc} "
+        print(f"dampfit: internal error: {type(exc).__name__}: {_one_line(exc)} "
               "(please report it; set DAMPFIT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 1
+
+
+def _one_line(exc: BaseException) -> str:
+    """The message of ``exc`` on one line: a path or value holding newlines or control
+    characters (a hostile folder name) cannot add lines to the one-line error contract."""
+    return "".join(ch if ch.isprintable() else " " for ch in " ".join(str(exc).split()))
 
 
 def run() -> None:
