@@ -410,6 +410,11 @@ def _methods(s: dict, directory: Path) -> list[Block]:
         if not _isnum(f_n) and _isnum(b.get("f_d")) and _isnum(z) and 0 <= z < 1:
             f_n = b["f_d"] / math.sqrt(1.0 - z * z)
         note = f"over {b['n_cycles']} cycles; " if _isnum(b.get("n_cycles")) else ""
+        if b.get("supported") is False and _isnum(b.get("n_cycles_used")) and _isnum(b.get("n_cycles_window")):
+            note += (f"only {b['n_cycles_used']:.3g} of {b['n_cycles_window']:.3g} cycles — not reliable"
+                     f" ({b.get('support_reason') or 'too little support'}); ")
+        if b.get("agrees_with_posterior") is False:
+            note += str(b.get("note") or "disagrees with the posterior beyond its expected spread") + "; "
         rows.append([label, _num(b.get("c")), _num(z), _num(f_n), _num(b.get("p")),
                      note + "f_n = f_d/√(1−ζ²)" if not _isnum(b.get("f_n")) else note.rstrip("; ")])
     truth = _truth(s, directory)
