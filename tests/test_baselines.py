@@ -192,7 +192,9 @@ def test_summary_is_json_safe(method, mass):
     t, a = _window(f_d, zeta, fs, duration)
     r = METHODS[method](t, a, fs, band, mass=mass)
     s = r.summary()
-    assert set(s) == {"method", "p", "zeta", "delta", "f_d", "c", "k", "n_cycles"}
+    assert set(s) == {"method", "p", "zeta", "delta", "f_d", "c", "k", "n_cycles",
+                      "n_cycles_used", "n_cycles_window", "supported", "support_reason",
+                      "expected_rel_sd"}
     back = json.loads(json.dumps(s, allow_nan=False))
     assert back == s
     for key in ("p", "zeta", "delta", "f_d"):

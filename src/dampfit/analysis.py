@@ -7,10 +7,10 @@ Fixed pipeline (each stage its own module):
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import platform
+import time
 import warnings as _warnings
 from datetime import datetime, timezone
 from dataclasses import dataclass, field
@@ -34,7 +34,7 @@ PARAMETER_UNITS = {
     "p": "1/s", "f_d": "Hz", "delta": "1", "Q": "1", "c_crit": "N s/m",
 }
 #: A PSD ratio r above this many times its white-noise value signals residual structure.
-R_WARN = 3.0
+R_WARN = noise.R_WARN
 #: A free decay must explain at least this fraction of the window's variance beyond the drift
 #: (a real decay explains ≈ 1 − 1/SNR; random hand motion or noise far less).
 MIN_EXPLAINED = 0.5
@@ -136,8 +136,7 @@ class Analysis:
             "parameters": params,
             "missing": missing,
             "least_squares": lsd,
-            "baselines": {k: (v.summary() if v is not None else None)
-                          for k, v in self.baselines.items()},
+            "baselines": _baselines_summary(self.baselines, params.get("p")),
             "noise_model": self.noise.summary(),
             "crlb": self.crlb,
             **self._damping_summary(),
@@ -172,6 +171,11 @@ class Analysis:
         out = dict(self.damping.summary())
         out["c_equivalent"] = (self.damping.c_report() if self.damping.chosen != "viscous"
                                else None)
+        # each law's sampling facts: budget, stop reason, ill-conditioning (damping.sample)
+        for name, entry in ((out.get("damping_models") or {}).get("models") or {}).items():
+            post = self.damping.posteriors.get(name)
+            if post is not None and isinstance(entry.get("posterior"), dict):
+                entry["posterior"].update(jsonable(post.diagnostics()))
         return out
 
     def to_json(self, path: str | os.PathLike) -> Path:
@@ -271,6 +275,7 @@ def analyze(
     warns: list[str] = []
     prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
+    warns.extend(unit_plausibility(recording, prep, m))
 
     # baselines on the uniform grid inside the window (also the initial guess)
     sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
@@ -294,23 +299,26 @@ def analyze(
         )
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
-    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)
-    nm = dataclasses.replace(nm, white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs,
-                                                         prep.f0))
-    if nm.excess > R_WARN:
-        warns.append(
-            f"residuals near f0 are {nm.excess:.1f}x what sensor noise alone would leave "
-            "(coloured noise, amplitude-dependent damping or a second mode?); intervals were "
-            "widened to match"
-        )
+    # r floored at its white-noise value on this path: intervals only widen (dampfit.noise)
+    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
+                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
     bound = _crlb(prep, fd, ls, nm, m, sd, warns)
+    started = time.monotonic()
     post = posterior.sample(
         fd, ls, band=prep.band, temper=1.0 / nm.psd_ratio, mass=m, mass_sd=sd, seed=seed,
         progress=progress, max_steps=max_steps, min_ess=min_ess,
     )
+    viscous_seconds = time.monotonic() - started
     warns.extend(post.warnings)
     assessment = _assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
-                                 max_steps, min_ess, warns)
+                                 max_steps, min_ess, warns, post.n_steps, viscous_seconds)
+    # the r warning, unless the adequacy verdict's warning already explains the structure
+    if nm.excess > R_WARN and assessment.verdict_name not in ("misfit", "amplitude-dependent"):
+        warns.append(
+            f"residuals near f0 are {nm.excess:.1f}x what white noise alone would leave on this "
+            "path (coloured noise, amplitude-dependent damping or a second mode?); intervals "
+            "were widened to match"
+        )
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
                "min_ess": min_ess, "model": model, "amplitude": amplitude}
@@ -321,7 +329,52 @@ def analyze(
     )
 
 
+# --------------------------------------------------------------------- unit plausibility
+#: Dominant frequencies [Hz] and stiffnesses [N/m] a free-decay test plausibly has; outside
+#: them a unit mix-up (time in ms read as s, or the reverse) is the likely cause.
+PLAUSIBLE_F0_HZ = (0.05, 2000.0)
+PLAUSIBLE_K_N_PER_M = (1e-3, 1e8)
+
+
+def unit_plausibility(rec: Recording, prep: preprocess.Prepared, mass: float | None) -> list[str]:
+    """Warnings naming a likely unit mix-up: the time unit (:meth:`Recording.time_unit_hint`:
+    a sample rate outside 1 Hz–100 kHz, or seconds under a ``(ms)`` header), a dominant
+    frequency outside :data:`PLAUSIBLE_F0_HZ`, or an implied k = m·(2π·f₀)² outside
+    :data:`PLAUSIBLE_K_N_PER_M` for the given mass [kg]."""
+    out = []
+    hint = rec.time_unit_hint()
+    if hint:
+        out.append(hint)
+    lo, hi = PLAUSIBLE_F0_HZ
+    if not lo <= prep.f0 <= hi:
+        out.append(f"the dominant frequency {prep.f0:.4g} Hz is outside {lo:g}–{hi:g} Hz, unusual "
+                   "for a free-decay test; check the time unit (--time-unit)")
+    if mass is not None:
+        k = mass * (2 * np.pi * prep.f0) ** 2
+        k_lo, k_hi = PLAUSIBLE_K_N_PER_M
+        if not k_lo <= k <= k_hi:
+            out.append(f"the implied stiffness k ≈ {k:.3g} N/m for {mass:g} kg is outside "
+                       f"{k_lo:g}–{k_hi:g} N/m; check the time unit (--time-unit: a time "
+                       "1000× too small makes k 10⁶× too large) and the mass")
+    return out
+
+
 # --------------------------------------------------------------------- helpers
+def _baselines_summary(base: dict, p_post: dict | None) -> dict[str, Any]:
+    """Each baseline's summary with its support (:mod:`dampfit.baselines`) and whether it
+    agrees with the posterior of p within its expected spread (``agrees_with_posterior``,
+    ``note``; :func:`dampfit.baselines.agreement`)."""
+    out: dict[str, Any] = {}
+    for name, b in base.items():
+        if b is None:
+            out[name] = None
+            continue
+        d = b.summary()
+        d.update(baselines.agreement(d, (p_post or {}).get("q50"), (p_post or {}).get("sd")))
+        out[name] = d
+    return out
+
+
 def _initial_decay_rate(base: dict) -> float:
     for name in ("log_decrement", "envelope_pipeline"):
         b = base.get(name)
@@ -344,15 +397,19 @@ def _check_damping_options(model: str, amplitude: float | None) -> None:
 
 
 def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, progress,
-                    max_steps, min_ess, warns: list[str]):
+                    max_steps, min_ess, warns: list[str], viscous_steps: int | None = None,
+                    viscous_seconds: float | None = None):
     """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`).
 
     The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
-    when it is not the viscous one (whose emcee posterior is ``parameters``)."""
+    when it is not the viscous one (whose emcee posterior is ``parameters``), within a step
+    and time budget tied to the viscous sampler's (:class:`dampfit.damping.sample.Budget`)."""
     from . import damping
+    from .damping.sample import Budget
 
+    budget = Budget.from_viscous(viscous_steps, viscous_seconds)
     common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
-                  min_ess=min_ess, progress=progress)
+                  min_ess=min_ess, progress=progress, budget=budget)
     res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen-nonviscous",
                          **common)
     warns.extend(res.warnings)

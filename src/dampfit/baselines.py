@@ -28,6 +28,27 @@ recover a known ``p`` from clean synthetic data; see the tests):
   leakage decaying only like 1/t, so the fit stops where the envelope first falls below 1 % of
   its maximum, and is by default weighted by env² (``weighted=False`` gives the unweighted fit).
 
+Support and expected spread (every result carries them, see :class:`BaselineResult`):
+
+* ``n_cycles_used`` of ``n_cycles_window`` — the cycles the estimate rests on (log decrement:
+  the n of eq. 9; envelope pipeline: the span of the fit region × f_d) out of the cycles in the
+  window (duration × f_d);
+* ``expected_rel_sd`` — the expected relative spread of p (and of ζ, c): log decrement
+  sd(δ) = √((σ_a/a_0)² + (σ_a/a_n)²)/n (≈ √2·σ_a/(n·a)), with σ_a the scatter of the smaller
+  half of the peak heights about their exponential fit; envelope pipeline sd(p) = σ_ln·√(12/N)/T for a
+  log-linear fit over T seconds with N = T·(band width) independent envelope samples and σ_ln
+  the weighted scatter of ln env about the fit. Neither is taken below
+  :data:`REL_SD_FLOOR` (both recover p within 2 % on clean synthetic decays, not better);
+* ``supported`` is False, with ``support_reason``, when the estimate rests on fewer than
+  :data:`MIN_CYCLES` cycles, or on less than :data:`MIN_CYCLE_FRACTION` of the window's
+  cycles, or when the decay it measures is within the noise (ln(a_0/a_n), or p·T, below
+  :data:`MIN_DECAY_SD` expected sd), or when the end of what it fits (the log decrement's
+  peak a_n, the envelope fit's last value) is below :data:`MIN_PEAK_SNR` × its noise (σ_a; the
+  envelope's scatter about the fit over its lower half) — such an estimate is printed, but marked not reliable.
+
+:func:`agreement` compares a baseline with the posterior median of p: it disagrees when the
+difference exceeds :data:`DISAGREE_SD` combined expected sd (its own and the posterior's).
+
 All conversions go through :mod:`dampfit.physics`; filtering through
 :func:`dampfit.filters.bandpass` (zero-phase Butterworth). Pure NumPy/SciPy: no I/O.
 """
@@ -45,7 +66,7 @@ from .errors import InputError
 from .filters import bandpass, bandpass_sos
 from .physics import from_decay, zeta_from_log_decrement
 
-__all__ = ["BaselineResult", "log_decrement", "envelope_pipeline"]
+__all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
 
 #: Relative tolerance on the time grid's uniformity and on its agreement with 1/fs.
 UNIFORM_TOLERANCE = 1e-3
@@ -66,6 +87,19 @@ ENVELOPE_FLOOR = 1e-2
 EDGE_SETTLE_TOLERANCE = 5e-3
 #: ... but the guard never exceeds this fraction of the window at each end.
 EDGE_GUARD_MAX_FRACTION = 0.25
+#: A baseline resting on fewer cycles than this is not supported (not reliable).
+MIN_CYCLES = 5
+#: ... nor one resting on less than this fraction of the window's cycles.
+MIN_CYCLE_FRACTION = 0.25
+#: ... nor one whose measured decay (ln(a_0/a_n), p·T) is below this many expected sd.
+MIN_DECAY_SD = 3.0
+#: ... nor a log decrement whose end peak a_n is below this many times the peak-height noise
+#: σ_a (noise peaks are biased upwards: δ would measure the noise floor, not the decay).
+MIN_PEAK_SNR = 3.0
+#: Smallest expected relative spread of a baseline's p [1] (method accuracy on clean data).
+REL_SD_FLOOR = 0.02
+#: A baseline disagrees with the posterior beyond this many combined expected sd.
+DISAGREE_SD = 3.0
 
 
 @dataclass(frozen=True)
@@ -90,6 +124,16 @@ class BaselineResult:
         Stiffness ``m·ω_n²`` [N/m]; ``None`` without mass.
     n_cycles : int or None
         Cycles spanned by the two peaks (log decrement); ``None`` for the envelope pipeline.
+    n_cycles_used : float or None
+        Cycles the estimate rests on (log decrement: n; envelope: fit span × f_d) [cycles].
+    n_cycles_window : float or None
+        Cycles in the analysed window (duration × f_d) [cycles].
+    supported : bool
+        False when the estimate rests on too little (module docstring); then
+        ``support_reason`` says why.
+    support_reason : str or None
+    expected_rel_sd : float or None
+        Expected relative spread (1 sd) of p, ζ and c [1].
     details : dict
         Intermediate arrays and diagnostics for plotting (not JSON-safe).
     """
@@ -103,9 +147,15 @@ class BaselineResult:
     k: float | None
     n_cycles: int | None
     details: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    n_cycles_used: float | None = None
+    n_cycles_window: float | None = None
+    supported: bool = True
+    support_reason: str | None = None
+    expected_rel_sd: float | None = None
 
     def summary(self) -> dict[str, Any]:
-        """JSON-safe scalars: method, p, zeta, delta, f_d, c, k, n_cycles (plain floats/ints/None)."""
+        """JSON-safe scalars: method, p, zeta, delta, f_d, c, k, n_cycles, n_cycles_used,
+        n_cycles_window, supported, support_reason, expected_rel_sd (plain floats/ints/None)."""
         return {
             "method": str(self.method),
             "p": _opt_float(self.p),
@@ -115,6 +165,11 @@ class BaselineResult:
             "c": _opt_float(self.c),
             "k": _opt_float(self.k),
             "n_cycles": None if self.n_cycles is None else int(self.n_cycles),
+            "n_cycles_used": _opt_float(self.n_cycles_used),
+            "n_cycles_window": _opt_float(self.n_cycles_window),
+            "supported": bool(self.supported),
+            "support_reason": self.support_reason,
+            "expected_rel_sd": _opt_float(self.expected_rel_sd),
         }
 
 
@@ -190,6 +245,17 @@ def log_decrement(
     phys = from_decay(p, 2.0 * np.pi * f_d, mass)
 
     slope, intercept = np.polyfit(t_pk, np.log(a_pk), 1)
+    # expected spread: scatter σ_a of the smaller half of the peak heights about their
+    # exponential fit (additive noise shows there; proportional errors of the large peaks are
+    # what REL_SD_FLOOR covers), with the fit's two degrees of freedom allowed for
+    resid = a_pk - np.exp(intercept + slope * t_pk)
+    small = a_pk <= np.median(a_pk)
+    sigma_a = float(np.sqrt(np.mean(resid[small] ** 2) * len(a_pk) / max(len(a_pk) - 2, 1)))
+    sd_ln_ratio = math.hypot(sigma_a / a_pk[0], sigma_a / a_pk[n])
+    n_window = (t[-1] - t[0]) * f_d
+    low = ([f"the end peak a_n = {a_pk[n]:.3g} m/s^2 is within {MIN_PEAK_SNR:g}x the noise of "
+            f"the peak heights ({sigma_a:.2g} m/s^2)"] if a_pk[n] < MIN_PEAK_SNR * sigma_a else [])
+    support = _support(n, n_window, delta * n, sd_ln_ratio, "ln(a_0/a_n)", low)
     p_reg = -float(slope)
     f_reg = n_avail / (t_pk[-1] - t_pk[0])
     phys_reg = from_decay(p_reg, 2.0 * np.pi * f_reg)
@@ -206,8 +272,9 @@ def log_decrement(
         "zeta_regression": float(phys_reg["zeta"]),
         "delta_regression": float(phys_reg["delta"]),
         "f_d_regression": float(f_reg),
+        "peak_sigma": sigma_a,
     }
-    return _result("log_decrement", p, zeta, delta, f_d, phys, mass, n, details)
+    return _result("log_decrement", p, zeta, delta, f_d, phys, mass, n, details, **support)
 
 
 def envelope_pipeline(
@@ -267,6 +334,22 @@ def envelope_pipeline(
     slope, icpt = (float(slope_w), float(icpt_w)) if weighted else (float(slope_u), float(icpt_u))
     p = -slope
     K = float(np.exp(icpt + slope * (t[0] - t_ref)))
+    # expected spread of p: log-linear fit over `span` s with N ≈ span·bandwidth independent
+    # envelope samples (the envelope decorrelates over ≈ 1/bandwidth), scatter σ_ln about the fit
+    span = float(tm[-1] - tm[0])
+    w2 = env[mask] ** 2 if weighted else np.ones(tm.size)
+    fit_ln = (icpt + slope * (tm - t_ref))
+    sigma_ln = float(np.sqrt(np.sum(w2 * (ln_env - fit_ln) ** 2) / np.sum(w2)))
+    n_indep = max(span * (band[1] - band[0]), 3.0)
+    sd_p = sigma_ln * math.sqrt(12.0 / n_indep) / span if span > 0 else math.inf
+    # the fit must end above the noise: envelope scatter about the fit on its lower half
+    env_m, fit_env = env[mask], np.exp(fit_ln)
+    small = env_m <= np.median(env_m)
+    sigma_env = float(np.sqrt(np.mean((env_m[small] - fit_env[small]) ** 2)))
+    low = ([f"the fitted envelope ends at {fit_env[-1]:.3g} m, within {MIN_PEAK_SNR:g}x its "
+            f"scatter ({sigma_env:.2g} m): the fit reaches the noise floor"]
+           if fit_env[-1] < MIN_PEAK_SNR * sigma_env else [])
+    support = _support(span * f_d, (t[-1] - t[0]) * f_d, p * span, sd_p * span, "p·T", low)
     phys = from_decay(p, 2.0 * np.pi * f_d, mass)
     details = {
         "accel_filtered": a_f,
@@ -283,8 +366,35 @@ def envelope_pipeline(
         "p_unweighted": -float(slope_u),
     }
     return _result(
-        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, mass, None, details
+        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, mass, None,
+        details, **support,
     )
+
+
+def agreement(summary: dict[str, Any], p_median: float | None, p_sd: float | None) -> dict[str, Any]:
+    """Does a baseline (its :meth:`BaselineResult.summary`) agree with the posterior of p?
+
+    ``p_median``, ``p_sd`` [1/s]: the posterior median and sd of the decay rate. Returns
+    ``{"agrees_with_posterior": bool or None, "note": str or None}``: False (with a note) when
+    |p_baseline − p_median| exceeds :data:`DISAGREE_SD` × √((rel_sd·p_baseline)² + p_sd²);
+    None when either side is missing.
+    """
+    p_b, rel = summary.get("p"), summary.get("expected_rel_sd")
+    vals = (p_b, rel, p_median, p_sd)
+    if any(v is None or not math.isfinite(v) for v in vals) or p_median <= 0:
+        return {"agrees_with_posterior": None, "note": None}
+    spread = math.hypot(rel * p_b, p_sd)
+    z = abs(p_b - p_median) / spread if spread > 0 else math.inf
+    if z <= DISAGREE_SD:
+        return {"agrees_with_posterior": True, "note": None}
+    name = str(summary.get("method", "baseline")).replace("_", " ")
+    return {
+        "agrees_with_posterior": False,
+        "note": (f"{name} gives p = {p_b:.3g} 1/s, {p_b / p_median:.2g}x the posterior median "
+                 f"{p_median:.3g} 1/s: {z:.1f} expected sd apart (its own spread "
+                 f"{100 * rel:.2g} %, the posterior's sd {p_sd:.2g} 1/s); beyond "
+                 f"{DISAGREE_SD:g} sd it is not the same estimate"),
+    }
 
 
 # -- helpers --------------------------------------------------------------------------------
@@ -292,6 +402,31 @@ def envelope_pipeline(
 
 def _opt_float(x: Any) -> float | None:
     return None if x is None else float(x)
+
+
+def _support(n_used: float, n_window: float, decay: float, sd_decay: float,
+             what: str, extra: list[str] | None = None) -> dict[str, Any]:
+    """Support fields of a result (module docstring): ``n_used`` of ``n_window`` cycles and
+    the measured decay ``decay`` [1] (ln(a_0/a_n) or p·T) with its expected sd ``sd_decay``;
+    ``extra`` further reasons against it."""
+    reasons = []
+    if n_used < MIN_CYCLES:
+        reasons.append(f"rests on only {_cycles(n_used)} cycles (fewer than {MIN_CYCLES})")
+    elif n_used < MIN_CYCLE_FRACTION * n_window:
+        reasons.append(f"rests on only {_cycles(n_used)} of the window's {_cycles(n_window)} "
+                       f"cycles (less than {100 * MIN_CYCLE_FRACTION:.0f} %)")
+    if not (decay > MIN_DECAY_SD * sd_decay):
+        reasons.append(f"the measured decay {what} = {decay:.3g} is within {MIN_DECAY_SD:g} "
+                       f"expected sd ({sd_decay:.2g}) of the noise")
+    reasons += extra or []
+    rel = sd_decay / decay if decay > 0 and math.isfinite(sd_decay) else math.inf
+    return {"n_cycles_used": float(n_used), "n_cycles_window": float(n_window),
+            "supported": not reasons, "support_reason": "; ".join(reasons) or None,
+            "expected_rel_sd": math.hypot(rel, REL_SD_FLOOR)}
+
+
+def _cycles(n: float) -> str:
+    return f"{n:.0f}" if abs(n - round(n)) < 1e-9 or n >= 10 else f"{n:.1f}"
 
 
 def _result(
@@ -304,6 +439,7 @@ def _result(
     mass: float | None,
     n_cycles: int | None,
     details: dict[str, Any],
+    **support: Any,
 ) -> BaselineResult:
     c = float(phys["c"]) if mass is not None else None
     k = float(phys["k"]) if mass is not None else None
@@ -317,6 +453,7 @@ def _result(
         k=k,
         n_cycles=n_cycles,
         details=details,
+        **support,
     )
 
 

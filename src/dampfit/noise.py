@@ -13,12 +13,31 @@ and dividing the log likelihood by r (a "tempered" likelihood) restores calibrat
 (r = 1 for white noise; r ≈ 1.3 for our low-pass-then-decimate path; r > 1 for red noise near
 f₀, or for model misfit at f₀, which is where it belongs; r < 1 when the residual variance is
 dominated by power far from f₀ — bias drift the polynomial basis does not fully absorb, 1/f
-noise — which inflates the iid σ² but carries no information about the decay). r is estimated
-from the least-squares residuals with Welch's method, averaging ≈ 2·halfwidth·T independent
-bins (relative error ≈ 1/√(that)), and floored at ``R_FLOOR`` as a guard against a degenerate
-spectrum estimate. Checked on 100-replicate calibration runs (``paper/calibration.py``): with
-the former floor at 1 the 90 % intervals of c covered 97 % under drift; with r < 1 allowed they
-are calibrated.
+noise, harmonics, masked spikes — which inflates the iid σ² but carries no information about
+the decay). r is estimated from the least-squares residuals with Welch's method, averaging
+≈ 2·halfwidth·T independent bins (relative error ≈ 1/√(that)).
+
+**Floor: r ≥ r_white.** r_white (:func:`white_ratio`) is the r that white noise of the *same
+total residual variance* σ² leaves on the same path (1 on the raw path, ≈ (f_fit/2)/f_cut after
+low-pass and decimation). Tempering with r < r_white would make the likelihood sharper than it
+would be if every bit of residual power were white sensor noise — it credits the fit with
+precision because the misfit sits away from f₀ (a distorted waveform, harmonics, spikes, a
+strongly red residual with lag-1 autocorrelation near 1). That power is usually misfit whose
+effect on p is not the stationary-noise effect the Whittle argument prices, and the Welch
+estimate of S(f₀) is itself noisy, so dampfit never takes that credit: r is floored at r_white,
+i.e. r/r_white ≥ 1 (the floor is on r itself, since r_white is what r *is* for white noise, not
+1). Intervals therefore only widen under misfit or coloured noise, never narrow. The price is
+over-coverage when slow drift inflates σ² (the calibration runs of ``paper/calibration.py``
+gave 97 % for nominal 90 % intervals with a floor at 1 under drift); the former floor at 0.2
+let a distorted real phone recording (residual lag-1 autocorrelation 0.87) be fitted 5×
+sharper than the iid likelihood. ``psd_ratio_raw`` keeps the unfloored value; ``R_FLOOR``
+remains as an absolute guard.
+
+**Misfit on an absolute scale** (:func:`misfit_check`): r_raw/r_white > ``R_WARN`` (= 3), or
+residual rms above ``RESID_FRACTION`` (5 %) of the fitted signal rms while the sensor noise
+predicts less than a third of it — the sensor level is the residuals' own density away from
+f₀ and its harmonics (:func:`sensor_density`), taken through the same path
+(:func:`expected_sigma`); the same rule in code, docstring and README.
 """
 
 from __future__ import annotations
@@ -28,10 +47,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import integrate, signal
 
-__all__ = ["NoiseModel", "estimate", "white_ratio", "R_FLOOR"]
+__all__ = ["NoiseModel", "estimate", "white_ratio", "sensor_density", "expected_sigma",
+           "misfit_check", "R_FLOOR", "R_WARN", "RESID_FRACTION", "NOISE_EXCESS"]
 
 #: Smallest calibration factor used (a guard; r below ≈ 0.3 is not seen on real or simulated data).
 R_FLOOR = 0.2
+#: r_raw/r_white above this signals structure at f₀ (misfit, a second mode or red noise).
+R_WARN = 3.0
+#: Residual rms / fitted signal rms [1] above which the residual is "large" …
+RESID_FRACTION = 0.05
+#: … when it is also more than this many times what the sensor noise alone predicts [1].
+NOISE_EXCESS = 3.0
 
 
 @dataclass(frozen=True)
@@ -66,9 +92,9 @@ class NoiseModel:
 
     @property
     def excess(self) -> float:
-        """r relative to what white sensor noise would give on this path [1] (≈ 1 when the
+        """Unfloored r relative to what white noise would give on this path [1] (≈ 1 when the
         residuals are sensor noise; ≫ 1 for misfit, a second mode or red noise at f₀)."""
-        return float(self.psd_ratio / self.white) if self.white > 0 else float("nan")
+        return float(self.psd_ratio_raw / self.white) if self.white > 0 else float("nan")
 
 
 def white_ratio(sos: np.ndarray | None, fs_filter: float, fs_fit: float, f0: float) -> float:
@@ -94,11 +120,14 @@ def white_ratio(sos: np.ndarray | None, fs_filter: float, fs_fit: float, f0: flo
     return at_f0 / mean_level if mean_level > 0 else 1.0
 
 
-def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params: int) -> NoiseModel:
+def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params: int,
+             white: float = 1.0) -> NoiseModel:
     """Noise model from least-squares residuals ``resid`` [m/s²] sampled at ``fs`` [Hz].
 
     ``f0`` [Hz] oscillation frequency, ``halfwidth`` [Hz] half-width of the frequency range
-    around f₀ over which S(f₀) is averaged, ``n_params`` number of fitted parameters.
+    around f₀ over which S(f₀) is averaged, ``n_params`` number of fitted parameters,
+    ``white`` r_white [1] of the path (:func:`white_ratio`; 1 on the raw path): r is floored
+    there (module docstring).
     """
     resid = np.asarray(resid, dtype=float)
     n = resid.size
@@ -113,9 +142,65 @@ def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params
     lag1 = float(np.corrcoef(resid[:-1], resid[1:])[0, 1]) if n > 3 else 0.0
     return NoiseModel(
         sigma=float(np.sqrt(sigma2)),
-        psd_ratio=max(R_FLOOR, r_raw),
+        psd_ratio=max(R_FLOOR, float(white), r_raw),
         psd_ratio_raw=r_raw,
         lag1=lag1,
         fs=float(fs),
-        kind="gaussian, spectrum-calibrated at f0 (Whittle factor r), unknown sigma marginalised",
+        kind="gaussian, spectrum-calibrated at f0 (Whittle factor r, floored at its white-noise "
+             "value), unknown sigma marginalised",
+        white=float(white),
     )
+
+
+def sensor_density(resid: np.ndarray, fs: float, f0: float, f_max: float) -> float:
+    """One-sided noise density [(m/s²)/√Hz] of the residuals ``resid`` [m/s²] (rate ``fs``
+    [Hz]) *away from the oscillation*: the median Welch level over 0.5·f₀ … ``f_max`` [Hz]
+    outside ±0.25·f₀ of f₀ and its harmonics. Misfit of the decay (envelope, frequency drift,
+    harmonics) sits at or near k·f₀ and is excluded, so this is the sensor's own level (slightly
+    low, ≈ 5 %, as a median; NaN when fewer than 3 bins qualify)."""
+    resid = np.asarray(resid, dtype=float)
+    n = resid.size
+    nper = int(np.clip(16.0 * fs / f0, 32, max(32, n // 2)))
+    nper = min(nper, n)
+    f, pxx = signal.welch(resid, fs=fs, nperseg=nper, detrend="linear")
+    k = np.maximum(np.round(f / f0), 1.0)
+    away = (f >= 0.5 * f0) & (f <= f_max) & (np.abs(f - k * f0) > 0.25 * f0)
+    if away.sum() < 3:
+        return float("nan")
+    return float(np.sqrt(np.median(pxx[away])))
+
+
+def expected_sigma(noise_density: float, fs_fit: float, white: float) -> float:
+    """Residual rms [m/s²] that white sensor noise of one-sided density ``noise_density``
+    [(m/s²)/√Hz] leaves on the fit path (rate ``fs_fit`` [Hz], r_white ``white``).
+
+    The density at f₀ passes unchanged (|H(f₀)| ≈ 1 in the band), and r_white is by definition
+    S(f₀)/(σ²/(f_fit/2)), so σ² = noise_density²·(f_fit/2)/r_white.
+    """
+    if not (np.isfinite(noise_density) and noise_density > 0 and white > 0):
+        return float("nan")
+    return float(noise_density * np.sqrt(0.5 * fs_fit / white))
+
+
+def misfit_check(psd_ratio_raw: float, white: float, resid_rms: float, signal_rms: float,
+                 sigma_expected: float) -> dict:
+    """The absolute misfit rule of the module docstring.
+
+    ``psd_ratio_raw`` unfloored r [1], ``white`` r_white [1], ``resid_rms`` and ``signal_rms``
+    [m/s²] (residual and fitted decay over the window), ``sigma_expected`` [m/s²]
+    (:func:`expected_sigma`; NaN if unknown, then only the r rule applies). Returns
+    ``{"r_excess", "resid_fraction", "noise_excess", "misfit", "reasons"}``: ``misfit`` when
+    r_excess > R_WARN, or resid_fraction > RESID_FRACTION and noise_excess > NOISE_EXCESS.
+    """
+    r_ex = float(psd_ratio_raw / white) if white > 0 else float("nan")
+    frac = float(resid_rms / signal_rms) if signal_rms > 0 else float("nan")
+    nex = (float(resid_rms / sigma_expected)
+           if np.isfinite(sigma_expected) and sigma_expected > 0 else float("nan"))
+    reasons = []
+    if r_ex > R_WARN:
+        reasons.append(f"r/r_white = {r_ex:.3g} > {R_WARN:g} (residual power at f0)")
+    if frac > RESID_FRACTION and nex > NOISE_EXCESS:
+        reasons.append(f"residual rms = {100 * frac:.3g} % of the signal > "
+                       f"{100 * RESID_FRACTION:g} %, {nex:.3g}x the sensor noise")
+    return {"r_excess": r_ex, "resid_fraction": frac, "noise_excess": nex,
+            "misfit": bool(reasons), "reasons": reasons}

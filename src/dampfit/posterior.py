@@ -5,7 +5,10 @@ Model and priors
 * Likelihood: the decay model (:mod:`dampfit.model`) with Gaussian noise of unknown σ; the
   linear coefficients (acceleration quadratures A, B and the drift terms) have flat priors
   and σ a Jeffreys prior 1/σ, all marginalised analytically
-  (:func:`dampfit.model.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.noise`).
+  (:func:`dampfit.model.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.noise`),
+  where r is floored at its white-noise value r_white on the fit path: misfit or coloured
+  noise can only widen the intervals, never make the likelihood sharper than white noise of
+  the same residual variance would.
 * Decay rate p [1/s]: log-uniform on [10⁻⁶·ω_d, ω_d] (ζ up to ≈ 0.7).
 * Damped frequency ω_d [rad/s]: log-uniform over the analysis pass band.
 * Mass m [kg]: normal(m, sd) truncated to m > 0, independent of the data — the recording
@@ -184,7 +187,7 @@ def sample(
 ) -> PosteriorResult:
     """Sample the posterior; see the module docstring for the model, priors and stopping rule.
 
-    ``temper`` = 1/r; ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
+    ``temper`` = 1/r (r from :func:`dampfit.noise.estimate`, ≥ r_white); ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
     """
     rng = np.random.default_rng(seed)
     log_prob = _make_log_prob(fd, band, temper)
@@ -192,8 +195,7 @@ def sample(
     if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov).min() <= 0:
         cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
     start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
-    sampler = emcee.EnsembleSampler(N_WALKERS, 2, log_prob, vectorize=True, moves=MOVES())
-    seed_sampler(sampler, rng)
+    sampler = ensemble(2, log_prob, rng)
     warns: list[str] = []
     bar = _progress(max_steps, progress)
     try:
@@ -219,6 +221,21 @@ def sample(
         autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
         max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns),
     )
+
+
+def ensemble(ndim: int, log_prob, rng: np.random.Generator, n_walkers: int = N_WALKERS):
+    """emcee's vectorised ensemble sampler over ``ndim`` parameters with dampfit's moves,
+    seeded from ``rng`` (:func:`seed_sampler`).
+
+    The log-probability is called directly, not through emcee's wrapper: that wrapper prints a
+    traceback for any exception raised inside the likelihood — including the
+    ``KeyboardInterrupt`` of Ctrl-C or SIGTERM — before re-raising it, which broke the CLI's
+    one-line promise.
+    """
+    sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True, moves=MOVES())
+    sampler.log_prob_fn = log_prob
+    seed_sampler(sampler, rng)
+    return sampler
 
 
 def seed_sampler(sampler: "emcee.EnsembleSampler", rng: np.random.Generator) -> None:

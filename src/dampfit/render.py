@@ -2,13 +2,22 @@
 
 Only the summary dict is read here, so anything that has a ``summary.json`` can be rendered
 again without re-running the analysis.
+
+Honest digits: a value printed with its 90 % interval gets its digits from the interval's
+width — enough decimals that the width shows two significant digits (:func:`interval`), so a
+narrow interval is never printed as ``1.72 [1.72, 1.72]`` and a wide one does not pretend to
+six digits. Every quantity a line names is printed with its value (ζ_eq of a non-viscous law
+too), a baseline that rests on too few cycles or disagrees with the posterior beyond its
+expected spread is marked as such, and a mass without a standard deviation says so instead of
+printing ``± 0``.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
-__all__ = ["text"]
+__all__ = ["text", "interval"]
 
 _LABELS = {
     "c": "c      [N s/m]", "k": "k      [N/m]", "u0": "u0     [m]", "zeta": "zeta   [1]",
@@ -25,6 +34,101 @@ def _f(x: Any, fmt: str) -> str:
     return "—" if x is None else format(x, fmt)
 
 
+def _decimals(lo: Any, hi: Any) -> int | None:
+    """Decimals that show the width |hi − lo| with two significant digits (None: no width;
+    negative: the last significant digit lies left of the point)."""
+    try:
+        width = abs(float(hi) - float(lo))
+    except (TypeError, ValueError):
+        return None
+    if not (math.isfinite(width) and width > 0):
+        return None
+    return 1 - math.floor(math.log10(width))  # negative for widths ≥ 100
+
+
+def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
+    """``x`` with ``dec`` decimals; in scientific notation with the same absolute precision
+    when ``scale`` (the largest magnitude printed alongside, default |x|) is below 10⁻⁴ or
+    above 10⁹, where fixed point gets unwieldy."""
+    if x is None:
+        return "—"
+    x = float(x)
+    if dec is None or not math.isfinite(x):
+        return _g(x, 6)
+    scale = abs(x) if scale is None else scale
+    if scale >= 1e9 or 0 < scale < 1e-4:
+        exp = math.floor(math.log10(scale))
+        return f"{x / 10.0**exp:.{max(1, exp + dec)}f}e{exp:+03d}"
+    return f"{x:.{max(0, dec)}f}"
+
+
+def interval(q50: Any, q05: Any, q95: Any) -> tuple[str, str, str]:
+    """(median, q05, q95) as strings with digits chosen from the interval width (module
+    docstring): ``interval(1.72031, 1.71992, 1.72068)`` → ``("1.72031", "1.71992", "1.72068")``;
+    ``interval(0.062, 0.019, 0.28)`` → ``("0.06", "0.02", "0.28")``. Without a width (missing
+    or zero) six significant digits."""
+    dec = _decimals(q05, q95)
+    vals = [abs(float(v)) for v in (q50, q05, q95)
+            if isinstance(v, (int, float)) and math.isfinite(v)]
+    scale = max(vals) if vals else None
+    return _fixed(q50, dec, scale), _fixed(q05, dec, scale), _fixed(q95, dec, scale)
+
+
+def _with_interval(q: dict[str, Any]) -> str:
+    """``median [q05, q95]`` of a summary dict with honest digits."""
+    m, lo, hi = interval(q.get("q50"), q.get("q05"), q.get("q95"))
+    return f"{m} [{lo}, {hi}]"
+
+
+def _like_posterior(s: dict[str, Any], name: str, x: Any) -> str:
+    """A point estimate of ``name`` with the digits of its posterior interval (else 6 sig.)."""
+    q = (s.get("parameters") or {}).get(name) or {}
+    dec = _decimals(q.get("q05"), q.get("q95"))
+    if dec is None:
+        return _g(x, 6)
+    return _fixed(x, dec, max(abs(float(x)), abs(float(q["q95"])), abs(float(q["q05"]))))
+
+
+def _own_spread(b: dict[str, Any], name: str) -> str:
+    """A baseline's value with the digits of its own expected 90 % spread
+    (± 1.645·expected_rel_sd), so it shows no more precision than it has (else 6 sig.)."""
+    x, rel = b.get(name), b.get("expected_rel_sd")
+    if x is None or rel is None or not math.isfinite(rel):
+        return _g(x, 6)
+    return _fixed(x, _decimals(0.0, 2 * 1.645 * rel * abs(float(x))))
+
+
+def _baseline_mark(b: dict[str, Any]) -> str:
+    """The caveat printed after a baseline: too little support, or disagreement."""
+    marks = []
+    if b.get("supported") is False:
+        used, win = b.get("n_cycles_used"), b.get("n_cycles_window")
+        if used is not None and win is not None:
+            whole = abs(used - round(used)) < 1e-9  # log decrement: whole cycles
+            of = f"{win:.0f}" if whole or win >= 10 else f"{win:.1f}"
+            marks.append(f"only {_cycles(used)} of {of} cycles — not reliable")
+        else:
+            marks.append("not reliable: " + str(b.get("support_reason")))
+    if b.get("agrees_with_posterior") is False:
+        marks.append("disagrees with the posterior beyond its expected spread")
+    return "".join(f" ({m})" for m in marks)
+
+
+def _cycles(n: float) -> str:
+    return f"{n:.0f}" if abs(n - round(n)) < 1e-9 or n >= 10 else f"{n:.1f}"
+
+
+def _law_state(s: dict[str, Any], law: str) -> str:
+    """" (…)" when the law's posterior is not a converged emcee run, else ""."""
+    models = (s.get("damping_models") or {}).get("models") or {}
+    post = (models.get(law) or {}).get("posterior") or {}
+    if post.get("ill_conditioned"):
+        return " (ill-conditioned: Laplace approximation, intervals approximate)"
+    if post.get("method") == "emcee" and post.get("converged") is False:
+        return f" (posterior NOT converged: {post.get('stop_reason') or 'see warnings'})"
+    return ""
+
+
 def text(s: dict[str, Any]) -> str:
     """A readable multi-line table of a summary dict."""
     inp, win, band = s["input"], s["window"], s["band"]
@@ -37,22 +141,26 @@ def text(s: dict[str, Any]) -> str:
         f"band {band['low_hz']:.4g}–{band['high_hz']:.4g} Hz, f0 = {s['dominant_frequency_hz']:.5g} Hz",
     ]
     m = s["mass"]
-    lines.append(
-        f"  mass {m['value']:.6g} ± {m['sd']:.3g} kg" if m["value"] is not None
-        else "  mass not given: c and k cannot be identified (give --mass KG)"
-    )
+    if m["value"] is None:
+        lines.append("  mass not given: c and k cannot be identified (give --mass KG)")
+    elif m.get("sd"):
+        lines.append(f"  mass {m['value']:.6g} ± {m['sd']:.3g} kg")
+    else:
+        lines.append(f"  mass {m['value']:.6g} kg (sd not given)")
     lines += ["", f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} {'R-hat':>7s} {'ESS':>6s}"]
     for name in ("c", "k", "u0", "zeta", "f_n", "p"):
         q = s["parameters"].get(name)
         if q is None:
             continue
+        med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
         lines.append(
-            f"  {_LABELS[name]:15s} {_g(q['q50'], 6):>12s}   [{_g(q['q05'], 6):>11s}, {_g(q['q95'], 6):>11s}]"
+            f"  {_LABELS[name]:15s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
             f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
         )
     ls = s["least_squares"]
     lines += ["", "  least squares   " + ", ".join(
-        f"{k} = {_g(ls.get(k), 6)}" for k in ("c", "k", "u0", "zeta", "f_n") if ls.get(k) is not None
+        f"{k} = {_like_posterior(s, k, ls.get(k))}" for k in ("c", "k", "u0", "zeta", "f_n")
+        if ls.get(k) is not None
     ) + ("" if ls["converged"] else "   (NOT converged)")]
     for key, label in (("log_decrement", "log decrement "), ("envelope_pipeline", "envelope (paper)")):
         b = s["baselines"].get(key)
@@ -60,7 +168,8 @@ def text(s: dict[str, Any]) -> str:
             lines.append(f"  {label:15s} not computed")
             continue
         extra = f" over {b['n_cycles']} cycles" if b.get("n_cycles") else ""
-        lines.append(f"  {label:15s} c = {_g(b['c'], 6)}, zeta = {_g(b['zeta'], 6)}{extra}")
+        lines.append(f"  {label:15s} c = {_own_spread(b, 'c')}, zeta = {_own_spread(b, 'zeta')}"
+                     f"{extra}{_baseline_mark(b)}")
     nm = s["noise_model"]
     lines.append(
         f"  noise           sigma = {nm['sigma']:.3g} m/s^2 per sample at {nm['sample_rate_hz']:.4g} Hz, "
@@ -69,15 +178,25 @@ def text(s: dict[str, Any]) -> str:
     mc = s.get("model_checks")
     if isinstance(mc, dict):
         amp = mc.get("amplitude_dependence") or {}
-        verdict = ("amplitude-dependent" if amp.get("detected") else "no amplitude dependence")
-        line = (f"  damping law     {mc.get('preferred_model')} preferred ({verdict}, "
-                f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)})")
+        verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
+        pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
+        law = mc.get("verdict_law") or mc.get("preferred_model")
+        line = "  damping law     " + {
+            "adequate": f"viscous adequate (no amplitude dependence, {pv})",
+            "amplitude-dependent": f"{law} preferred (amplitude-dependent, {pv})",
+            "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
+            "inconclusive": f"inconclusive: the evidence is too weak either way ({pv}, "
+                            f"{mc.get('preferred_model')} fits best)",
+        }.get(verdict, f"{verdict} ({pv})")
         ceq = s.get("c_equivalent")
-        if isinstance(ceq, dict) and isinstance(ceq.get("c"), dict):
-            q = ceq["c"]
-            line += (f"\n  c_equivalent    {_g(q['q50'], 6)} N s/m [{_g(q['q05'], 6)}, "
-                     f"{_g(q['q95'], 6)}] ({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m "
-                     "displacement amplitude)")
+        if isinstance(ceq, dict):
+            where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
+                     f"amplitude){_law_state(s, ceq['model'])}")
+            if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
+                line += f"\n  c_equivalent    {_with_interval(ceq['c'])} N s/m {where}"
+                where = ""
+            if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
+                line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()
         lines.append(line)
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"

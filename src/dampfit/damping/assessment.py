@@ -10,7 +10,9 @@ Pipeline, after the viscous least-squares fit and noise model of :func:`dampfit.
 4. posterior draws of every law (emcee for the chosen law by default, the nested Laplace
    approximation for the others; :data:`POSTERIORS`);
 5. ζ(amplitude) from windowed viscous fits (:mod:`~dampfit.damping.curve`);
-6. model checks and the warning (:mod:`~dampfit.damping.checks`).
+6. model checks, the adequacy verdict (:func:`~dampfit.damping.checks.adequacy`: adequate,
+   amplitude-dependent, misfit or inconclusive) and its one warning
+   (:mod:`~dampfit.damping.checks`).
 
 What to report as *the* c when the chosen law is not viscous: the energy-equivalent viscous
 c_eq at the reference amplitude a_ref [m] (the user's ``amplitude``, else the geometric mean of
@@ -26,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from .. import noise as _noise
+from .._json import jsonable
 from ..errors import InputError
 from . import checks, compare, curve, models, quantities
 from .report import summary as _summary
@@ -62,6 +65,8 @@ class DampingAssessment:
     t0: float
     pipeline_psd_ratio: float | None = None  # r of the viscous pipeline's NoiseModel
     warnings: list[str] = field(default_factory=list)
+    adequacy: dict | None = None  # checks.adequacy(...) plus "fit_checks", "frequency_trend"
+    warning: str | None = None  # the verdict's warning (also in warnings)
 
     @property
     def preferred(self) -> str:
@@ -87,9 +92,35 @@ class DampingAssessment:
                      f"{self.amplitudes['ref']:.3g} m displacement amplitude"),
         }
 
+    @property
+    def verdict_name(self) -> str:
+        """The adequacy verdict: adequate, amplitude-dependent, misfit or inconclusive."""
+        return self.adequacy["verdict"] if self.adequacy else "inconclusive"
+
     def summary(self) -> dict[str, Any]:
-        """JSON-safe dict with keys ``model_checks``, ``damping_models``, ``amplitude_curve``."""
-        return _summary(self)
+        """JSON-safe dict with keys ``model_checks``, ``damping_models``, ``amplitude_curve``.
+
+        ``model_checks`` carries the adequacy ``verdict`` and ``verdict_reasons``;
+        ``single_viscous_c_adequate`` is true exactly when the verdict is "adequate", and
+        ``warning`` is the verdict's warning.
+        """
+        out = _summary(self)
+        mc = out["model_checks"]
+        ad = self.adequacy or {}
+        mc["verdict"] = self.verdict_name
+        mc["verdict_reasons"] = list(ad.get("reasons", []))
+        mc["verdict_law"] = ad.get("law")
+        mc["single_viscous_c_adequate"] = self.verdict_name == "adequate"
+        mc["warning"] = self.warning
+        amp = mc["amplitude_dependence"]
+        amp["evidence_detected"] = amp["detected"]
+        amp["detected"] = self.verdict_name == "amplitude-dependent"
+        amp["criterion"] = ("adequacy verdict (dampfit.damping.checks.adequacy): windowed slope "
+                            "decisive or " + amp["criterion"] + "; evidence_detected is the "
+                            "evidence criterion alone")
+        mc["adequacy"] = jsonable({k: ad.get(k) for k in ("criteria", "fit_checks",
+                                                          "frequency_trend")})
+        return out
 
 
 def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_cycles) -> None:
@@ -111,7 +142,7 @@ def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_c
 def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float = 0.0, *,
            model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
            window_cycles: float | None = None, seed: int = 0, progress: bool = False,
-           max_steps: int = 20000, min_ess: float = 1000.0) -> DampingAssessment:
+           max_steps: int = 20000, min_ess: float = 1000.0, budget=None) -> DampingAssessment:
     """Compare damping laws on a prepared recording (see the module docstring).
 
     ``prep`` :class:`~dampfit.preprocess.Prepared`, ``fd`` :class:`~dampfit.preprocess.FitData`,
@@ -131,9 +162,14 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     data = dfit.Data.from_fit_data(fd)
     f0 = float(prep.f0)
     p_start, w_start = (ls.p, ls.omega_d) if ls is not None else _initial_guess(prep)
+    r_white = _noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, f0)
 
-    def ratio(mf):
-        return _noise.estimate(mf.residuals, fd.fs, f0, 0.25 * f0, data.q + mf.k).psd_ratio
+    def noise_of(mf):
+        return _noise.estimate(mf.residuals, fd.fs, f0, 0.25 * f0, data.q + mf.k,
+                               white=r_white)
+
+    def ratio(mf):  # floored at r_white: the likelihood is never sharper than for white noise
+        return noise_of(mf).psd_ratio
 
     visc = _viscous_with_drift(fd, data, p_start, w_start, ratio)
     p_start, w_start = (visc.p0, visc.omega) if visc.converged else (p_start, w_start)
@@ -158,7 +194,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
             posterior == "chosen-nonviscous" and m == chosen and m != "viscous")
         if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
             posts[m] = dsample.sample_emcee(mf, data, prep.band, seed=seed + i,
-                                            min_ess=min_ess, max_steps=max_steps,
+                                            min_ess=min_ess, max_steps=max_steps, budget=budget,
                                             progress=progress)
         else:
             posts[m] = dsample.sample_laplace(mf, data, seed=seed + i)
@@ -181,8 +217,10 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
         qts[m] = quantities.draws(m, post.theta, post.a0, md, amps) if len(post.a0) else {}
 
     ratios = {m: float(ratio(mf)) for m, mf in fits.items() if mf.converged}
+    best_nl = verdict.get("best_nonlinear")
     white = {m: checks.envelope_whiteness(fd.tau, fits[m].residuals, fits[m].omega)
-             for m in dict.fromkeys(("viscous", verdict["preferred"], chosen))}
+             for m in dict.fromkeys(("viscous", verdict["preferred"], chosen, best_nl))
+             if m is not None}
     out = DampingAssessment(
         fits=fits, posteriors=posts, table=table, verdict=verdict, requested=model,
         chosen=chosen, psd_ratio=float(r), psd_ratios=ratios, whiteness=white, windows=wins,
@@ -190,9 +228,10 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
         t0=float(fd.t0), warnings=warns,
         pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
     )
-    text = _warning(out)
-    if text:
-        out.warnings.append(text)
+    out.adequacy = _adequacy(out, prep, fd, data, n_cyc, noise_of, white_r=r_white, ls=ls)
+    out.warning = checks.verdict_warning(out.adequacy, _warning(out, out.adequacy.get("law")))
+    if out.warning:
+        out.warnings.append(out.warning)
     if model != "auto" and model != verdict["preferred"]:
         out.warnings.append(
             f"the {model} damping law was requested, but the evidence prefers "
@@ -258,11 +297,74 @@ def _q50(q: dict, name: str) -> float:
     return float(np.nanmedian(x)) if x is not None and len(x) else float("nan")
 
 
-def _warning(a: DampingAssessment) -> str | None:
-    """The amplitude-dependence warning; ζ from the first and last windows, else from the law."""
-    if not a.amplitude_dependent:
+def _fit_check(mf: dfit.ModelFit, fd, data, noise_of, white_r: float, sigma_exp: float,
+               lb: dict | None) -> dict:
+    """Residual checks of one fit: Ljung–Box p at f₀ and :func:`dampfit.noise.misfit_check`."""
+    nm = noise_of(mf)
+    osc = mf.fitted - data.drift @ mf.beta[2:]
+    resid_rms = float(np.sqrt(np.mean(mf.residuals**2)))
+    chk = _noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms,
+                              float(np.sqrt(np.mean(osc**2))), sigma_exp)
+    return {"ljung_box_p": (lb or {}).get("p_value"), "r_raw": nm.psd_ratio_raw,
+            "r_white": white_r, "r_excess": chk["r_excess"], "resid_rms": resid_rms,
+            "resid_fraction": chk["resid_fraction"], "noise_excess": chk["noise_excess"],
+            "sigma_expected": sigma_exp, "lag1": nm.lag1}
+
+
+def _pipeline_check(ls, fd, f0: float, white_r: float, sigma_exp: float) -> dict | None:
+    """The same checks on the viscous pipeline's least squares (constant frequency, no phase
+    terms) — the fit whose c :func:`dampfit.analyze` reports under ``parameters``."""
+    if ls is None or not hasattr(ls, "residuals") or np.size(ls.residuals) != fd.y.size:
         return None
-    m = a.preferred
+    res = np.asarray(ls.residuals, float)
+    nm = _noise.estimate(res, fd.fs, f0, 0.25 * f0, len(ls.theta) + len(ls.beta), white=white_r)
+    resid_rms = float(np.sqrt(np.mean(res**2)))
+    sig = float(np.sqrt(max(ls.rss_drift - ls.rss, 0.0) / res.size))
+    chk = _noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms, sig, sigma_exp)
+    lb = checks.envelope_whiteness(fd.tau, res, float(ls.omega_d))
+    return {"ljung_box_p": lb.get("p_value"), "r_raw": nm.psd_ratio_raw, "r_white": white_r,
+            "r_excess": chk["r_excess"], "resid_rms": resid_rms,
+            "resid_fraction": chk["resid_fraction"], "noise_excess": chk["noise_excess"],
+            "sigma_expected": sigma_exp, "lag1": nm.lag1}
+
+
+def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
+              white_r: float, ls=None) -> dict:
+    """:func:`checks.adequacy` on this assessment, with the per-fit checks and the
+    frequency trend it used (``fit_checks``, ``frequency_trend``)."""
+    best_nl = a.verdict.get("best_nonlinear")
+    ok = [mf for mf in a.fits.values() if mf.converged] or [a.fits["viscous"]]
+    f0 = float(prep.f0)
+    f_max = 0.9 * fd.fs / 2 if fd.lowpass_sos is None else min(0.8 * prep.band[1], 0.9 * fd.fs / 2)
+    dens = _noise.sensor_density(min(ok, key=lambda mf: mf.rss).residuals, fd.fs, f0, f_max)
+    if not np.isfinite(dens):  # too short for the residual spectrum: the recording's own level
+        dens = float(prep.noise_density)
+    sigma_exp = _noise.expected_sigma(dens, fd.fs, white_r)
+    names = ["viscous"] + ([best_nl] if best_nl and a.fits[best_nl].converged else [])
+    fc = {m: _fit_check(a.fits[m], fd, data, noise_of, white_r, sigma_exp, a.whiteness.get(m))
+          for m in names if a.fits[m].converged}
+    amps = [w.amplitude for w in a.windows if w.amplitude > 0]
+    span = max(amps) / min(amps) if len(amps) >= 2 else 1.0
+    freq = curve.frequency_trend(a.windows)
+    pipe = _pipeline_check(ls, fd, float(prep.f0), white_r, sigma_exp)
+    if pipe is not None:
+        fc["viscous_pipeline"] = pipe
+    best_model = names[-1] if names[-1] in fc else "viscous"
+    out = checks.adequacy(n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
+                          p_viscous=a.verdict["p_viscous"], best_nonlinear=best_nl,
+                          viscous=fc.get("viscous"), best=fc.get(best_model),
+                          best_model=best_model, pipeline=pipe)
+    out["fit_checks"] = fc
+    out["frequency_trend"] = freq
+    return out
+
+
+def _warning(a: DampingAssessment, law: str | None = None) -> str | None:
+    """The amplitude-dependence warning for ``law`` (default: the preferred one); ζ from the
+    first and last windows, else from the law."""
+    m = law or a.preferred
+    if m == "viscous":
+        return None
     q = a.quantities.get(m, {})
     c_ref = _q50(q, "c_eq_ref") if a.mass is not None else None
     if len(a.windows) >= 4:

@@ -29,7 +29,8 @@ from scipy import optimize, stats
 
 from ..errors import InputError
 
-__all__ = ["Window", "windows", "slope", "auto_cycles", "MIN_WINDOW_SAMPLES"]
+__all__ = ["Window", "windows", "slope", "frequency_trend", "auto_cycles",
+           "MIN_WINDOW_SAMPLES"]
 
 #: Fewest samples a window needs (6 parameters are fitted in it).
 MIN_WINDOW_SAMPLES = 16
@@ -50,6 +51,7 @@ class Window:
     accel_amplitude: float  # acceleration amplitude at the centre [m/s²]
     amplitude: float  # displacement amplitude at the centre [m]
     n: int
+    omega_sd: float = float("nan")  # 1-σ of omega_d [rad/s], calibrated by r
 
     @property
     def zeta(self) -> float:
@@ -126,6 +128,7 @@ def windows(tau, y, omega: float, p_guess: float, *, cycles: float, psd_ratio: f
             t_start=float(t0), t_end=float(t0 + length), t_center=float(tc), p=float(p),
             p_sd=float(np.sqrt(cov[0, 0] * max(psd_ratio, 1.0))), omega_d=float(w),
             accel_amplitude=acc, amplitude=acc / ((w * w + p * p) * gain), n=int(sel.sum()),
+            omega_sd=float(np.sqrt(max(cov[1, 1], 0.0) * max(psd_ratio, 1.0))),
         ))
     return out
 
@@ -162,3 +165,38 @@ def slope(wins: list[Window], level: float = 0.90) -> dict | None:
     return {"s": s, "s_sd": s_sd, "s_q05": s - tq * s_sd, "s_q95": s + tq * s_sd,
             "p_ref": float(sol.x[0]), "a_ref": a_ref, "n_windows": len(use),
             "chi2_per_dof": chi2}
+
+
+def frequency_trend(wins: list[Window], level: float = 0.90) -> dict | None:
+    """Does the frequency drift with amplitude? ln ω_d = ln ω_ref + g·ln(a/a_ref) on the
+    non-overlapping windows (weighted least squares, standard error scaled by √max(1, χ²/ν));
+    None with fewer than 4 windows.
+
+    Returns ``{"g", "g_sd", "g_q05", "g_q95", "rel_change", "rel_change_sd", "n_windows"}``:
+    ``rel_change`` = (a_max/a_min)^g − 1 [1] is the relative change of the damped frequency
+    from the smallest to the largest windowed amplitude (> 0: the frequency rises with
+    amplitude, hardening; < 0 softening, like a pendulum).
+    """
+    use = [w for i, w in enumerate(wins) if i % 2 == 0 and w.amplitude > 0
+           and np.isfinite(w.omega_sd) and w.omega_sd > 0]
+    if len(use) < 4:
+        return None
+    a = np.array([w.amplitude for w in use])
+    y = np.log([w.omega_d for w in use])
+    sd = np.array([w.omega_sd / w.omega_d for w in use])
+    x = np.log(a / np.exp(np.mean(np.log(a))))
+    wts = 1.0 / sd**2
+    xm = np.sum(wts * x) / np.sum(wts)
+    sxx = float(np.sum(wts * (x - xm) ** 2))
+    if sxx <= 0:
+        return None
+    g = float(np.sum(wts * (x - xm) * (y - np.sum(wts * y) / np.sum(wts))) / sxx)
+    fit = np.sum(wts * y) / np.sum(wts) + g * (x - xm)
+    dof = len(use) - 2
+    chi2 = float(np.sum(wts * (y - fit) ** 2)) / dof
+    g_sd = float(np.sqrt(max(1.0, chi2) / sxx))
+    tq = float(stats.t.ppf(0.5 + level / 2, dof))
+    span = float(np.log(a.max() / a.min()))
+    return {"g": g, "g_sd": g_sd, "g_q05": g - tq * g_sd, "g_q95": g + tq * g_sd,
+            "rel_change": float(np.expm1(g * span)), "rel_change_sd": float(g_sd * span),
+            "n_windows": len(use), "chi2_per_dof": chi2}

@@ -45,7 +45,7 @@ def _model_checks(a: "DampingAssessment") -> dict[str, Any]:
         "requested_model": a.requested,
         "preferred_model": a.preferred,
         "chosen_model": a.chosen,
-        "single_viscous_c_adequate": not a.amplitude_dependent,
+        "single_viscous_c_adequate": a.verdict_name == "adequate",
         "amplitude_dependence": {
             "detected": a.amplitude_dependent,
             "criterion": f"P(viscous | data) < {compare.P_VISCOUS_MAX} (evidence, prior odds "

@@ -20,22 +20,85 @@ and σ integrated out, Whittle factor r from :mod:`dampfit.noise`) times the pri
 For every θ draw the amplitudes (A, B) are drawn from their conditional Gaussian
 N(β̂(θ), s²·r·M⁻¹), s² = RSS/(n − q), β̂(θ) linearised about θ̂, and give the start amplitude
 a₀ = |(A, B)|/(ω²·|G|) [m].
+
+Bounded work
+------------
+A damping law's emcee run gets a :class:`Budget` tied to the viscous posterior of the same
+recording (:meth:`Budget.from_viscous`): at most max(:data:`STEP_FACTOR` × the viscous
+sampler's steps, :data:`MIN_BUDGET_STEPS`) steps and :data:`TIME_FACTOR` × its wall time +
+:data:`TIME_ALLOWANCE_S` (the law's likelihood is compiled inside the run). Without a viscous
+reference the budget is :data:`MIN_BUDGET_STEPS` steps and no wall-time limit (so a seeded
+run stays reproducible). A run stopped by its budget is returned as it is, with
+``converged=False``, ``stop_reason`` "step budget reached …" or "wall-time budget reached …"
+and a warning — never a run many times slower than the viscous one (a Coulomb law on a
+recording with a rattle once took 18,913 steps, 229 s against ≈ 17 s). A wall-time stop
+depends on the machine's speed; the step budget does not.
+
+Ill-conditioned laws are not sampled with emcee (:func:`conditioning`): a Laplace covariance
+that is missing or not positive definite, a correlation matrix of θ with condition number above
+:data:`MAX_CONDITION` (parameters the data cannot tell apart), or a shape parameter whose
+optimum sits on its prior bound (the law then degenerates into a simpler one). Such a law gets
+the Laplace draws, ``ill_conditioned=True`` with the reason, ``converged=False`` and a warning.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 
-import emcee
 import numpy as np
 
-from ..posterior import MOVES, burn_thin, diagnose, run_adaptive, seed_sampler
+from ..posterior import burn_thin, diagnose, ensemble, run_adaptive
 from . import fit as dfit
 from . import models
 
-__all__ = ["ModelPosterior", "sample_emcee", "sample_laplace", "N_WALKERS"]
+__all__ = ["ModelPosterior", "Budget", "conditioning", "sample_emcee", "sample_laplace",
+           "N_WALKERS"]
 
 N_WALKERS = 64
+#: A law's step budget is at most this many times the viscous sampler's steps …
+STEP_FACTOR = 3
+#: … but never below this many steps (also the budget without a viscous reference).
+MIN_BUDGET_STEPS = 2000
+#: A law's wall-time budget is this many times the viscous sampler's wall time …
+TIME_FACTOR = 3.0
+#: … plus this allowance [s] (compiling the law's likelihood, ≈ 1–3 s).
+TIME_ALLOWANCE_S = 5.0
+#: Condition number of θ's Laplace correlation matrix above which a law is ill-conditioned
+#: (|correlation| ≈ 1 − 10⁻⁸: two parameters the data cannot tell apart). The laws fitted to
+#: the simulated Coulomb, quadratic and viscous test recordings give 1–10².
+MAX_CONDITION = 1e8
+#: A shape parameter closer than this fraction of its prior width to a bound is "on the bound".
+BOUND_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Work allowed to one emcee run: ``max_steps`` [steps], ``max_seconds`` [s] (None: no
+    wall-time limit) and ``basis``, a sentence saying where the numbers come from."""
+
+    max_steps: int
+    max_seconds: float | None = None
+    basis: str = ""
+
+    @classmethod
+    def from_viscous(cls, steps: int | None = None, seconds: float | None = None) -> "Budget":
+        """The budget of the module docstring from the viscous sampler's ``steps`` and wall
+        time ``seconds`` [s] (either may be None: unknown)."""
+        n = int(steps) if steps is not None and np.isfinite(steps) and steps > 0 else 0
+        max_steps = max(STEP_FACTOR * n, MIN_BUDGET_STEPS)
+        basis = (f"max({STEP_FACTOR} x the viscous sampler's {n} steps, {MIN_BUDGET_STEPS})"
+                 if n else f"{MIN_BUDGET_STEPS} steps (no viscous reference)")
+        sec = None
+        if seconds is not None and np.isfinite(seconds) and seconds >= 0:
+            sec = TIME_FACTOR * float(seconds) + TIME_ALLOWANCE_S
+            basis += (f"; {TIME_FACTOR:g} x the viscous wall time {float(seconds):.3g} s "
+                      f"+ {TIME_ALLOWANCE_S:g} s")
+        return cls(max_steps=max_steps, max_seconds=sec, basis=basis)
+
+    def summary(self) -> dict:
+        return {"max_steps": int(self.max_steps), "max_seconds": self.max_seconds,
+                "basis": self.basis}
 
 
 @dataclass(frozen=True)
@@ -52,6 +115,48 @@ class ModelPosterior:
     min_ess_bulk: float = float("nan")
     acceptance: float = float("nan")
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    wall_time_s: float = float("nan")  # emcee only [s]
+    stop_reason: str = ""  # why the run stopped ("converged", "step budget reached …", …)
+    budget: Budget | None = None  # emcee only
+    ill_conditioned: bool = False
+    ill_conditioned_reason: str = ""
+
+    def diagnostics(self) -> dict:
+        """JSON-safe facts about how the draws were made: method, converged, steps, wall
+        time [s], stop reason, the budget and the conditioning verdict."""
+        return {"method": self.method, "converged": bool(self.converged),
+                "n_steps": int(self.n_steps),
+                "wall_time_s": self.wall_time_s if np.isfinite(self.wall_time_s) else None,
+                "stop_reason": self.stop_reason or None,
+                "budget": self.budget.summary() if self.budget is not None else None,
+                "ill_conditioned": bool(self.ill_conditioned),
+                "ill_conditioned_reason": self.ill_conditioned_reason or None}
+
+
+def conditioning(mf: dfit.ModelFit) -> str | None:
+    """Why ``mf`` (after :func:`dampfit.damping.fit.laplace`) is too ill-conditioned for
+    emcee, or None when it is fine (criteria in the module docstring)."""
+    cov = mf.cov
+    if cov is None or not np.all(np.isfinite(cov)):
+        return ("Laplace covariance not available: the Hessian of the log likelihood is not "
+                "positive definite at the optimum")
+    cov = np.asarray(cov, dtype=float)
+    ev = np.linalg.eigvalsh(0.5 * (cov + cov.T))
+    if ev.min() <= 0:
+        return "Laplace covariance not positive definite"
+    if mf.model != "viscous":
+        lo, hi = models.PRIOR_SHAPE[mf.model]
+        s = float(mf.theta[1])
+        tol = BOUND_TOLERANCE * (hi - lo)
+        if s <= lo + tol or s >= hi - tol:
+            return (f"{models.SHAPE[mf.model]} = {s:g} is on its prior bound [{lo:g}, {hi:g}]: "
+                    f"the {mf.model} law degenerates there")
+    d = np.sqrt(np.diag(cov))
+    cond = float(np.linalg.cond(cov / np.outer(d, d)))
+    if not np.isfinite(cond) or cond > MAX_CONDITION:
+        return (f"condition number {cond:.3g} of the parameters' correlation matrix "
+                f"(> {MAX_CONDITION:.0e}): the data cannot tell them apart")
+    return None
 
 
 def _amplitudes(mf: dfit.ModelFit, thetas, data: dfit.Data, rng) -> np.ndarray:
@@ -76,7 +181,8 @@ def _amplitudes(mf: dfit.ModelFit, thetas, data: dfit.Data, rng) -> np.ndarray:
 
 def sample_laplace(mf: dfit.ModelFit, data: dfit.Data, n_draws: int = 2000, *,
                    seed: int = 0) -> ModelPosterior:
-    """Draws from the (nested) Laplace approximation on the prior support (module docstring)."""
+    """Draws from the (nested) Laplace approximation on the prior support (module docstring);
+    an ill-conditioned law (:func:`conditioning`) is flagged in ``ill_conditioned``."""
     rng = np.random.default_rng(seed)
     th_hat, cov = mf.theta, mf.cov
     if mf.model == "viscous":
@@ -100,15 +206,55 @@ def sample_laplace(mf: dfit.ModelFit, data: dfit.Data, n_draws: int = 2000, *,
         phi = phi + np.einsum("bij,bj->bi", chol, rng.standard_normal((n_draws, m)))
         th = np.column_stack([phi[:, :1], s, phi[:, 1:]])
     a0 = _amplitudes(mf, th, data, rng)
-    return ModelPosterior(mf.model, th, a0, "laplace", True)
+    why = conditioning(mf)
+    return ModelPosterior(mf.model, th, a0, "laplace", True, ill_conditioned=why is not None,
+                          ill_conditioned_reason=why or "")
+
+
+class _WallBudgetReached(Exception):
+    """Raised between emcee blocks once the wall-time budget is spent."""
+
+
+class _DeadlineBar:
+    """Progress-bar stand-in for :func:`dampfit.posterior.run_adaptive` (which advances its
+    ``bar`` once per block): forwards to the real bar and stops the run between two blocks
+    once ``deadline`` (``time.monotonic()`` [s]) has passed."""
+
+    def __init__(self, bar, deadline: float | None):
+        self.bar, self.deadline = bar, deadline
+
+    def update(self, n: int) -> None:
+        self.bar.update(n)
+        if self.deadline is not None and time.monotonic() > self.deadline:
+            raise _WallBudgetReached
 
 
 def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], *, seed: int = 0,
                  min_ess: float = 1000.0, max_steps: int = 20000, block: int = 500,
-                 progress: bool = False) -> ModelPosterior:
-    """emcee posterior of one law with the tempered likelihood (module docstring)."""
+                 progress: bool = False, budget: Budget | None = None) -> ModelPosterior:
+    """emcee posterior of one law with the tempered likelihood (module docstring).
+
+    ``budget`` (default :meth:`Budget.from_viscous` with no reference: 2000 steps) bounds the
+    run together with ``max_steps``; pass ``Budget.from_viscous(steps, seconds)`` with the
+    viscous sampler's steps and wall time [s]. An ill-conditioned law
+    (:func:`conditioning`) is not sampled: it gets the Laplace draws, flagged.
+    """
+    budget = budget if budget is not None else Budget.from_viscous()
+    why = conditioning(mf)
+    if why is not None:
+        lap = sample_laplace(mf, data, seed=seed)
+        note = ("the Laplace approximation is reported instead (approximate intervals)"
+                if len(lap.a0) else "no draws")
+        return replace(lap, converged=False, ill_conditioned=True, ill_conditioned_reason=why,
+                       stop_reason="ill-conditioned: not sampled with emcee",
+                       warnings=lap.warnings + (
+                           f"{mf.model} damping law is ill-conditioned ({why}); not sampled "
+                           f"with emcee, {note}",))
     rng = np.random.default_rng(seed)
     model, temper, k = mf.model, mf.temper, mf.k
+    t_start = time.monotonic()
+    deadline = None if budget.max_seconds is None else t_start + budget.max_seconds
+    steps_allowed = int(min(max_steps, budget.max_steps))
 
     loglik = dfit.loglik_jax(model, data)  # compiled once, evaluated ~10⁴ times
 
@@ -122,21 +268,38 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
         cov = mf.cov if mf.cov is not None and np.all(np.isfinite(mf.cov)) else np.diag(
             np.full(k, 1e-6))
         start = rng.multivariate_normal(mf.theta, cov, size=N_WALKERS)
-    sampler = emcee.EnsembleSampler(N_WALKERS, k, log_prob, vectorize=True, moves=MOVES())
-    seed_sampler(sampler, rng)
+    sampler = ensemble(k, log_prob, rng, N_WALKERS)
     from tqdm.auto import tqdm
 
-    with tqdm(total=max_steps, desc=f"{model} posterior", unit="step", disable=not progress,
-              leave=False) as bar:
-        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, block=block,
-                           bar=bar)
-    steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
-    warns = () if converged else (f"{model} posterior NOT converged after {steps} steps: {reason}",)
+    with tqdm(total=steps_allowed, desc=f"{model} posterior", unit="step",
+              disable=not progress, leave=False) as bar:
+        try:
+            run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
+                               block=block, bar=_DeadlineBar(bar, deadline))
+            steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
+            timed_out = False
+        except _WallBudgetReached:
+            steps, converged, timed_out = int(sampler.iteration), False, True
+            tau = np.asarray(sampler.get_autocorr_time(tol=0))
+            reason = ""
+    wall = time.monotonic() - t_start
+    if converged:
+        stop = "converged"
+    elif timed_out:
+        stop = (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
+                f"{budget.basis})")
+    elif steps_allowed < max_steps and steps >= steps_allowed:
+        stop = f"step budget reached ({steps} steps = {budget.basis})"
+    else:
+        stop = f"max_steps reached ({steps} steps)"
+    warns = () if converged else (
+        f"{model} posterior NOT converged after {steps} steps: {stop}"
+        + (f"; {reason}" if reason else ""),)
     burn, thin = burn_thin(tau)
-    chain = sampler.get_chain(discard=burn, thin=thin)
+    chain = sampler.get_chain(discard=min(burn, max(steps - 8, 0)), thin=thin)
     rhat, ess = diagnose(chain)
     th = chain.reshape(-1, k)
     a0 = _amplitudes(mf, th, data, rng)
     return ModelPosterior(model, th, a0, "emcee", converged, n_steps=steps, max_r_hat=rhat,
                           min_ess_bulk=ess, acceptance=float(np.mean(sampler.acceptance_fraction)),
-                          warnings=warns)
+                          warnings=warns, wall_time_s=wall, stop_reason=stop, budget=budget)
