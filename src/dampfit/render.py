@@ -129,6 +129,39 @@ def _law_state(s: dict[str, Any], law: str) -> str:
     return ""
 
 
+#: A frequency change along the decay [1] below this is not printed as a backbone line.
+BACKBONE_PRINT = 0.002
+
+
+def _backbone_lines(s: dict) -> list[str]:
+    """The backbone f(A) and the drift-followed viscous estimate, when the frequency drifts.
+
+    Printed when the windowed damped frequency changes by more than ``BACKBONE_PRINT`` from
+    the smallest to the largest amplitude with a 90 % interval that excludes no change: then
+    a constant-frequency model mistakes phase error for damping, and the viscous law with
+    frequency-drift phase terms (``damping_models.models.viscous``) is the estimate to read.
+    """
+    curve = s.get("amplitude_curve") or {}
+    trend = (curve.get("backbone") or {}).get("frequency_trend")
+    if not isinstance(trend, dict) or trend.get("rel_change") is None:
+        return []
+    rel, sd = trend["rel_change"], trend.get("rel_change_sd") or 0.0
+    if abs(rel) < BACKBONE_PRINT or abs(rel) < 1.645 * sd:
+        return []
+    kind = "softening" if rel < 0 else "hardening"
+    out = [f"  backbone        f_d changes {100 * rel:+.2f} % [{100 * (rel - 1.645 * sd):+.2f}, "
+           f"{100 * (rel + 1.645 * sd):+.2f}] from the smallest to the largest amplitude ({kind})"]
+    visc = (((s.get("damping_models") or {}).get("models") or {}).get("viscous") or {})
+    params = visc.get("parameters") or {}
+    parts = [f"{name} = {_with_interval(params[name])}{unit}"
+             for name, unit in (("zeta", ""), ("c", " N s/m")) if isinstance(params.get(name), dict)
+             and params[name].get("q50") is not None]
+    if parts:
+        out.append("  drift followed  " + ", ".join(parts) + " (viscous decay with the frequency "
+                   "drift modelled)")
+    return out
+
+
 def text(s: dict[str, Any]) -> str:
     """A readable multi-line table of a summary dict."""
     inp, win, band = s["input"], s["window"], s["band"]
@@ -198,6 +231,7 @@ def text(s: dict[str, Any]) -> str:
             if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
                 line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()
         lines.append(line)
+        lines.extend(_backbone_lines(s))
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"
     lines.append(

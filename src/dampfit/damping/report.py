@@ -117,11 +117,22 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
     wins = [{"t_center_s": w.t_center + a.t0, "amplitude_m": w.amplitude,
              "accel_amplitude_m_s2": w.accel_amplitude, "p": w.p, "p_sd": w.p_sd,
              "zeta": w.zeta, "zeta_sd": w.zeta_sd, "f_d_hz": w.omega_d / (2 * np.pi),
+             "f_d_sd_hz": w.omega_sd / (2 * np.pi),
              "c": 2 * a.mass * w.p if a.mass is not None else None,
              "c_sd": 2 * a.mass * w.p_sd if a.mass is not None else None, "n_samples": w.n}
             for w in a.windows]
+    visc = a.fits.get("viscous")
+    backbone = {
+        "frequency_trend": (a.adequacy or {}).get("frequency_trend"),
+        "phase_terms": models.n_phase("viscous", visc.theta) if visc is not None else 0,
+        "note": "backbone: the windows' damped frequency f_d against displacement amplitude; "
+                "frequency_trend: ln f_d = const + g ln a over non-overlapping windows, rel_change "
+                "= (a_max/a_min)^g - 1 (< 0 softening, > 0 hardening); the viscous law of "
+                "damping_models follows the drift with phase_terms Legendre phase coefficients "
+                "(K4 in dampfit.damping.models), so its p, zeta and c are not biased by it",
+    }
     return {
-        "window_cycles": a.window_cycles, "windows": wins, "slope": a.slope,
+        "window_cycles": a.window_cycles, "windows": wins, "slope": a.slope, "backbone": backbone,
         "amplitude_grid_m": grid, "models": curves, "band": band,
         "preferred_model": a.preferred, "chosen_model": a.chosen, "mass_kg": a.mass,
         "reference_amplitude_m": a.amplitudes["ref"],
