@@ -1,6 +1,7 @@
 """Interval calibration of dampfit's posterior on unseen simulated scenarios.
 
-For each scenario (white noise, bias drift, timestamp jitter + gaps, coloured 1/f noise) it
+For each scenario (white noise, bias drift, timestamp jitter + gaps, coloured 1/f noise, phone
+timing with 8 % jitter and quantisation, low SNR, a short record of ≈ 10 cycles) it
 simulates ``--replicates`` recordings with independent seeds, runs :func:`dampfit.analyze`
 with the mass known exactly (so the interval reflects the recording alone), and reports how
 often the 90 % posterior intervals of c and k contain the truth, with the binomial standard
@@ -31,6 +32,13 @@ SCENARIOS = {
                    jitter=0.05, gaps=5),
     "coloured": dict(f_n=3.3, zeta=0.006, duration=45.0, sample_rate=100.0, noise_density=300.0,
                      flicker=2000.0),
+    # phone-like timing: 8 % timestamp jitter and a 2.4 mm/s² accelerometer LSB
+    "jitter_quant": dict(f_n=3.3, zeta=0.006, duration=45.0, sample_rate=100.0,
+                         noise_density=300.0, jitter=0.08, quantization=0.0024),
+    # low SNR: ten times the white noise of "white"
+    "low_snr": dict(f_n=3.3, zeta=0.006, duration=45.0, sample_rate=100.0, noise_density=3000.0),
+    # a short record: the decay is cut after ≈ 10 cycles
+    "short": dict(f_n=3.3, zeta=0.006, duration=3.0, sample_rate=100.0, noise_density=300.0),
 }
 MASS = 0.8  # [kg]
 U0 = 0.004  # [m]

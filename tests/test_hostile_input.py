@@ -423,3 +423,51 @@ def test_real_recordings_are_continuous_and_plausible():
         rec = dampfit.read(path)
         assert len(time_segments(rec.time)) == 1, path
         assert rec.time_unit_hint() is None, path
+
+
+# ----------------------------------------------------------- found by a second hostile probe
+def _decay_csv(path: Path, t: np.ndarray, a: np.ndarray) -> Path:
+    rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t, a))
+    path.write_text('"Time (s)","acc z (m/s^2)"\n' + rows)
+    return path
+
+
+@pytest.mark.parametrize("case, scale, offset, match", [
+    ("noise-free decay", 1.0, 0.0, "free of noise"),       # an FEM output: exact to rounding
+    ("time step 1e-302 s", 1e-302, 0.0, "time looks wrong"),
+    ("time stamps near 1e300 s", 1e300, 1e300, "time looks wrong"),
+])
+def test_numerically_extreme_recordings_are_one_line(tmp_path, capsys, case, scale, offset, match):
+    n = np.arange(1000)
+    a = 3.0 * np.exp(-0.3 * n / 100.0) * np.cos(2 * np.pi * 5.0 * n / 100.0)
+    path = _decay_csv(tmp_path / "rec.csv", n / 100.0 * scale + offset, a)
+    before = snapshot(tmp_path)
+    code, _, err = run(["analyze", path, "--mass", "5.3", "--out", tmp_path / "o", "--quiet",
+                        "--no-figures"], capsys)
+    assert_one_line_error(code, err, match=match)
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_a_decay_quantised_at_a_micro_unit_is_not_noise_free(tmp_path, capsys):
+    n = np.arange(1000)
+    a = np.round(3.0 * np.exp(-0.3 * n / 100.0) * np.cos(2 * np.pi * 5.0 * n / 100.0), 6)
+    path = _decay_csv(tmp_path / "rec.csv", n / 100.0, a)
+    code, _, err = run(["analyze", path, "--mass", "5.3", "--out", tmp_path / "o", "--quiet",
+                        "--no-figures", "--json"], capsys)
+    assert code == 0 and err == "", err
+    s = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert s["parameters"]["f_n"]["q50"] == pytest.approx(5.0, rel=1e-4)
+
+
+def test_an_unsafe_cache_never_adds_a_line_to_an_error(tmp_path, capsys, monkeypatch):
+    """The cache warning is printed after a command that succeeds, never beside an error."""
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv("DAMPFIT_JAX_CACHE", str(shared))
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    code, _, err = run(["analyze", tmp_path / "missing.csv", "--out", tmp_path / "o"], capsys)
+    assert_one_line_error(code, err, match="not found")
+    code, _, err = run(["simulate", "--duration", "5", "--handheld", "0", "--out",
+                        tmp_path / "s.csv"], capsys)
+    assert code == 0 and "cache off" in err and len(err.strip().splitlines()) == 1

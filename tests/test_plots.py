@@ -166,3 +166,49 @@ def test_spectrum_figure_linear_db_band_and_filter_response(with_mass):
     far = f > 2.0 * hi
     if far.any():
         assert np.all(db_filt[far] < db[far] - 20)
+
+
+def _errorbar(ax, label_start: str):
+    """(x, y, half-length of each error bar or None) of the errorbar labelled ``label_start``."""
+    cont = [c for c in ax.containers if c.get_label().startswith(label_start)]
+    assert len(cont) == 1, [c.get_label() for c in ax.containers]
+    line, _, bars = cont[0].lines
+    x, y = np.asarray(line.get_xdata(), float), np.asarray(line.get_ydata(), float)
+    if not cont[0].has_yerr:
+        return x, y, None
+    segs = bars[0].get_segments()
+    return x, y, np.array([0.5 * (sg[1][1] - sg[0][1]) for sg in segs])
+
+
+def test_amplitude_figure_draws_zeta_and_backbone(with_mass):
+    """ζ(A) on top (windows with their 90 % band, each law's ζ_eq) and the f(A) backbone below."""
+    curve = plots._amplitude_curve(with_mass)
+    wins = curve["windows"]
+    f_ls = plots._ls_values(with_mass)["f_d"]
+    fig = plots.amplitude_figure(curve, f_d_hz=f_ls)
+    ax_z = fig.axes[0]
+    ax_f = next(ax for ax in fig.axes if ax.get_ylabel() == "damped frequency f_d [Hz]")
+    assert ax_z.get_xscale() == "log" and ax_z.get_ylabel() == "damping ratio ζ [1]"
+    assert ax_f.get_xlabel() == "displacement amplitude a [m]" and ax_f.get_xscale() == "log"
+    assert ax_z.get_title(loc="left").startswith("ζ(A)")
+    assert ax_f.get_title(loc="left").startswith("f(A)")
+    a = [w["amplitude_m"] for w in wins]
+    x, y, half = _errorbar(ax_z, "windowed viscous fits")
+    assert np.allclose(x, a) and np.allclose(y, [w["zeta"] for w in wins])
+    assert np.allclose(half, [1.645 * w["zeta_sd"] for w in wins])
+    x, y, half = _errorbar(ax_f, "windowed damped frequency (90 %)")
+    assert np.allclose(x, a) and np.allclose(y, [w["f_d_hz"] for w in wins])
+    assert np.all(np.isfinite(half)) and np.allclose(half, [1.645 * w["f_d_sd_hz"] for w in wins])
+    const = [ln for ln in ax_f.get_lines() if ln.get_label().startswith("constant f_d")]
+    assert len(const) == 1 and np.allclose(const[0].get_ydata(), f_ls)
+    laws = {ln.get_label().split(":")[0].replace(" (chosen)", "") for ln in ax_z.get_lines()
+            if "ζ_eq(a)" in ln.get_label()}
+    assert laws == set(curve["models"])
+    # a summary without the frequency sd: points without bars, and the legend says so
+    bare = {**curve, "windows": [{k: v for k, v in w.items() if k != "f_d_sd_hz"} for w in wins]}
+    fig = plots.amplitude_figure(bare)
+    ax_f = next(ax for ax in fig.axes if ax.get_ylabel() == "damped frequency f_d [Hz]")
+    assert _errorbar(ax_f, "windowed damped frequency (sd not in the summary)")[2] is None
+    # no windows at all (a very short recording) still gives a figure, saying why it is empty
+    fig = plots.amplitude_figure({"windows": [], "models": {}})
+    assert any("no amplitude windows" in t.get_text() for t in fig.axes[0].texts)

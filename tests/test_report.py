@@ -4,7 +4,10 @@ One analysed short recording of the seed paper's set-up (conftest's ``analysed``
 a result folder once per module; synthetic variants of its summary test the optional sections
 (CRLB, model checks, amplitude curve, verification), missing/None fields and bad input. The
 HTML is opened in headless Chromium (skipped only if the binary is absent), and one real
-recording is analysed and reported.
+recording is analysed and reported. The "for a reader" tests hold what a colleague relies on:
+human labels instead of summary keys, each warning once, one defined noise level, absolute
+paths in the reproduce command, "sd not given", digits that show the interval and the
+embedded ζ(A)/f(A) figure.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ import pytest
 
 import dampfit
 from dampfit import _document
-from dampfit import cli, plots, report
+from dampfit import cli, plots, render, report
 from dampfit.errors import InputError
 
 from .conftest import REAL
@@ -138,12 +141,13 @@ def test_numbers_come_from_summary(folder, summary):
     md = (folder / "report.md").read_text(encoding="utf-8")
     p = summary["parameters"]
     for text in (html, md):
-        for name in report.MAIN:
-            assert report._num(p[name]["q50"]) in text, name
+        for name in report.MAIN:  # the median with the digits its interval supports
+            assert render.interval(p[name]["q50"], p[name]["q05"], p[name]["q95"])[0] in text, name
             assert report._interval(p[name]).replace("[", "").split(",")[0] in text
-        assert report._num(summary["least_squares"]["c"]) in text
+        # least squares with the posterior's digits, a baseline with those of its own spread
+        assert report._point(summary, "c", summary["least_squares"]["c"]) in text
         for b in summary["baselines"].values():
-            assert report._num(b["c"]) in text
+            assert render._own_spread(b, "c") in text
         assert report._num(summary["noise_model"]["psd_ratio_at_f0"]) in text
         assert summary["input"]["format"] in text and summary["dampfit_version"] in text
         for unit in ("N s/m", "N/m", "Hz", "1/s", "m/s^2", "kg"):
@@ -360,6 +364,157 @@ def test_report_module_imports_only_the_standard_library():
             assert name.split(".")[0] in sys.stdlib_module_names | {"__future__"}, name
 
 
+# ----------------------------------------------------------------------------- for a reader
+#: Keys that are also the report's symbols (f_n is printed as the quantity's symbol).
+SYMBOLS = {"f_n", "f_d", "c_crit", "u0", "F_c", "mu_c", "c_alpha"}
+
+
+def _keys(obj) -> set[str]:
+    if isinstance(obj, dict):
+        return {str(k) for k in obj} | {k for v in obj.values() for k in _keys(v)}
+    if isinstance(obj, list):
+        return {k for v in obj for k in _keys(v)}
+    return set()
+
+
+def _lower_half(md: str) -> str:
+    """From "Inputs and provenance" to "How to reproduce", without list items (the analysis'
+    own sentences: notes, verdict reasons) and code blocks."""
+    text = md[md.index("## Inputs and provenance"):md.index("## How to reproduce")]
+    text = re.sub(r"```.*?```", "", text, flags=re.S)
+    return "\n".join(line for line in text.splitlines() if not line.startswith("- "))
+
+
+def test_lower_half_has_human_labels_and_no_dumps(folder, summary):
+    md = (folder / "report.md").read_text(encoding="utf-8")
+    lower = _lower_half(md)
+    snake = {k for k in _keys(summary) if "_" in k and k not in SYMBOLS}
+    assert len(snake) > 50  # the summary has plenty of them
+    shown = sorted(k for k in snake if _document._md(k) in lower or k in lower)
+    assert shown == [], shown
+    # nor keys with their underscores merely replaced by spaces (the old dump's "labels")
+    for raw in ("ljung box at f0", "psd ratio", "zeta q05", "slope ln p vs ln amplitude",
+                "window slope", "s q05", "amplitude grid", "zeta eq"):
+        assert raw not in lower.lower(), raw
+    # short tables: no table longer than the windows would be, none printed twice
+    tables = re.findall(r"(?:^\|.*\|\n?)+", lower, flags=re.M)
+    assert tables and max(t.count("\n") for t in tables) < 25
+    assert len(tables) == len(set(tables))
+    # the verdict once, in plain words, at the top of the model checks, its reasons as a list
+    mc = summary["model_checks"]
+    checks = _section(md, "Model checks")
+    first = checks.split("\n\n")[1]
+    assert first.startswith(f"**Verdict: {mc['verdict']}** — ")
+    assert first.count("Verdict") == 1 and md.count("**Verdict:") == 1
+    for reason in mc["verdict_reasons"]:
+        assert f"- {_document._md(reason)}" in checks
+    # one table of the laws: law, weight, parameters with units
+    laws = [r for r in checks.splitlines() if r.startswith("| ") and "---" not in r]
+    head = next(r for r in laws if r.startswith("| law |"))
+    assert "weight" in head and "parameters" in head
+    for law, entry in summary["damping_models"]["models"].items():
+        row = next(r for r in laws if r.startswith(f"| {law} |"))
+        if "c" in entry["parameters"]:
+            assert "N s/m" in row, row
+
+
+def test_each_warning_appears_once(summary):
+    s = copy.deepcopy(summary)
+    mc_warn = "damping depends on amplitude: ζ falls from 0.0021 to 0.0015 (P < 0.05)"
+    s["diagnostics"]["warnings"] = ["R-hat 1.2 > 1.01: run longer", mc_warn]
+    s["model_checks"]["warning"] = mc_warn  # the analysis repeats it in the model checks
+    html, md = _render(s)
+    for w in s["diagnostics"]["warnings"]:
+        esc = _document._h(w)
+        assert html.count(esc) == 1, w
+        assert html[:html.index("<h2>")].count(esc) == 1  # in the red box at the top
+    assert html.count('class="box bad"') == 1 and md.count("⚠") == 1
+    # a model-check warning of its own is in the same box, once
+    s["model_checks"]["warning"] = "decay rate falls with amplitude"
+    html, _ = _render(s)
+    assert html.count("decay rate falls with amplitude") == 1
+    assert "decay rate falls with amplitude" in html[:html.index("<h2>")]
+
+
+def _count_number(text: str, number: str) -> int:
+    return len(re.findall(rf"(?<![\d.]){re.escape(number)}(?![\d])", text))
+
+
+def test_noise_level_is_defined_once(folder, summary):
+    md = (folder / "report.md").read_text(encoding="utf-8")
+    nm, crlb = summary["noise_model"], summary["crlb"]
+    noise = _section(md, "Noise model")
+    sigma, dens = report._num(nm["sigma"], 3), report._num(crlb["noise_density"], 3)
+    assert _count_number(md, sigma) == 1 and _count_number(noise, sigma) == 1
+    assert _count_number(md, dens) == 1 and _count_number(noise, dens) == 1
+    rows = {r.split(" | ")[0][2:]: r for r in noise.splitlines() if r.startswith("| ")}
+    assert "per fitted sample" in rows["σ, residual noise level"]
+    assert "m/s^2 |" in rows["σ, residual noise level"]
+    assert "Cramér–Rao" in rows["noise density at f₀"]
+    assert "m/s^2/sqrt(Hz)" in rows["noise density at f₀"]
+    # the CRLB's own per-raw-sample σ is not a second, unlabelled "noise" number
+    for digits in (3, 4, 6):
+        assert _count_number(md, report._num(crlb["noise_sigma"], digits)) == 0
+    # the bound refers to the definition instead of repeating a number
+    result = _section(md, "Result")
+    assert "noise density at f₀ defined in the section “Noise model”" in result
+    assert "noise" not in "".join(r for r in result.splitlines() if r.startswith("| "))
+
+
+def test_reproduce_command_is_absolute_and_quoted(folder, summary, tmp_path, monkeypatch):
+    md = (folder / "report.md").read_text(encoding="utf-8")
+    code = re.search(r"```bash\n(dampfit analyze .*?)\n```", md).group(1)
+    args = shlex.split(code)
+    assert args[args.index("--out") + 1] == str(folder.resolve())
+    # a relative folder becomes absolute (quoted where needed)
+    monkeypatch.chdir(tmp_path)
+    s = copy.deepcopy(summary)
+    s["input"]["path"] = "/data/my run/Raw Data.csv"
+    args = shlex.split(report.reproduce_command(s, "out dir"))
+    assert args[args.index("--out") + 1] == str(tmp_path / "out dir")
+    assert args[2] == "/data/my run/Raw Data.csv"
+    # a relative input path (as recorded) is flagged: the command must run from that folder
+    s["input"]["path"] = "rel/data.csv"
+    _, md = _render(s)
+    assert "rel/data.csv was recorded relative to the folder the analysis ran in" in md
+
+
+def test_mass_without_sd_says_so(summary):
+    s = copy.deepcopy(summary)
+    for sd in (None, 0.0):
+        s["mass"] = {"value": 0.23, "sd": sd, "unit": "kg"}
+        _, md = _render(s)
+        assert "| mass | 0.23 kg (sd not given) |" in md and "± 0 kg" not in md
+    s["mass"]["sd"] = 0.01
+    assert "| mass | 0.23 ± 0.01 kg |" in _render(s)[1]
+
+
+def test_digits_show_the_interval(summary):
+    s = copy.deepcopy(summary)
+    s["parameters"]["f_n"].update(q05=1.71992, q50=1.72031, q95=1.72068, mean=1.720305)
+    html, md = _render(s)
+    assert "**f\\_n = 1.72031 Hz** (90 % interval \\[1.71992, 1.72068\\])" in md
+    row = next(r for r in md.splitlines() if r.startswith(f"| {_document._md(report.NAMES['f_n'])}"))
+    assert "| 1.72031 | 1.72030 |" in row and "\\[1.71992, 1.72068\\]" in row
+    # every posterior row: median and both ends distinct as printed
+    for name in report.MAIN + report.DERIVED:
+        q = s["parameters"][name]
+        if q["q05"] < q["q50"] < q["q95"]:
+            lo, hi = report._interval(q)[1:-1].split(", ")
+            assert len({report._median(q), lo, hi}) == 3, name
+
+
+def test_amplitude_figures_are_embedded(folder, summary):
+    html = (folder / "report.html").read_text(encoding="utf-8")
+    fig = re.search(r'<figure><img src="data:image/png;base64,([^"]+)"[^>]*alt="([^"]*)"'
+                    r"><figcaption><strong>amplitude.png</strong>", html)
+    assert fig, "amplitude.png is not embedded"
+    assert base64.b64decode(fig.group(1)) == (folder / "amplitude.png").read_bytes()
+    assert "ζ(A)" in fig.group(2) and "f(A)" in fig.group(2) and "backbone" in fig.group(2)
+    section = html[html.index("<h2>Amplitude dependence</h2>"):]
+    assert section.index("amplitude.png") < section.index("<h2>", 5)
+
+
 # ----------------------------------------------------------------------------- bad input
 def test_bad_folders_are_input_errors(tmp_path, capsys):
     with pytest.raises(InputError, match="is not a directory"):
@@ -463,5 +618,6 @@ def test_real_recording_report(tmp_path):
     md = (d / "report.md").read_text(encoding="utf-8")
     assert "c and k not identified" in md and "not identified" in _section(md, "Result")
     assert "l2LongTheta5.csv" in md and rec.sha256 in md
-    assert f"{an.summary()['parameters']['f_n']['q50']:.6g}" in md
+    f_n = an.summary()["parameters"]["f_n"]  # with the digits its interval supports
+    assert render.interval(f_n["q50"], f_n["q05"], f_n["q95"])[0] in md
     assert _image_check(d / "report.html", tmp_path) == (len(FIGS), 0)

@@ -290,9 +290,10 @@ def test_writers_leave_no_half_written_file(tmp_path, monkeypatch):
         raise OSError("disk full")
 
     monkeypatch.setattr("dampfit.simulate.os.replace", fail)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(InputError, match="disk full") as info:
         write_phyphox_csv(_known_recording(True), target)
-    with pytest.raises(OSError, match="disk full"):
+    assert isinstance(info.value.__cause__, OSError)
+    with pytest.raises(InputError, match="disk full"):
         write_truth({"a": 1}, tmp_path / "t.json")
     assert target.read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv"]

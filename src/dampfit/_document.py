@@ -130,7 +130,9 @@ def _md(text: Any) -> str:
 
 
 def _md_code(text: str) -> str:
-    """A Markdown code span that survives backticks inside ``text``."""
+    """A Markdown code span that survives backticks and line breaks inside ``text`` (a line
+    break would end the span's paragraph and let the rest through as raw HTML)."""
+    text = " ".join(text.split())
     ticks = "`" * (max([0] + [len(r) for r in re.findall("`+", text)]) + 1)
     pad = " " if text.startswith("`") or text.endswith("`") else ""
     return f"{ticks}{pad}{text}{pad}{ticks}"

@@ -28,7 +28,8 @@ from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["atomic_write_text", "publish", "MARKER", "ResultFolder", "read_marker"]
+__all__ = ["atomic_write_text", "check_output_file", "publish", "MARKER", "ResultFolder",
+           "WriteError", "read_marker"]
 
 
 def _umask() -> int:
@@ -43,17 +44,68 @@ def publish(path: str | os.PathLike) -> None:
     os.chmod(path, (0o777 if path.is_dir() else 0o666) & ~_umask())
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically; raise InputError if its folder is missing."""
+class WriteError(InputError):
+    """A file could not be written (the OSError is the ``__cause__``); one line, exit 2."""
+
+
+def _tmp_prefix(name: str) -> str:
+    """Prefix of a temporary file beside ``name``: short enough that the temporary name fits
+    whenever ``name`` itself does (a long ``name`` would otherwise fail in ``mkstemp``)."""
+    return f".{name[:40]}."
+
+
+def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out") -> Path:
+    """Refuse, before any work, to write the single file ``path``: its folder must exist; an
+    existing entry (a file, or a symbolic link even if dangling) is replaced only with
+    ``force`` (a link is then replaced itself, never its target); a directory or a special
+    file never. A name the file system cannot hold (too long) is one line as well."""
     path = Path(path)
-    if not path.parent.is_dir():
+    try:
+        st = os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):  # the folder check below names the problem
+        st = None
+    except OSError as exc:  # ENAMETOOLONG, EACCES, ELOOP
+        raise InputError(f"cannot write {path}: {_reason(exc)}") from None
+    try:
+        parent_ok = path.parent.is_dir()
+    except OSError as exc:
+        raise InputError(f"cannot write {path}: {_reason(exc)}") from None
+    if not parent_ok:
         raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    if st is None:
+        return path
+    if stat.S_ISDIR(st.st_mode):
+        raise InputError(f"refusing to overwrite {path}: it is a directory, not a regular file; "
+                         f"give a file name with {option}")
+    if not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
+        raise InputError(f"refusing to overwrite {path}: it is not a regular file")
+    if not force:
+        what = (" (it is a symbolic link: --force replaces the link, never its target)"
+                if stat.S_ISLNK(st.st_mode) else "")
+        raise InputError(f"{path} exists; use --force to replace it{what}")
+    return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (a symbolic link at ``path`` is replaced,
+    not followed). Any failure — missing folder, a name too long, no permission, a full
+    disk — is a :class:`WriteError` (an :class:`InputError`: one line, exit 2) and leaves
+    ``path`` as it was and no temporary file behind."""
+    path = Path(path)
+    try:
+        if not path.parent.is_dir():
+            raise WriteError(f"cannot write {path}: directory {path.parent} does not exist")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=".tmp")
+    except OSError as exc:
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     try:
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
         publish(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -331,8 +383,13 @@ class ResultFolder:
         """Turn an I/O failure while writing into the staging folder into one InputError."""
         try:
             yield self.stage
-        except InputError:
-            raise
+        except InputError as exc:
+            if not isinstance(exc, WriteError) or _os_error_in(exc) is None:
+                raise
+            fate = ("the previous result is unchanged" if os.path.lexists(self.target)
+                    else "nothing was written")
+            raise InputError(f"cannot write {self.target}: {_reason(_os_error_in(exc))}; "
+                             f"{fate}") from None
         except Exception as exc:  # noqa: BLE001 - h5py/matplotlib wrap their OSErrors
             os_error = _os_error_in(exc)
             if os_error is None:

@@ -120,7 +120,7 @@ class Analysis:
         return jsonable({
             "dampfit_version": _version(),
             "input": {
-                "path": rec.path, "format": rec.format, "sha256": rec.sha256,
+                "path": os.path.abspath(rec.path) if rec.path else rec.path, "format": rec.format, "sha256": rec.sha256,
                 "n_samples": rec.n_samples, "sample_rate_hz": prep.fs,
                 "duration_s": rec.duration, "timing_jitter": prep.jitter,
                 "axis": prep.axis, "axis_direction": prep.direction,
@@ -273,6 +273,7 @@ def analyze(
     m, sd = _check_mass(mass, mass_sd)
     _check_damping_options(model, amplitude)
     warns: list[str] = []
+    _refuse_impossible_time(recording)
     prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
     warns.extend(unit_plausibility(recording, prep, m))
@@ -296,6 +297,13 @@ def analyze(
             f"no free decay found: a damped oscillation explains only {100 * ls.explained:.0f} % "
             f"of the signal in {prep.window[0]:.3g}–{prep.window[1]:.3g} s (random motion or "
             "noise?); check the axis or give --window START END"
+        )
+    if ls.rss_drift > 0 and ls.rss < NOISE_FREE_POWER * ls.rss_drift:
+        raise InputError(
+            "the recording is free of noise to numerical precision (residual "
+            f"{np.sqrt(ls.rss / ls.rss_drift):.1g} of the signal): a simulation or FEM output? A "
+            "posterior needs measurement noise; add the sensor's noise (dampfit simulate does) "
+            "or read the least-squares values of dampfit.fit"
         )
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
@@ -336,6 +344,25 @@ PLAUSIBLE_F0_HZ = (0.05, 2000.0)
 PLAUSIBLE_K_N_PER_M = (1e-3, 1e8)
 
 
+#: Residual power relative to the signal's below which a record is noise-free (rounding
+#: only: residual rms < 1e-8 of the signal, 40 dB below a 24-bit converter's resolution).
+NOISE_FREE_POWER = 1e-16
+#: Sample rates [Hz] no accelerometer recording can have: outside this range the time
+#: column is in the wrong unit or corrupt, and the analysis is refused up front.
+POSSIBLE_RATE_HZ = (1e-3, 1e8)
+
+
+def _refuse_impossible_time(rec: Recording) -> None:
+    """InputError naming the time-unit mix-up when the median sample rate is impossible
+    (:data:`POSSIBLE_RATE_HZ`); merely implausible rates only warn (:func:`unit_plausibility`)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        rate = float(1.0 / np.median(np.diff(rec.time)))
+    lo, hi = POSSIBLE_RATE_HZ
+    if not lo <= rate <= hi:
+        raise InputError(rec.time_unit_hint() or f"the median sample rate {rate:.3g} Hz is "
+                         "impossible for an accelerometer; check the time column and --time-unit")
+
+
 def unit_plausibility(rec: Recording, prep: preprocess.Prepared, mass: float | None) -> list[str]:
     """Warnings naming a likely unit mix-up: the time unit (:meth:`Recording.time_unit_hint`:
     a sample rate outside 1 Hz–100 kHz, or seconds under a ``(ms)`` header), a dominant
@@ -350,7 +377,8 @@ def unit_plausibility(rec: Recording, prep: preprocess.Prepared, mass: float | N
         out.append(f"the dominant frequency {prep.f0:.4g} Hz is outside {lo:g}–{hi:g} Hz, unusual "
                    "for a free-decay test; check the time unit (--time-unit)")
     if mass is not None:
-        k = mass * (2 * np.pi * prep.f0) ** 2
+        with np.errstate(over="ignore"):
+            k = float(mass * (2 * np.pi * np.float64(prep.f0)) ** 2)
         k_lo, k_hi = PLAUSIBLE_K_N_PER_M
         if not k_lo <= k <= k_hi:
             out.append(f"the implied stiffness k ≈ {k:.3g} N/m for {mass:g} kg is outside "

@@ -361,27 +361,58 @@ def _sim_config(args):
 
 
 def _cmd_simulate(args) -> int:
+    """``dampfit simulate``: FILE.csv and FILE.truth.json, both or neither.
+
+    Before any work: both names are checked (:func:`dampfit._files.check_output_file`: an
+    existing file or link only with --force, never a directory; a name too long or a missing
+    folder is one line) and the configuration against :func:`dampfit.simulate.check_limits`.
+    Both files are written into a private staging folder beside them and renamed into place,
+    so a failed write (full disk, read-only folder) leaves nothing behind. Every file-system
+    failure is an :class:`InputError` (exit 2, one line).
+    """
+    import shutil
+    import tempfile
+
     from . import simulate as sim
+    from ._files import _reason, check_output_file
 
     out = Path(args.out)
     if not out.name or out.name in (".", ".."):
         raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
-    truth_path = out.with_suffix(".truth.json")
-    for f in (out, truth_path):
-        if os.path.lexists(f) and not f.is_file():
-            raise InputError(f"refusing to overwrite {f}: it is not a regular file")
-        if f.exists() and not args.force:
-            raise InputError(f"{f} exists; use --force to overwrite it")
-    if not out.parent.resolve().is_dir():
-        raise InputError(f"output folder {out.parent} does not exist")
-    if not os.access(out.parent.resolve(), os.W_OK | os.X_OK):
-        raise InputError(f"cannot write into {out.parent.resolve()}: permission denied")
-    rec, truth = sim.simulate(_sim_config(args))
     try:
-        sim.write_phyphox_csv(rec, out, dialect=args.dialect)
-        sim.write_truth(truth, truth_path)
+        truth_path = out.with_suffix(".truth.json")
+    except ValueError:
+        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv") from None
+    for f in (out, truth_path):
+        check_output_file(f, args.force)
+    if not os.access(out.parent, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
+    cfg = _sim_config(args)
+    sim.check_limits(cfg)
+    rec, truth = sim.simulate(cfg)
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
     except OSError as exc:
-        raise InputError(f"cannot write {exc.filename or out}: {exc.strerror or exc}") from None
+        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+    existed = os.path.lexists(out)
+    try:
+        sim.write_phyphox_csv(rec, stage / out.name, dialect=args.dialect)
+        sim.write_truth(truth, stage / truth_path.name)
+        os.replace(stage / out.name, out)
+        try:
+            os.replace(stage / truth_path.name, truth_path)
+        except OSError:
+            if not existed:  # both or neither
+                out.unlink(missing_ok=True)
+            raise
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+    except InputError as exc:  # a failed write in the staging folder
+        cause = exc.__cause__
+        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
+        raise InputError(f"cannot write {out}: {reason}; nothing was written") from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
     print(f"wrote {out} ({rec.n_samples} samples, {rec.duration:.4g} s) and {truth_path}: "
           f"c = {truth['c']:.6g} N s/m, k = {truth['k']:.6g} N/m, m = {truth['mass']:.6g} kg, "
           f"f_n = {truth['f_n']:.6g} Hz, zeta = {truth['zeta']:.4g}")
@@ -489,8 +520,8 @@ def _compile_cache() -> Path | None:
         return None  # read-only home etc.: run without the cache, only slower
     problem = _unsafe_cache(path, created)
     if problem is not None:
-        print(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; cache off",
-              file=sys.stderr)
+        _DEFERRED.append(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
+                         "cache off")
         return None
     settings = {"JAX_COMPILATION_CACHE_DIR": str(path),
                 "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",  # many small kernels add up
@@ -526,8 +557,26 @@ def main(argv: Sequence[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
+#: Warning lines printed after a command succeeds; a failing command prints its one error
+#: line only (the one-line contract), so a side issue never adds a second line to it.
+_DEFERRED: list[str] = []
+
+
 def _main(argv: Sequence[str] | None) -> int:
-    warnings.filterwarnings("ignore", category=FutureWarning)
+    _DEFERRED.clear()
+    with warnings.catch_warnings():
+        # library warnings (NumPy overflow, emcee, JAX) are not dampfit's messages: what matters
+        # reaches summary.json's warnings; DAMPFIT_DEBUG=1 shows them
+        if not os.environ.get("DAMPFIT_DEBUG"):
+            warnings.simplefilter("ignore")
+        code = _dispatch(argv)
+    if code == 0:
+        for line in _DEFERRED:
+            print(line, file=sys.stderr)
+    return code
+
+
+def _dispatch(argv: Sequence[str] | None) -> int:
     try:
         _compile_cache()
         args = get_parser().parse_args(argv)

@@ -13,6 +13,10 @@ writes them all:
 * ``posterior`` — :func:`posterior_figure`: corner plot of (c, k, u₀), or (ζ, f_n, u₀)
   without a mass;
 * ``trace`` — :func:`trace_figure`: walker traces and marginal densities.
+* ``amplitude`` — :func:`amplitude_figure`: ζ(A) (windowed ζ with its 90 % band and each
+  damping law's ζ_eq(a)) and the f(A) backbone (windowed damped frequency with its 90 %
+  band), written when the analysis assessed the damping laws (always with
+  :func:`dampfit.analyze`).
 
 matplotlib is imported inside the functions only: the numeric core never needs it.
 """
@@ -726,32 +730,70 @@ def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110) -
             if tmp.exists():
                 tmp.unlink()
         written[name] = path
-    if getattr(an, "damping", None) is not None:  # ζ(amplitude) of dampfit.damping
-        path = outdir / "amplitude.png"
-        fig = amplitude_figure(an.damping.summary()["amplitude_curve"], path, dpi=dpi)
+    path = outdir / "amplitude.png"
+    if getattr(an, "damping", None) is not None:  # ζ(A) and f(A) of dampfit.damping
+        fig = amplitude_figure(_amplitude_curve(an), path, dpi=dpi, f_d_hz=_ls_values(an)["f_d"],
+                               frequency_trend=(an.damping.adequacy or {}).get("frequency_trend"))
         fig.clear()
         written["amplitude"] = path
+    else:
+        path.unlink(missing_ok=True)  # never leave a stale figure of an earlier run
     return written
 
 
-def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi: int = 110) -> "Figure":
-    """ζ against displacement amplitude: windowed viscous fits and each damping law's ζ_eq(a).
+def _amplitude_curve(an: "Analysis") -> dict:
+    """``amplitude_curve`` of the damping summary, each window with its frequency sd
+    ``f_d_sd_hz`` [Hz] (from the window fit's ω_d sd when the summary does not carry it)."""
+    curve = dict(an.damping.summary()["amplitude_curve"])
+    wins = [dict(w) for w in (curve.get("windows") or [])]
+    fits = list(getattr(an.damping, "windows", None) or [])
+    if len(fits) == len(wins):
+        for w, fit in zip(wins, fits):
+            if "f_d_sd_hz" not in w:
+                w["f_d_sd_hz"] = float(getattr(fit, "omega_sd", float("nan"))) / (2 * np.pi)
+    curve["windows"] = wins
+    return curve
 
-    ``curve`` is ``summary()["amplitude_curve"]`` of :func:`dampfit.damping.assess`: window
-    estimates ζ ± 1.645·sd (90 %) [1] at their amplitude [m] (log axis), every converged law's
-    ζ_eq(a) = ρ(a)/ω from its least-squares fit, the 90 % posterior band of the chosen law
-    and the reference amplitude of c_eq. With a mass, a second axis gives c_eq [N·s/m] =
-    2·m·ω·ζ (ω from the windows). With ``path``, the PNG is written atomically as well.
+
+def _window_f_sd(w: dict) -> float:
+    """1-σ [Hz] of a window's damped frequency (``f_d_sd_hz``, or ``omega_sd`` [rad/s]); NaN."""
+    for key, scale in (("f_d_sd_hz", 1.0), ("omega_sd", 1.0 / (2 * np.pi))):
+        v = w.get(key)
+        if isinstance(v, (int, float)) and np.isfinite(v) and v > 0:
+            return float(v) * scale
+    return float("nan")
+
+
+def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi: int = 110,
+                     f_d_hz: float | None = None, frequency_trend: dict | None = None) -> "Figure":
+    """ζ(A) and the f(A) backbone against displacement amplitude, in two panels.
+
+    ``curve`` is ``summary()["amplitude_curve"]`` of :func:`dampfit.damping.assess`.
+
+    * Top (``fig.axes[0]``), ζ(A): window estimates ζ ± 1.645·sd (90 %) [1] at their
+      amplitude [m] (log axis), every law's ζ_eq(a) = ρ(a)/ω from its least-squares fit, the
+      90 % posterior band of the chosen law and the reference amplitude of c_eq. With a mass,
+      a second axis gives c_eq [N·s/m] = 2·m·ω·ζ (ω from the windows).
+    * Bottom, f(A) backbone: each window's damped frequency f_d [Hz] ± 1.645·sd (90 %; sd
+      from ``f_d_sd_hz`` [Hz] or ``omega_sd`` [rad/s] of the window, error bars omitted when
+      absent) against the same amplitude axis, with the constant frequency ``f_d_hz`` [Hz] the
+      free-decay model assumes (dashed, when given); ``frequency_trend``
+      (:func:`dampfit.damping.curve.frequency_trend`; default ``curve["backbone"]
+      ["frequency_trend"]``) adds its relative change to the title.
+
+    With ``path``, the PNG is written atomically as well.
     """
-    fig = _new_figure(8.0, 5.0)
-    ax = fig.subplots()
-    wins = curve.get("windows") or []
-    a = np.array([w["amplitude_m"] for w in wins], dtype=float)
-    z = np.array([w["zeta"] for w in wins], dtype=float)
-    zs = np.array([w["zeta_sd"] for w in wins], dtype=float)
+    fig = _new_figure(8.0, 7.5)
+    ax, ax_f = fig.subplots(2, 1, sharex=True, height_ratios=[1.5, 1.0])
+    wins = [w for w in (curve.get("windows") or []) if isinstance(w, dict)]
+    a = np.array([w.get("amplitude_m", np.nan) for w in wins], dtype=float)
+    z = np.array([w.get("zeta", np.nan) for w in wins], dtype=float)
+    zs = np.array([w.get("zeta_sd", np.nan) for w in wins], dtype=float)
+    cyc = curve.get("window_cycles") or 0
     if a.size:
-        ax.errorbar(a, z, yerr=1.645 * zs, fmt="o", ms=4, color="0.25", ecolor="0.6", capsize=2,
-                    label=f"windowed viscous fits ({curve.get('window_cycles', 0):.0f} cycles, 90 %)")
+        ax.errorbar(a, z, yerr=1.645 * np.nan_to_num(zs), fmt="o", ms=4, color="0.25",
+                    ecolor="0.6", capsize=2,
+                    label=f"windowed viscous fits ({cyc:.0f} cycles, 90 %)")
     grid = np.asarray(curve.get("amplitude_grid_m") or [], dtype=float)
     band = curve.get("band")
     if band and grid.size > 1:
@@ -761,30 +803,78 @@ def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi:
               "power": "tab:blue"}
     chosen = curve.get("chosen_model")
     for name, entry in (curve.get("models") or {}).items():
-        if grid.size > 1:
+        if grid.size > 1 and isinstance(entry, dict) and entry.get("zeta_eq") is not None:
             ax.plot(grid, entry["zeta_eq"], color=colors.get(name, "k"),
                     lw=2.0 if name == chosen else 1.0, ls="-" if name == chosen else "--",
                     label=f"{name}{' (chosen)' if name == chosen else ''}: ζ_eq(a)")
     ref = curve.get("reference_amplitude_m")
-    if ref:
-        ax.axvline(ref, color="tab:red", lw=0.9, ls=":", label=f"reference amplitude {ref:.3g} m")
-    ax.set_xscale("log")
-    ax.set_xlabel("displacement amplitude a [m]")
+    for axis in (ax, ax_f):
+        if ref:
+            axis.axvline(ref, color="tab:red", lw=0.9, ls=":",
+                         label=f"reference amplitude {ref:.3g} m" if axis is ax else None)
+        axis.grid(alpha=0.3, which="both")
+    if (a > 0).any() or grid.size > 1:
+        ax.set_xscale("log")
+        from matplotlib.ticker import FuncFormatter
+
+        plain = FuncFormatter(lambda v, _: f"{v:.3g}")  # not 2.2×10⁻¹ on a short log span
+        span = np.concatenate([a[a > 0], grid[grid > 0]])
+        if span.size and span.max() < 10 * span.min():
+            ax_f.xaxis.set_major_formatter(plain)
+            ax_f.xaxis.set_minor_formatter(plain)
     ax.set_ylabel("damping ratio ζ [1]")
-    ax.grid(alpha=0.3, which="both")
     mass = curve.get("mass_kg")
-    if mass and wins:
-        w = float(np.median([2 * np.pi * x["f_d_hz"] for x in wins]))
+    fd = np.array([w.get("f_d_hz", np.nan) for w in wins], dtype=float)
+    if mass and np.isfinite(fd).any():
+        w = float(2 * np.pi * np.nanmedian(fd))
         sec = ax.secondary_yaxis("right", functions=(lambda zz: 2 * mass * w * zz,
                                                      lambda cc: cc / (2 * mass * w)))
         sec.set_ylabel("c_eq [N·s/m]")
     slope = curve.get("slope")
-    title = "damping against amplitude"
+    title = "ζ(A)"
     if slope:
-        title += (f" — d ln p/d ln a = {slope['s']:.2f} [{slope['s_q05']:.2f}, "
+        title += (f": d ln p/d ln a = {slope['s']:.2f} [{slope['s_q05']:.2f}, "
                   f"{slope['s_q95']:.2f}] (0 for one viscous c)")
-    ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=8, loc="best")
+    ax.set_title(title, fontsize=10, loc="left")
+    if not a.size and grid.size < 2:
+        ax.text(0.5, 0.5, "no amplitude windows (too few cycles)", ha="center", va="center",
+                transform=ax.transAxes, color="0.4")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="best", ncols=2, framealpha=0.7)
+
+    # f(A): the backbone curve
+    fs = np.array([_window_f_sd(w) for w in wins], dtype=float)
+    ok = np.isfinite(a) & np.isfinite(fd)
+    if ok.any():
+        has_sd = np.isfinite(fs[ok]).all()
+        ax_f.errorbar(a[ok], fd[ok], yerr=1.645 * fs[ok] if has_sd else None, fmt="s", ms=4,
+                      color="tab:purple", ecolor="plum", capsize=2,
+                      label="windowed damped frequency" + (" (90 %)" if has_sd else
+                                                           " (sd not in the summary)"))
+    else:
+        ax_f.text(0.5, 0.5, "no windowed frequencies", ha="center", va="center",
+                  transform=ax_f.transAxes, color="0.4")
+    if f_d_hz is not None and np.isfinite(f_d_hz):
+        ax_f.axhline(f_d_hz, color="0.3", lw=1.0, ls="--",
+                     label=f"constant f_d of the fit = {f_d_hz:.6g} Hz")
+    ax_f.set_ylabel("damped frequency f_d [Hz]")
+    ax_f.set_xlabel("displacement amplitude a [m]")
+    from matplotlib.ticker import MaxNLocator, ScalarFormatter
+
+    ax_f.yaxis.set_major_locator(MaxNLocator(4))
+    ax_f.yaxis.set_major_formatter(ScalarFormatter(useOffset=False))  # 1.72008, not ×10⁻⁴+1.72
+    if frequency_trend is None and isinstance(curve.get("backbone"), dict):
+        frequency_trend = curve["backbone"].get("frequency_trend")
+    ftitle = "f(A) backbone"
+    if frequency_trend and all(isinstance(frequency_trend.get(k), (int, float))
+                               for k in ("rel_change", "rel_change_sd")):
+        ftitle += (f": f_d changes {100 * frequency_trend['rel_change']:+.2g} % "
+                   f"(± {100 * frequency_trend['rel_change_sd']:.2g} %) over the amplitudes "
+                   "(0 if linear)")
+    ax_f.set_title(ftitle, fontsize=10, loc="left")
+    if ax_f.get_legend_handles_labels()[0]:
+        ax_f.legend(fontsize=8, loc="best")
+    fig.suptitle("Amplitude dependence: damping ζ(A) and frequency f(A)")
     if path is not None:
         path = Path(path)
         tmp = path.with_name(path.name + ".part")

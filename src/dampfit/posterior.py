@@ -194,6 +194,9 @@ def sample(
     cov = np.asarray(ls.cov[:2, :2]) / temper
     if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov).min() <= 0:
         cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
+    # a noise-free record (an FEM output, a synthetic check) has a covariance at rounding level:
+    # walkers started that close coincide, and emcee's moves divide by their zero spread
+    cov = cov + np.diag(START_SPREAD_FLOOR**2 * np.ones(2))
     start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
     sampler = ensemble(2, log_prob, rng)
     warns: list[str] = []
@@ -221,6 +224,11 @@ def sample(
         autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
         max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns),
     )
+
+
+#: Least spread [1] of the walkers' start ball in θ = (ln p, ln ω_d): 1e-9 relative, far
+#: below any posterior width a recording with noise can give, far above float rounding.
+START_SPREAD_FLOOR = 1e-9
 
 
 def ensemble(ndim: int, log_prob, rng: np.random.Generator, n_walkers: int = N_WALKERS):

@@ -421,7 +421,8 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     averaged over one period), is compared with its running median over ``DROP_TREND_PERIODS``
     periods (the decay trend, whatever the law); an excess loss of more than ``DROP_FACTOR``
     (a factor, not a difference) where the envelope stands ≥ ``DROP_MIN_SNR`` × the noise
-    floor before the drop is reported, at the time of the steepest excess.
+    floor before the drop (and ≥ 3× after it, so that the trend is measured on the decay,
+    not on the noise floor) is reported, at the time of the steepest excess.
     """
     fs = 1.0 / (grid[1] - grid[0])
     per = max(1, int(round(fs / f0)))
@@ -431,11 +432,16 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
         return []
     sm = np.log(np.maximum(ndimage.uniform_filter1d(env, per), 1e-300))
     idx = np.arange(lo, hi)
+    # measured where the envelope stands clear of the noise on both sides: the flat floor
+    # after a decay must not enter the trend (it would make the decay itself look abrupt)
+    clear = (sm[idx - half] > np.log(DROP_MIN_SNR * floor)) & (sm[idx + half] > np.log(3.0 * floor))
+    idx = idx[clear]
+    if idx.size < 4 * per:
+        return []
     d = sm[idx + half] - sm[idx - half]
     trend = _running_median(d, int(DROP_TREND_PERIODS * per))
     excess = trend - d  # > 0: more loss than the trend
-    strong = env[np.maximum(idx - 2 * half, 0)] > DROP_MIN_SNR * floor
-    hits = (excess > np.log(DROP_FACTOR)) & strong
+    hits = excess > np.log(DROP_FACTOR)
     out = []
     j = 0
     while j < idx.size:

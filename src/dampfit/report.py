@@ -14,6 +14,21 @@ Optional summary entries (``crlb``, ``model_checks``, ``amplitude_curve``, verif
 shown when present and otherwise say "not computed" with the command that computes them;
 entries whose layout this module does not know are rendered as generic tables.
 
+What a reader relies on:
+
+* every warning appears once, in the red box at the top (the model check's warning, which
+  the analysis also lists among the diagnostics, is not repeated);
+* numbers with a 90 % interval get their digits from the interval's width
+  (:func:`dampfit.render.interval`), so q05, median and q95 are distinct as printed; least
+  squares take the posterior's digits and a baseline those of its own expected spread;
+* the noise level is defined once, in "Noise model": σ [m/s²], the residual sd per fitted
+  sample at the fit rate, and the density at f₀ [m/s²/√Hz] that the Cramér–Rao bound
+  assumes, each with its definition; the bound refers to it;
+* the model checks open with the verdict in plain words and its reasons, then one short table
+  of the damping laws (weight, parameters with units, ζ_eq) and one of the fit checks; the
+  amplitude dependence is the ζ(A) and f(A) figure (``amplitude.png``, :mod:`dampfit.plots`);
+* every key shown has a human label; the reproduce command names absolute, quoted paths.
+
 Regenerating a report is harmless (it is a pure rendering of the folder), so an existing
 report written by dampfit is replaced without ``--force``; ``--force`` is needed only to
 replace a ``report.html``/``report.md`` that dampfit did not write.
@@ -36,6 +51,8 @@ from ._document import render_html as render_html
 from ._document import render_markdown as render_markdown
 from ._files import atomic_write_text
 from .errors import InputError
+from .render import _own_spread
+from .render import interval as _honest
 
 __all__ = ["write_report", "load", "build", "render_html", "render_markdown", "GENERATOR",
            "PNG_MAGIC", "add_arguments", "command"]
@@ -54,7 +71,11 @@ LABELS = {"mae": "MAE", "mse": "MSE", "nmse": "NMSE", "rmse": "RMSE", "r_hat": "
           "autocorr_time_steps": "integrated autocorrelation time", "n_steps": "steps",
           "psd_ratio_at_f0": "Whittle factor r (PSD ratio at f₀)",
           "psd_ratio_at_f0_unclipped": "r before the floor at its white-noise value (noise.estimate)",
-          "residual_lag1_autocorrelation": "residual lag-1 autocorrelation", "sigma": "σ"}
+          "residual_lag1_autocorrelation": "residual lag-1 autocorrelation", "sigma": "σ",
+          "converged": "converged (least squares and posterior)",
+          "posterior_converged": "posterior converged", "burn_in": "burn-in",
+          "thin": "thinning", "n_walkers": "walkers", "acceptance_fraction": "acceptance fraction",
+          "n_samples": "samples", "drift_degree": "drift polynomial degree", "method": "method"}
 _SUFFIX_UNITS = (("_hz", "Hz"), ("_per_s", "1/s"), ("_s", "s"), ("_kg", "kg"), ("_m", "m"),
                  ("_steps", "steps"))
 _KEY_UNITS = {"n_steps": "steps", "burn_in": "steps", "thin": "steps", "mass_sd": "kg",
@@ -76,7 +97,10 @@ FIGURES = {
     "posterior": "Posterior corner plot: pairs and marginals with median and 90 % interval; "
                  "least squares marked red.",
     "trace": "Walker traces after burn-in and marginal densities (convergence check).",
-    "amplitude": "Decay rate against amplitude (amplitude-dependent damping check).",
+    "amplitude": "Top, ζ(A): windowed damping ratio against displacement amplitude with its 90 % "
+                 "band, each damping law's ζ_eq(a) and the chosen law's 90 % posterior band. "
+                 "Bottom, f(A): the backbone curve, windowed damped frequency against amplitude "
+                 "with its 90 % band and the constant frequency the fit assumes.",
     "verify": "OpenSees verification: simulated response of the identified system against the "
               "measurement.",
 }
@@ -101,7 +125,7 @@ def _num(x: Any, digits: int = 6) -> str:
     if isinstance(x, str):
         return x
     if isinstance(x, dict):
-        return ", ".join(f"{k} = {_num(v, 4)}" for k, v in x.items()) or "—"
+        return ", ".join(f"{_label(k)} = {_num(v, 4)}" for k, v in x.items()) or "—"
     if isinstance(x, (list, tuple)):
         if len(x) > 8 and all(_isnum(v) for v in x):
             return f"{len(x)} values, {_num(x[0], 4)} … {_num(x[-1], 4)}"
@@ -118,17 +142,46 @@ def _fixed(x: Any, fmt: str) -> str:
 
 
 def _interval(q: dict) -> str:
-    """``[q05, q95]`` with enough significant digits to resolve the interval's width."""
+    """``[q05, q95]`` with the digits of :func:`dampfit.render.interval` (from the width)."""
     lo, hi = q.get("q05"), q.get("q95")
     if not (_finite(lo) and _finite(hi)):
         return "—"
-    width, scale = abs(hi - lo), max(abs(lo), abs(hi))
-    d = 4 if width <= 0 or scale <= 0 else min(12, max(3, math.ceil(math.log10(scale / width)) + 2))
+    return "[{1}, {2}]".format(*_honest(q.get("q50") if _finite(q.get("q50")) else lo, lo, hi))
 
-    def g(x: float) -> str:  # keep trailing zeros (1.720000), not a bare point (619.)
-        return f"{x:#.{d}g}".replace(".e", "e").rstrip(".")
 
-    return f"[{g(lo)}, {g(hi)}]"
+def _median(q: dict, key: str = "q50") -> str:
+    """``q[key]`` (median, mean) with the digits of the 90 % interval of ``q``."""
+    x = q.get(key)
+    if not _finite(x):
+        return "—"
+    if not (_finite(q.get("q05")) and _finite(q.get("q95"))):
+        return _num(x)
+    return _honest(x, q["q05"], q["q95"])[0]
+
+
+def _point(s: dict, name: str, x: Any) -> str:
+    """A point estimate of ``name`` (least squares) with the digits of its posterior interval."""
+    q = _get(s, "parameters", name)
+    if not (_finite(x) and isinstance(q, dict) and _finite(q.get("q05")) and _finite(q.get("q95"))):
+        return _num(x)
+    return _honest(x, q["q05"], q["q95"])[0]
+
+
+def _baseline_value(b: dict, name: str) -> str:
+    """A baseline's value with the digits of its own expected 90 % spread
+    (:func:`dampfit.render._own_spread`), else six significant digits."""
+    x, rel = b.get(name), b.get("expected_rel_sd")
+    if not (_finite(x) and _finite(rel)):
+        return _num(x)
+    return _own_spread({name: float(x), "expected_rel_sd": float(rel)}, name)
+
+
+def _with_interval(q: Any, unit: str = "") -> str:
+    """``median [q05, q95] unit`` with honest digits, or — ."""
+    if not isinstance(q, dict) or not _finite(q.get("q50")):
+        return "—"
+    unit = "" if unit in ("", "1") else f" {unit}"
+    return f"{_median(q)} {_interval(q)}{unit}"
 
 
 def _get(d: Any, *keys: str) -> Any:
@@ -168,7 +221,7 @@ def _records(obj: Any) -> tuple[list[str], list[dict]] | None:
     if isinstance(obj, list) and obj and all(isinstance(r, dict) for r in obj):
         rows = obj
     elif isinstance(obj, dict) and len(obj) > 1 and all(isinstance(r, dict) for r in obj.values()):
-        rows = [{"name": k, **r} for k, r in obj.items()]
+        rows = [{"name": _label(k), **r} for k, r in obj.items()]
     elif isinstance(obj, dict):
         cols = {k: v for k, v in obj.items() if isinstance(v, list) and all(_scalar(x) for x in v)}
         lens = {len(v) for v in cols.values()}
@@ -216,6 +269,30 @@ def _generic(obj: Any, depth: int = 0) -> list[Block]:
 
 
 # ----------------------------------------------------------------------------- input
+#: Deepest nesting of lists and objects a summary.json may have (dampfit writes ≤ 6).
+MAX_DEPTH = 32
+
+
+def _plain(obj: Any, depth: int = 0) -> Any:
+    """``obj`` (parsed JSON) made safe to render: integers beyond float range or precision as
+    floats (inf beyond range), strings as valid UTF-8 (lone surrogates replaced); ValueError
+    past :data:`MAX_DEPTH` levels of nesting."""
+    if depth > MAX_DEPTH:
+        raise ValueError(f"nested deeper than {MAX_DEPTH} levels")
+    if isinstance(obj, dict):
+        return {_plain(k, depth + 1): _plain(v, depth + 1) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_plain(v, depth + 1) for v in obj]
+    if isinstance(obj, int) and not isinstance(obj, bool) and abs(obj) > 2**53:
+        try:
+            return float(obj)
+        except OverflowError:
+            return math.inf if obj > 0 else -math.inf
+    if isinstance(obj, str):
+        return obj.encode("utf-8", "replace").decode("utf-8")
+    return obj
+
+
 def load(directory: str | os.PathLike) -> dict[str, Any]:
     """Read ``DIR/summary.json`` (required) and ``DIR/verification.json`` (optional).
 
@@ -227,10 +304,16 @@ def load(directory: str | os.PathLike) -> dict[str, Any]:
     path = d / "summary.json"
     if not path.is_file():
         raise InputError(f"{d} has no summary.json; run 'dampfit analyze FILE --out {d}' first")
+    from .fem.sdof import MAX_SUMMARY_BYTES, _read_regular
+
+    data = _read_regular(path, MAX_SUMMARY_BYTES, missing=f"{d} has no summary.json")
     try:
-        summary = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        summary = _plain(json.loads(data.decode("utf-8")))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise InputError(f"cannot read {path}: {exc}; re-run the analysis") from None
+    except (RecursionError, ValueError) as exc:  # too deep, or an integer of 5000 digits
+        raise InputError(f"cannot read {path}: not a dampfit summary ({type(exc).__name__}: "
+                         f"{str(exc)[:80]}); re-run the analysis") from None
     if not isinstance(summary, dict):
         raise InputError(f"{path} is not a dampfit summary (expected a JSON object)")
     ver, err = summary.get("verification"), None
@@ -254,7 +337,7 @@ def _is_demo(s: dict, directory: Path) -> bool:
 
 def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     """The shell command that re-creates the result folder ``directory`` from its input."""
-    directory = Path(directory)
+    directory = Path(os.path.abspath(directory))
     q = shlex.quote
     seed = _get(s, "provenance", "seed")
     seed = seed if isinstance(seed, int) else 0
@@ -275,8 +358,10 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
         v = opts.get(key)
         if isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v):
             parts += [f"--{key}", repr(float(v[0])), repr(float(v[1]))]
-    if isinstance(opts.get("model"), str) and opts["model"] != "viscous":
+    if isinstance(opts.get("model"), str) and opts["model"] != "auto":
         parts += ["--model", q(opts["model"])]
+    if _finite(opts.get("amplitude")):
+        parts += ["--amplitude", repr(float(opts["amplitude"]))]
     if isinstance(opts.get("max_steps"), int) and opts["max_steps"] != 20000:
         parts += ["--max-steps", str(opts["max_steps"])]
     return " ".join(parts + ["--seed", str(seed), "--out", q(str(directory))])
@@ -285,7 +370,7 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
 def _hint(what: str, s: dict, directory: Path) -> str:
     """The command that computes an optional section that is absent."""
     if what == "verification":
-        return f"dampfit verify {shlex.quote(str(directory))}"
+        return f"dampfit verify {shlex.quote(os.path.abspath(directory))}"
     cmd = reproduce_command(s, directory)
     if what == "model_checks" and " --model " not in cmd and not cmd.startswith("dampfit demo"):
         cmd = cmd.replace(" --seed ", " --model auto --seed ", 1)
@@ -302,27 +387,40 @@ def _figure(name: str, why_missing: str | None = None) -> Block:
     return ("figure", name, FIGURES.get(name, name), why_missing)
 
 
-def _status(s: dict) -> list[Block]:
-    """The red box (not converged, warnings) or the green one, at the top of the report."""
+def _warnings(s: dict) -> list[str]:
+    """Every warning of the analysis, each once (diagnostics first, then the model check's)."""
     d = s.get("diagnostics") if isinstance(s.get("diagnostics"), dict) else {}
-    warns = [w for w in (d.get("warnings") or []) if w] if isinstance(d.get("warnings"), list) else []
+    raw = d.get("warnings") if isinstance(d.get("warnings"), list) else []
     mc_warn = _get(s, "model_checks", "warning")
-    if mc_warn:
-        warns.append(f"model checks: {_num(mc_warn)}")
+    out: list[str] = []
+    for w in raw + ([mc_warn] if mc_warn else []):
+        text = _num(w).strip()
+        if text and text not in out and not any(text in o for o in out):
+            out.append(text)
+    return out
+
+
+def _status(s: dict) -> list[Block]:
+    """The red box (not converged, warnings) or the green one, at the top of the report.
+
+    This is the one place the warnings appear; the sections below refer to it."""
+    d = s.get("diagnostics") if isinstance(s.get("diagnostics"), dict) else {}
+    warns = _warnings(s)
     converged = d.get("converged")
     facts = (f"max R-hat {_fixed(d.get('max_r_hat'), '.4f')}, min bulk ESS "
              f"{_fixed(d.get('min_ess_bulk'), '.0f')}, {_num(d.get('n_steps'))} steps × "
              f"{_num(d.get('n_walkers'))} walkers")
     if not d:
         return [("box", "bad", "No diagnostics in summary.json: convergence is unknown",
-                 [["Re-run the analysis before using these numbers."]])]
+                 [["Re-run the analysis before using these numbers."]]
+                 + [[("b", "Warning: "), w] for w in warns])]
     if converged is not True or warns:
         title = ("NOT CONVERGED — read the diagnostics before using these numbers"
                  if converged is not True else "Converged, with warnings")
         items = ([[f"least squares converged: {_num(_get(s, 'least_squares', 'converged'))}; "
                    f"posterior converged: {_num(d.get('posterior_converged'))} ({facts})"]]
                  if converged is not True else [[f"Diagnostics: {facts}."]])
-        return [("box", "bad", title, items + [[("b", "Warning: "), _num(w)] for w in warns])]
+        return [("box", "bad", title, items + [[("b", "Warning: "), w] for w in warns])]
     return [("box", "ok", "Converged, no warnings", [[f"Diagnostics: {facts}."]])]
 
 
@@ -334,7 +432,7 @@ def _headline(s: dict) -> list[Block]:
         if isinstance(q, dict) and _isnum(q.get("q50")):
             sym, unit = NAMES[name].split(",")[0], q.get("unit") or UNITS[name]
             spans += ["; "] if spans else []
-            spans += [("b", f"{sym} = {_num(q['q50'])}" + (f" {unit}" if unit != "1" else "")),
+            spans += [("b", f"{sym} = {_median(q)}" + (f" {unit}" if unit != "1" else "")),
                       f" (90 % interval {_interval(q)})"]
     if not spans:
         return [("p", ["No posterior summary in summary.json."])]
@@ -360,7 +458,7 @@ def _parameter_table(s: dict, names: tuple[str, ...]) -> list[Block]:
             rows.append([NAMES[name], UNITS[name], "not identified" if why else "—"]
                         + ["—"] * (len(head) - 3))
             continue
-        row = [NAMES[name], q.get("unit") or UNITS[name], _num(q.get("q50")), _num(q.get("mean")),
+        row = [NAMES[name], q.get("unit") or UNITS[name], _median(q), _median(q, "mean"),
                _num(q.get("sd"), 3), _interval(q)]
         if show_crlb:
             c = q.get("crlb_sd") if _isnum(q.get("crlb_sd")) else _crlb_sd(crlb, name)
@@ -379,44 +477,92 @@ def _crlb_sd(crlb: dict, name: str) -> float | None:
     return v if _isnum(v) else None
 
 
-def _crlb_details(crlb: dict) -> list[Block]:
-    """Bounds on other quantities (with their units) and the bound's design, as tables."""
+#: Keys of ``crlb`` that describe its design (shown in one sentence, not as a table).
+_CRLB_DESIGN = ("n_samples", "drift_degree", "mass", "mass_sd", "noise_sigma", "noise_density",
+                "noise_density_unit", "units")
+_CRLB_NAMES = {"p": "p, decay rate", "omega_d": "ω_d, damped angular frequency"}
+
+
+def _crlb_blocks(crlb: dict) -> list[Block]:
+    """What the bound assumes (one sentence that refers to the noise level of "Noise model")
+    and the bounds on the quantities not in the result table; any other entry generically."""
     units = crlb.get("units") if isinstance(crlb.get("units"), dict) else {}
-    others = {k: {**v, "unit": units.get(k, UNITS.get(k, ""))} for k, v in crlb.items()
-              if isinstance(v, dict) and k not in MAIN and k != "units"}
-    rest = {k: v for k, v in crlb.items() if k not in MAIN and k not in others and k != "units"}
-    return (_generic(others) if others else []) + (_generic(rest) if rest else [])
+    design = []
+    if _isnum(crlb.get("n_samples")):
+        design.append(f"{crlb['n_samples']} usable samples of the window")
+    if _isnum(crlb.get("drift_degree")):
+        design.append(f"a drift polynomial of degree {crlb['drift_degree']} as nuisance")
+    if _finite(crlb.get("mass")):
+        msd = crlb.get("mass_sd")
+        design.append(f"mass {_num(crlb['mass'])} kg"
+                      + (f" ± {_num(msd, 3)} kg" if _finite(msd) and msd > 0 else " (sd not given)"))
+    out: list[Block] = [("p", [
+        "CRLB sd: the Cramér–Rao lower bound on the standard deviation of an unbiased estimator "
+        "for this recording's design (" + ("; ".join(design) or "design not recorded") + ") "
+        "and white noise at the noise density at f₀ defined in the section “Noise model” "
+        "(the level the residuals show near f₀); sd / CRLB sd near 1 means the posterior is as "
+        "tight as the data allow."])]
+    others = [(k, v) for k, v in crlb.items() if isinstance(v, dict) and k not in MAIN
+              and k not in _CRLB_DESIGN]
+    rows = [[_CRLB_NAMES.get(k, _label(k)), _num(v.get("value"), 6), _num(_crlb_sd(crlb, k), 3),
+             _num(units.get(k, v.get("unit", UNITS.get(k, ""))))] for k, v in others]
+    if rows:
+        out.append(("table", ["quantity", "least-squares value", "CRLB sd", "unit"], rows))
+    rest = {k: v for k, v in crlb.items() if k not in MAIN and k not in _CRLB_DESIGN
+            and not isinstance(v, dict)}
+    return out + (_generic(rest) if rest else [])
+
+
+def _baseline_note(b: dict) -> str:
+    """Support and agreement of a baseline, in words."""
+    parts = []
+    used, win = b.get("n_cycles_used"), b.get("n_cycles_window")
+    if _finite(used) and _finite(win):
+        parts.append(f"{used:.3g} of {win:.3g} cycles used")
+    elif _isnum(b.get("n_cycles")):
+        parts.append(f"over {b['n_cycles']} cycles")
+    if b.get("supported") is False:
+        parts.append(f"not reliable: {b.get('support_reason') or 'too little support'}")
+    elif b.get("supported") is True:
+        parts.append("supported")
+    if b.get("agrees_with_posterior") is False:
+        parts.append(str(b.get("note") or "disagrees with the posterior beyond its expected spread"))
+    elif b.get("agrees_with_posterior") is True:
+        parts.append("agrees with the posterior within its expected spread")
+        if b.get("note"):
+            parts.append(str(b["note"]))
+    return "; ".join(parts)
 
 
 def _methods(s: dict, directory: Path) -> list[Block]:
     """c, ζ, f_n, p per method: posterior, least squares, each baseline (and a demo's truth)."""
     params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
     head = ["method", "c [N s/m]", "ζ [1]", "f_n [Hz]", "p [1/s]", "note"]
-    rows = [["posterior median"] + [_num(_get(params, n, "q50")) for n in ("c", "zeta", "f_n", "p")]
+    rows = [["posterior median"] + [_median(params[n]) if isinstance(params.get(n), dict) else "—"
+                                    for n in ("c", "zeta", "f_n", "p")]
             + ["90 % intervals in the table above"]]
     ls = s.get("least_squares")
     if isinstance(ls, dict):
-        pm = lambda v, sd: _num(v) + (f" ± {_num(sd, 2)}" if _isnum(sd) and _isnum(v) else "")  # noqa: E731
-        rows.append(["least squares", pm(ls.get("c"), ls.get("c_sd")),
-                     pm(ls.get("zeta"), ls.get("zeta_sd")), _num(ls.get("f_n")), _num(ls.get("p")),
+        def pm(name: str) -> str:
+            v, sd = ls.get(name), ls.get(f"{name}_sd")
+            return _point(s, name, v) + (f" ± {_num(sd, 2)}" if _isnum(sd) and _isnum(v) else "")
+
+        rows.append(["least squares", pm("c"), pm("zeta"), _point(s, "f_n", ls.get("f_n")),
+                     _point(s, "p", ls.get("p")),
                      "± 1σ from the Jacobian" + ("" if ls.get("converged", True) else "; NOT converged")])
     bases = s.get("baselines") if isinstance(s.get("baselines"), dict) else {}
     for key, b in bases.items():
         label = BASELINES.get(key, _label(key))
         if not isinstance(b, dict):
-            rows.append([label, "—", "—", "—", "—", "not computed (see the warnings)"])
+            rows.append([label, "—", "—", "—", "—", "not computed (see the warnings at the top)"])
             continue
         f_n, z = b.get("f_n"), b.get("zeta")
+        note = _baseline_note(b)
         if not _isnum(f_n) and _isnum(b.get("f_d")) and _isnum(z) and 0 <= z < 1:
             f_n = b["f_d"] / math.sqrt(1.0 - z * z)
-        note = f"over {b['n_cycles']} cycles; " if _isnum(b.get("n_cycles")) else ""
-        if b.get("supported") is False and _isnum(b.get("n_cycles_used")) and _isnum(b.get("n_cycles_window")):
-            note += (f"only {b['n_cycles_used']:.3g} of {b['n_cycles_window']:.3g} cycles — not reliable"
-                     f" ({b.get('support_reason') or 'too little support'}); ")
-        if b.get("agrees_with_posterior") is False:
-            note += str(b.get("note") or "disagrees with the posterior beyond its expected spread") + "; "
-        rows.append([label, _num(b.get("c")), _num(z), _num(f_n), _num(b.get("p")),
-                     note + "f_n = f_d/√(1−ζ²)" if not _isnum(b.get("f_n")) else note.rstrip("; ")])
+            note += ("; " if note else "") + "f_n = f_d/√(1−ζ²)"
+        rows.append([label, _baseline_value(b, "c"), _baseline_value(b, "zeta"),
+                     _point(s, "f_n", f_n), _baseline_value(b, "p"), note or "—"])
     truth = _truth(s, directory)
     if truth:
         rows.append(["truth (simulated input)"] + [_num(truth.get(n)) for n in ("c", "zeta", "f_n", "p")]
@@ -436,6 +582,19 @@ def _truth(s: dict, directory: Path) -> dict | None:
     return truth if isinstance(truth, dict) else None
 
 
+def _options(opts: Any) -> str:
+    """The analysis options as command-line flags (``--max-steps 20000``); unset ones omitted."""
+    if not isinstance(opts, dict):
+        return _num(opts)
+    out = []
+    for k, v in opts.items():
+        if v is None:
+            continue
+        flag = "--" + str(k).replace("_", "-")
+        out.append(f"{flag} {' '.join(_num(x, 6) for x in v) if isinstance(v, list) else _num(v)}")
+    return ", ".join(out) or "defaults"
+
+
 def _provenance(s: dict, directory: Path, now: str) -> list[Block]:
     inp = s.get("input") if isinstance(s.get("input"), dict) else {}
     win = s.get("window") if isinstance(s.get("window"), dict) else {}
@@ -451,8 +610,12 @@ def _provenance(s: dict, directory: Path, now: str) -> list[Block]:
                 + " (file time of summary.json)"
         except OSError:
             date = None
-    mass = (f"{_num(m.get('value'))} ± {_num(m.get('sd'), 3)} kg" if _isnum(m.get("value"))
-            else "not given (c and k cannot be identified)")
+    if not _isnum(m.get("value")):
+        mass = "not given (c and k cannot be identified)"
+    elif _finite(m.get("sd")) and m["sd"] > 0:
+        mass = f"{_num(m['value'])} ± {_num(m['sd'], 3)} kg"
+    else:
+        mass = f"{_num(m['value'])} kg (sd not given)"
     rows = [
         ["input file", _num(inp.get("path"))], ["format", _num(inp.get("format"))],
         ["sha256", _num(inp.get("sha256"))],
@@ -467,7 +630,7 @@ def _provenance(s: dict, directory: Path, now: str) -> list[Block]:
         ["pass band", f"{_num(band.get('low_hz'), 4)} – {_num(band.get('high_hz'), 4)} Hz "
                       f"({auto(band.get('auto'))}); dominant frequency f₀ = "
                       f"{_num(s.get('dominant_frequency_hz'), 6)} Hz"],
-        ["options", _num(prov.get("options"))],
+        ["options", _options(prov.get("options"))],
         ["dampfit version", _num(s.get("dampfit_version"))], ["seed", _num(prov.get("seed"))],
         ["Python", _num(prov.get("python"))],
         ["package versions", _num(prov.get("versions")).replace(" = ", " ")],
@@ -476,14 +639,321 @@ def _provenance(s: dict, directory: Path, now: str) -> list[Block]:
     notes = [n for src in (inp.get("notes"), _get(s, "preprocessing", "notes"))
              if isinstance(src, list) for n in src if isinstance(n, str)]
     out: list[Block] = [("table", ["item", "value"], rows)]
+    pre = s.get("preprocessing") if isinstance(s.get("preprocessing"), dict) else {}
+    counts = [f"{_num(pre[k])} {what}" for k, what in (
+        ("n_stale_dropped", "stale (repeated) samples dropped"),
+        ("n_clipped", "clipped samples masked"), ("n_spikes", "samples in impact spikes masked"))
+        if _isnum(pre.get(k))]
+    if counts:
+        out.append(("p", ["Preprocessing: " + ", ".join(counts) + "."]))
+    rest = {k: v for k, v in pre.items() if k not in (
+        "notes", "n_stale_dropped", "n_clipped", "n_spikes", "noise_density", "noise_density_unit")}
+    if rest:
+        out += _generic(rest)
     if notes:
         out += [("p", ["Reading and preprocessing notes:"]), ("ul", [[n] for n in notes])]
     return out
 
 
+def _noise(s: dict) -> list[Block]:
+    """The noise level, defined once: the residual σ per fitted sample and the density at f₀
+    the Cramér–Rao bound uses, each with its definition and unit (plus the sensor floor)."""
+    nm = s.get("noise_model")
+    if not isinstance(nm, dict):
+        return [("p", ["Not in summary.json."])]
+    crlb = s.get("crlb") if isinstance(s.get("crlb"), dict) else {}
+    sig, r, fs = nm.get("sigma"), nm.get("psd_ratio_at_f0"), nm.get("sample_rate_hz")
+    rows = []
+    if _isnum(sig):
+        rows.append(["σ, residual noise level", _num(sig, 3), _num(nm.get("sigma_unit") or "m/s^2"),
+                     f"standard deviation of the fit residuals per fitted sample, at the fit rate "
+                     f"{_num(fs, 4)} Hz: the noise level of the likelihood"])
+    if _isnum(r):
+        rows.append(["r, Whittle factor at f₀", _num(r), "1",
+                     "residual power near f₀ relative to white noise of level σ; the likelihood "
+                     "is tempered by 1/r, which widens the intervals accordingly"])
+    raw = nm.get("psd_ratio_at_f0_unclipped")
+    if _isnum(raw) and _isnum(r) and abs(raw - r) > 1e-9 * abs(r):
+        rows.append(["r before its floor", _num(raw, 3), "1",
+                     "r as measured, before it was floored at its white-noise value"])
+    if _isnum(nm.get("psd_ratio_expected_for_white_noise")):
+        rows.append(["r for white noise", _num(nm["psd_ratio_expected_for_white_noise"], 3), "1",
+                     "the r that white sensor noise alone would give on this signal path"])
+    if _isnum(nm.get("residual_lag1_autocorrelation")):
+        rows.append(["residual lag-1 autocorrelation", _num(nm["residual_lag1_autocorrelation"], 3),
+                     "1", "correlation of successive residuals (0 for white noise)"])
+    dens = crlb.get("noise_density")
+    if not _finite(dens) and _finite(sig) and _finite(r) and _finite(fs) and fs > 0:
+        dens = math.sqrt(2.0 * r * sig * sig / fs)
+    if _finite(dens):
+        rows.append(["noise density at f₀", _num(dens, 3),
+                     _num(crlb.get("noise_density_unit") or "m/s^2/sqrt(Hz)"),
+                     "one-sided density √(2·r·σ²/f_fit) of the residuals near f₀ (f_fit the fit "
+                     "rate): the noise level the Cramér–Rao bound assumes"])
+    floor = _get(s, "preprocessing", "noise_density")
+    if _finite(floor):
+        rows.append(["sensor noise floor", _num(floor, 3),
+                     _num(_get(s, "preprocessing", "noise_density_unit") or "m/s^2/sqrt(Hz)"),
+                     "white-noise level of the raw spectrum near the pass band, away from f₀: "
+                     "where the window ends, and the “× sensor noise” of the model checks; not "
+                     "used by the fit"])
+    out: list[Block] = []
+    if nm.get("kind"):
+        out.append(("p", ["Likelihood: ", _num(nm["kind"]), "."]))
+    out.append(("table", ["quantity", "value", "unit", "definition"], rows))
+    rest = {k: v for k, v in nm.items() if k not in (
+        "kind", "sigma", "sigma_unit", "psd_ratio_at_f0", "psd_ratio_at_f0_unclipped",
+        "residual_lag1_autocorrelation", "sample_rate_hz", "psd_ratio_expected_for_white_noise")}
+    return out + (_generic(rest) if rest else [])
+
+
+def _diagnostics(s: dict) -> list[Block]:
+    d = s.get("diagnostics")
+    if not isinstance(d, dict):
+        return [("p", ["Not in summary.json."])]
+    out: list[Block] = [("p", ["Convergence and any warnings are stated in the box at the top."])]
+    return out + _generic({k: v for k, v in d.items() if k != "warnings"})
+
+
+#: The adequacy verdicts (:data:`dampfit.damping.checks.VERDICTS`) in plain words.
+VERDICT_WORDS = {
+    "adequate": "one viscous damping coefficient c describes the whole decay; no amplitude "
+                "dependence was found.",
+    "amplitude-dependent": "damping depends on amplitude; the {law} law describes it best. A "
+                           "single viscous c holds at one amplitude only (the equivalent c below).",
+    "misfit": "the free-decay model does not describe this waveform and no damping law explains "
+              "it, so c and its interval are not trustworthy; check the window and the set-up.",
+    "inconclusive": "the evidence is too weak to say whether damping depends on amplitude.",
+}
+#: The adequacy criteria (``model_checks.adequacy.criteria``) in plain words.
+CRITERIA_WORDS = {
+    "slope_decisive": "the windowed ζ(A) slope is decisive", "slope_weak": "the windowed slope is weak evidence",
+    "slope_null": "the windowed slope rules out a change of ζ that matters",
+    "law_evidence": "the evidence favours a non-viscous law",
+    "law_decisive": "the evidence for a non-viscous law is decisive",
+    "frequency_drift": "the frequency drifts with amplitude",
+    "viscous_misfit": "the viscous fit is a misfit", "best_law_misfit": "the best law is a misfit",
+    "pipeline_misfit": "the constant-frequency fit is a misfit",
+    "phase_drift": "the frequency drifts along the decay", "few_cycles": "too few cycles",
+}
+#: Parameters shown per damping law in the laws table (first present set wins).
+_LAW_PARAMS = ("c", "F_c", "mu_c", "c2", "beta", "c_alpha", "gamma", "alpha")
+_MC_KNOWN = ("warning", "verdict", "verdict_reasons", "verdict_law", "preferred_model",
+             "chosen_model", "requested_model", "single_viscous_c_adequate", "residual_whiteness",
+             "amplitude_dependence", "adequacy")
+
+
+def _laws(s: dict) -> list[Block]:
+    """One short table of the damping laws: weight, parameters with units, ζ_eq at a_ref."""
+    dm = s.get("damping_models")
+    if not isinstance(dm, dict) or not isinstance(dm.get("models"), dict):
+        return []
+    comp = dm.get("comparison") if isinstance(dm.get("comparison"), list) else []
+    weights = {r["model"]: r for r in comp if isinstance(r, dict) and isinstance(r.get("model"), str)}
+    chosen, preferred = dm.get("chosen_model"), dm.get("preferred_model")
+    aref = dm.get("reference_amplitude_m")
+    rows = []
+    for law, m in dm["models"].items():
+        if not isinstance(m, dict):
+            continue
+        par = m.get("parameters") if isinstance(m.get("parameters"), dict) else {}
+        shown = [(k, par[k]) for k in _LAW_PARAMS if isinstance(par.get(k), dict)]
+        if "k" not in par:  # no mass: the viscous part is the decay rate p₀ (ζ for viscous)
+            lead = "zeta" if law == "viscous" else "p0"
+            shown = ([(lead, par[lead])] if isinstance(par.get(lead), dict) else []) + shown
+        text = "; ".join(f"{_SYMBOL.get(k, k)} = {_with_interval(q, q.get('unit') or '')}"
+                         for k, q in shown) or "—"
+        w = _get(weights, law, "weight")
+        post = m.get("posterior") if isinstance(m.get("posterior"), dict) else {}
+        note = [x for x, on in (("chosen", law == chosen), ("preferred", law == preferred
+                                                           and law != chosen)) if on]
+        if post.get("ill_conditioned"):
+            why = str(post.get("ill_conditioned_reason") or "")
+            for k in par:  # the reason names parameters by their keys
+                why = why.replace(k, _label(k)) if "_" in k else why
+            note.append("ill-conditioned" + (f": {why}" if why else "")
+                        + " (Laplace approximation, intervals approximate)")
+        if post.get("converged") is False:
+            note.append("posterior NOT converged")
+        rows.append([law, _fixed(w, ".3g") if _finite(w) else "—", text,
+                     _with_interval(par.get("zeta_eq_ref")), "; ".join(note) or "—"])
+    if not rows:
+        return []
+    where = f" at the reference amplitude {_num(aref, 3)} m" if _finite(aref) else ""
+    return [("h3", "Damping laws compared"),
+            ("table", ["law", "weight [1]", "parameters (median [90 %])", f"ζ_eq{where} [1]",
+                       "note"], rows),
+            ("p", ["Weight: posterior probability of each law from its log evidence; parameters "
+                   "with their units; ζ_eq the energy-equivalent viscous damping ratio."])]
+
+
+_SYMBOL = {"p0": "p₀", "c": "c", "F_c": "F_c", "mu_c": "μ_c", "c2": "c₂", "beta": "β", "c_alpha": "c_α",
+           "gamma": "γ", "alpha": "α", "zeta": "ζ"}
+
+
+def _fit_checks(mc: dict) -> list[Block]:
+    """Per law: Ljung–Box p at f₀, r, r / r_white, residual size — one table."""
+    white = mc.get("residual_whiteness") if isinstance(mc.get("residual_whiteness"), dict) else {}
+    lb = white.get("ljung_box_at_f0") if isinstance(white.get("ljung_box_at_f0"), dict) else {}
+    fc = _get(mc, "adequacy", "fit_checks")
+    fc = fc if isinstance(fc, dict) else {}
+    names = list(dict.fromkeys(list(fc) + list(lb)))
+    rows = []
+    for law in names:
+        f = fc.get(law) if isinstance(fc.get(law), dict) else {}
+        b = lb.get(law) if isinstance(lb.get(law), dict) else {}
+        p = f.get("ljung_box_p", b.get("p_value"))
+        frac = f.get("resid_fraction")
+        rows.append([_label(law).replace("viscous pipeline", "constant-frequency viscous"),
+                     _num(p, 2), _num(b.get("n_cycles")), _num(f.get("r_raw"), 3),
+                     _num(f.get("r_excess"), 3),
+                     _num(100 * frac, 3) if _finite(frac) else "—", _num(f.get("noise_excess"), 3)])
+    if not rows:
+        return []
+    return [("h3", "Fit checks per law"),
+            ("table", ["fit", "Ljung–Box p at f₀", "cycles", "r", "r / r for white noise",
+                       "residual [% of signal]", "residual / sensor noise"], rows),
+            ("p", ["A small Ljung–Box p means the residual, demodulated at f₀ and averaged per "
+                   "cycle, is structured: the envelope (damping law) leaves misfit. r is the "
+                   "Whittle factor of that fit's residuals (see “Noise model”)."])]
+
+
+def _amplitude_evidence(mc: dict) -> list[Block]:
+    amp = mc.get("amplitude_dependence") if isinstance(mc.get("amplitude_dependence"), dict) else {}
+    rows = []
+    if _isnum(amp.get("p_viscous")):
+        rows.append(["P(one viscous c | data)", _num(amp["p_viscous"], 2),
+                     "posterior probability of the viscous law among all laws"])
+    if _isnum(amp.get("ln_bayes_factor_nonlinear_vs_viscous")):
+        rows.append(["ln Bayes factor, non-viscous vs viscous",
+                     _num(amp["ln_bayes_factor_nonlinear_vs_viscous"], 3), "> 0 favours a non-viscous law"])
+    ws = amp.get("window_slope")
+    if isinstance(ws, dict) and _finite(ws.get("s")):
+        lo, hi = ws.get("s_q05"), ws.get("s_q95")
+        rows.append(["windowed slope d ln p / d ln a", f"{ws['s']:.2g} [{_num(lo, 2)}, {_num(hi, 2)}]",
+                     f"from {_num(ws.get('n_windows'))} independent windows; 0 for one viscous c"])
+    sl = amp.get("slope_ln_p_vs_ln_amplitude")
+    if isinstance(sl, dict) and _finite(sl.get("q50")):
+        rows.append(["law slope d ln p / d ln a", _with_interval(sl), _num(sl.get("source"))])
+    if _finite(amp.get("amplitude_start_m")) and _finite(amp.get("amplitude_end_m")):
+        rows.append(["displacement amplitude", f"{_num(amp['amplitude_start_m'], 3)} → "
+                     f"{_num(amp['amplitude_end_m'], 3)} m", "start → end of the window"])
+    za = amp.get("zeta_at_start_and_end")
+    if isinstance(za, dict):
+        for k, what in (("zeta_eq_start", "ζ_eq at the start"), ("zeta_eq_end", "ζ_eq at the end")):
+            if isinstance(za.get(k), dict):
+                rows.append([what, _with_interval(za[k]), "chosen law, posterior median [90 %]"])
+    known = ("detected", "criterion", "p_viscous", "ln_bayes_factor_nonlinear_vs_viscous",
+             "window_slope", "slope_ln_p_vs_ln_amplitude", "amplitude_start_m", "amplitude_end_m",
+             "zeta_at_start_and_end", "evidence_detected")
+    rest = {k: v for k, v in amp.items() if k not in known}
+    out: list[Block] = []
+    if rows or rest:
+        out.append(("h3", "Amplitude dependence of the decay rate"))
+    if rows:
+        out.append(("table", ["evidence", "value", "meaning"], rows))
+    return out + (_generic(rest) if rest else [])
+
+
+def _c_equivalent(s: dict) -> list[Block]:
+    ce = s.get("c_equivalent")
+    if not isinstance(ce, dict):
+        return []
+    items = []
+    for k, unit in (("c", "N s/m"), ("zeta", "1")):
+        if isinstance(ce.get(k), dict):
+            items.append(f"{'c_eq' if k == 'c' else 'ζ_eq'} = "
+                         f"{_with_interval(ce[k], ce[k].get('unit') or unit)}")
+    if not items:
+        return []
+    where = f" at {_num(ce.get('amplitude_m'), 3)} m displacement amplitude" \
+        if _finite(ce.get("amplitude_m")) else ""
+    return [("p", [("b", "Equivalent viscous damping"),
+                   f" of the {_num(ce.get('model'))} law{where}: " + ", ".join(items)
+                   + " (median [90 %]); use it only near that amplitude."])]
+
+
+def _model_checks(s: dict, directory: Path) -> list[Block]:
+    mc = s.get("model_checks")
+    if not isinstance(mc, dict):
+        return _not_computed("model_checks", s, directory)
+    out: list[Block] = []
+    verdict = mc.get("verdict")
+    if verdict is not None:
+        law = mc.get("verdict_law") or mc.get("preferred_model") or "non-viscous"
+        words = VERDICT_WORDS.get(verdict, "") if isinstance(verdict, str) else ""
+        out.append(("p", [("b", f"Verdict: {_num(verdict)}")]
+                    + ([" — " + words.format(law=_num(law))] if words else [])))
+        reasons = mc.get("verdict_reasons")
+        if isinstance(reasons, list) and reasons:
+            out += [("p", ["Why:"]), ("ul", [[_num(r)] for r in reasons])]
+    crit = _get(mc, "adequacy", "criteria")
+    if isinstance(crit, dict):
+        held = [CRITERIA_WORDS.get(k, _label(k)) for k, v in crit.items() if v is True]
+        out.append(("p", ["Criteria that hold: " + ("; ".join(held) if held else "none") + "."]))
+    if any(mc.get(k) is not None for k in ("requested_model", "preferred_model", "chosen_model")):
+        parts = [f"{what}: {_num(mc[k])}" for k, what in (
+            ("requested_model", "requested"), ("preferred_model", "preferred by the evidence"),
+            ("chosen_model", "reported")) if mc.get(k) is not None]
+        out.append(("p", ["Damping law — " + "; ".join(parts) + "."]))
+    if mc.get("warning"):
+        out.append(("p", ["The model-check warning is in the box at the top."]))
+    out += _c_equivalent(s) + _laws(s) + _fit_checks(mc) + _amplitude_evidence(mc)
+    white = mc.get("residual_whiteness")
+    if isinstance(white, dict):
+        rest = {k: v for k, v in white.items() if k not in (
+            "psd_ratio_common", "psd_ratio_by_model", "psd_ratio_viscous_pipeline",
+            "ljung_box_at_f0", "note")}
+        if rest:
+            out += [("h3", "Residual whiteness")] + _generic(rest)
+    elif "residual_whiteness" in mc:
+        out += [("h3", "Residual whiteness"), ("p", ["not computed"])]
+    rest = {k: v for k, v in mc.items() if k not in _MC_KNOWN}
+    return out + ([("h3", "Other model checks")] + _generic(rest) if rest else [])
+
+
+def _amplitude(s: dict, directory: Path) -> list[Block]:
+    curve = s.get("amplitude_curve")
+    if not isinstance(curve, dict):
+        if _png(directory, "amplitude"):
+            return [_figure("amplitude")]
+        return _not_computed("amplitude_curve", s, directory)
+    wins = curve.get("windows") if isinstance(curve.get("windows"), list) else []
+    text = []
+    if wins:
+        text.append(f"{len(wins)} windowed viscous fits of {_num(curve.get('window_cycles'), 3)} "
+                    "cycles each (50 % overlap), each giving ζ and the damped frequency at its "
+                    "displacement amplitude; the values are in summary.json (amplitude curve).")
+    if _finite(curve.get("reference_amplitude_m")):
+        text.append(f"Reference amplitude of the equivalent c: "
+                    f"{_num(curve['reference_amplitude_m'], 3)} m.")
+    bb = curve.get("backbone") if isinstance(curve.get("backbone"), dict) else {}
+    ft = bb.get("frequency_trend") or _get(s, "model_checks", "adequacy", "frequency_trend")
+    if isinstance(ft, dict) and _finite(ft.get("rel_change")) and _finite(ft.get("rel_change_sd")):
+        text.append(f"Backbone f(A): the damped frequency changes {100 * ft['rel_change']:+.2g} % "
+                    f"(± {100 * ft['rel_change_sd']:.2g} %) from the smallest to the largest "
+                    "amplitude (0 for a linear oscillator; < 0 softening, > 0 hardening).")
+    if _isnum(bb.get("phase_terms")) and bb["phase_terms"] > 0:
+        text.append(f"The viscous law follows that drift with {bb['phase_terms']} Legendre phase "
+                    "terms, so its p, ζ and c are not biased by it.")
+    out: list[Block] = [("p", [" ".join(text)])] if text else []
+    out.append(_figure("amplitude"))
+    rest_bb = {k: v for k, v in bb.items() if k not in ("frequency_trend", "phase_terms", "note")}
+    if rest_bb:
+        out += [("h4", "Backbone")] + _generic(rest_bb)
+    known = ("window_cycles", "windows", "slope", "amplitude_grid_m", "models", "band",
+             "preferred_model", "chosen_model", "mass_kg", "reference_amplitude_m", "note",
+             "backbone")
+    rest = {k: v for k, v in curve.items() if k not in known}
+    return out + (_generic(rest) if rest else [])
+
+
 def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = None
           ) -> tuple[str, list[Block]]:
-    """(title, blocks) of the report of ``data`` (from :func:`load`) for the folder ``directory``."""
+    """(title, blocks) of the report of ``data`` (from :func:`load`) for the folder ``directory``.
+
+    Every warning appears once, in the box at the top; the noise level is defined once, in
+    "Noise model", and the Cramér–Rao bound refers to it; every key shown has a human label."""
     directory = Path(directory)
     s = data["summary"]
     now = now or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
@@ -494,14 +964,11 @@ def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = 
 
     crlb = s.get("crlb")
     b += [("h2", "Result: posterior of c, k, u₀, ζ, f_n")] + _parameter_table(s, MAIN)
-    b.append(("p", ["Median and 90 % equal-tailed interval of the posterior draws; sd the posterior "
-                    "standard deviation; R-hat (rank-normalised) and bulk ESS from arviz."]))
+    b.append(("p", ["Median and 90 % equal-tailed interval of the posterior draws, with the "
+                    "digits the interval's width supports; sd the posterior standard deviation; "
+                    "R-hat (rank-normalised) and bulk ESS from arviz."]))
     if isinstance(crlb, dict):
-        b.append(("p", ["CRLB sd: the Cramér–Rao lower bound on the standard deviation of an "
-                        "unbiased estimator for this recording's design and noise (with the mass "
-                        "uncertainty for c and k); sd / CRLB sd near 1 means the posterior is as "
-                        "tight as the data allow."]))
-        b += [("h4", "Cramér–Rao lower bound: other quantities and design")] + _crlb_details(crlb)
+        b += _crlb_blocks(crlb)
     else:
         b += [("h4", "Cramér–Rao lower bound")] + _not_computed("crlb", s, directory)
     b += [("h3", "Methods compared")] + _methods(s, directory)
@@ -524,29 +991,10 @@ def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = 
     b += [("h2", "Posterior"), _figure("posterior"), _figure("trace"),
           ("h3", "Derived quantities")] + _parameter_table(s, DERIVED)
 
-    nm = s.get("noise_model")
-    b += [("h2", "Noise model")]
-    b += _generic(nm) if isinstance(nm, dict) else [("p", ["Not in summary.json."])]
-    b += [("p", ["r > 1 means the residuals near f₀ exceed the white-noise level; the likelihood "
-                 "is tempered by 1/r, which widens the intervals accordingly."])]
-    if isinstance(s.get("preprocessing"), dict):
-        b += [("h3", "Preprocessing")] + _generic(
-            {k: v for k, v in s["preprocessing"].items() if k != "notes"})
-
-    b += [("h2", "Diagnostics")] + _status(s)
-    diag = s.get("diagnostics")
-    if isinstance(diag, dict):
-        b += _generic({k: v for k, v in diag.items() if k != "warnings"})
-
+    b += [("h2", "Noise model")] + _noise(s)
+    b += [("h2", "Diagnostics")] + _diagnostics(s)
     b += [("h2", "Model checks")] + _model_checks(s, directory)
-    b += [("h2", "Amplitude dependence")]
-    curve = s.get("amplitude_curve")
-    if curve is not None:
-        b += _generic(curve) + [_figure("amplitude")]
-    elif _png(directory, "amplitude"):
-        b.append(_figure("amplitude"))
-    else:
-        b += _not_computed("amplitude_curve", s, directory)
+    b += [("h2", "Amplitude dependence")] + _amplitude(s, directory)
 
     b += [("h2", "Verification in OpenSees")]
     ver = data.get("verification")
@@ -557,39 +1005,20 @@ def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = 
     elif not data.get("verification_error"):
         b += _not_computed("verification", s, directory)
 
+    here = shlex.quote(os.path.abspath(directory))
     b += [("h2", "How to reproduce and cite"),
           ("p", ["Re-create this folder from the input file (sha256 above; add --force to "
                  "replace the folder):"]),
-          ("code", reproduce_command(s, directory)),
-          ("p", [f"Cite as: dampfit {_num(s.get('dampfit_version'))} (Bayesian free-decay fit of "
-                 "m·ü + c·u̇ + k·u = 0 to the acceleration), with the baselines of Flis, Szwoch & "
-                 "Krawczyk (2025), “Determining a damping coefficient by using a MEMS accelerometer "
-                 "for FEM simulation purposes on a discrete damper example”. Rendered from "
-                 "summary.json by ", ("code", f"dampfit report {directory}"), f" on {now}."])]
+          ("code", reproduce_command(s, directory))]
+    if isinstance(path, str) and not os.path.isabs(path):
+        b.append(("p", [f"The input path {path} was recorded relative to the folder the analysis "
+                        "ran in: run the command from there."]))
+    b.append(("p", [f"Cite as: dampfit {_num(s.get('dampfit_version'))} (Bayesian free-decay fit of "
+                    "m·ü + c·u̇ + k·u = 0 to the acceleration), with the baselines of Flis, Szwoch & "
+                    "Krawczyk (2025), “Determining a damping coefficient by using a MEMS accelerometer "
+                    "for FEM simulation purposes on a discrete damper example”. Rendered from "
+                    "summary.json by ", ("code", f"dampfit report {here}"), f" on {now}."]))
     return title, b
-
-
-def _model_checks(s: dict, directory: Path) -> list[Block]:
-    mc = s.get("model_checks")
-    if not isinstance(mc, dict):
-        return _not_computed("model_checks", s, directory)
-    out: list[Block] = []
-    if mc.get("warning"):
-        out.append(("box", "bad", "Model check warning", [[_num(mc["warning"])]]))
-    if mc.get("verdict") is not None:
-        out.append(("p", [("b", "Verdict: "), _num(mc["verdict"])]))
-    if mc.get("preferred_model") is not None:
-        out.append(("p", ["Preferred damping model: ", ("b", _num(mc["preferred_model"]))]))
-    for key, head in (("residual_whiteness", "Residual whiteness"),
-                      ("amplitude_dependence", "Amplitude dependence of the decay rate"),
-                      ("models", "Damping models compared")):
-        if key in mc:
-            out += [("h3", head)] + (_generic(mc[key]) if mc[key] is not None
-                                      else [("p", ["not computed"])])
-    rest = {k: v for k, v in mc.items() if k not in
-            ("warning", "verdict", "preferred_model", "residual_whiteness",
-             "amplitude_dependence", "models")}
-    return out + (_generic(rest) if rest else [])
 
 
 def _ours(path: Path, marker: str) -> bool:

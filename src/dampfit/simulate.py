@@ -56,6 +56,7 @@ from .recording import STANDARD_GRAVITY, Recording
 
 __all__ = [
     "SimulationConfig",
+    "check_limits",
     "PRESETS",
     "preset",
     "from_modal",
@@ -245,6 +246,69 @@ def from_modal(mass: float, f_n: float, zeta: float, **kw: Any) -> SimulationCon
         raise InputError("from_modal sets k and c itself; pass f_n and zeta instead")
     k = mass * (TWO_PI * f_n) ** 2
     return _build(mass=mass, k=k, c=zeta * float(critical_damping(k, mass)), **kw)
+
+
+#: Highest sample rate [Hz] simulated (MEMS accelerometers sample at ≤ 32 kHz).
+MAX_SAMPLE_RATE = 1e6
+#: Fewest samples [1] a simulated recording may have.
+MIN_SAMPLES = 16
+#: Largest displacement at release [m], noise densities [µg/√Hz] and offsets, drift rms and
+#: LSB step [m/s²] simulated: far beyond any test rig, far below floating-point overflow.
+MAX_U0 = 100.0
+MAX_NOISE_DENSITY = 1e6
+MAX_ACCEL = 1e4
+
+
+def check_limits(cfg: SimulationConfig) -> None:
+    """Refuse a configuration the simulator must not run, before it allocates anything.
+
+    The one check shared by ``dampfit simulate`` and ``dampfit study`` (each scenario):
+    mass ≤ :data:`dampfit.cli.MAX_MASS` [kg]; duration × sample rate between
+    :data:`MIN_SAMPLES` and :data:`dampfit.cli.MAX_SIM_SAMPLES` samples (memory); sample rate
+    ≤ :data:`MAX_SAMPLE_RATE` [Hz]; natural frequency below Nyquist; jitter in [0, 1]; tilt
+    in [−90°, 90°]; u0 ≤ :data:`MAX_U0` [m]; noise densities ≤ :data:`MAX_NOISE_DENSITY`
+    [µg/√Hz]; |bias|, drift and quantization ≤ :data:`MAX_ACCEL` [m/s²]; the gaps must fit
+    into the recording. Raises :class:`InputError` (one line naming the option).
+    """
+    from .cli import MAX_MASS, MAX_SIM_SAMPLES  # the CLI's limits (lazy: cli imports this)
+
+    if cfg.mass > MAX_MASS:
+        raise InputError(f"mass = {cfg.mass:g} kg is beyond the limit of {MAX_MASS:g} kg")
+    if cfg.sample_rate > MAX_SAMPLE_RATE:
+        raise InputError(f"sample_rate = {cfg.sample_rate:g} Hz is beyond the limit of "
+                         f"{MAX_SAMPLE_RATE:g} Hz")
+    n = cfg.duration * cfg.sample_rate
+    if n > MAX_SIM_SAMPLES:
+        raise InputError(f"duration {cfg.duration:g} s at sample_rate {cfg.sample_rate:g} Hz "
+                         f"would be {n:.3g} samples; at most {MAX_SIM_SAMPLES:g} are simulated")
+    if n < MIN_SAMPLES:
+        raise InputError(f"duration {cfg.duration:g} s at sample_rate {cfg.sample_rate:g} Hz "
+                         f"would be {n:.3g} samples; at least {MIN_SAMPLES} are needed")
+    f_n = math.sqrt(cfg.k / cfg.mass) / TWO_PI
+    if not f_n < cfg.sample_rate / 2:
+        raise InputError(f"natural frequency {f_n:g} Hz is not below the Nyquist frequency "
+                         f"{cfg.sample_rate / 2:g} Hz of sample_rate {cfg.sample_rate:g} Hz")
+    if not 0 <= cfg.jitter <= 1:
+        raise InputError(f"jitter must be a coefficient of variation in [0, 1], got {cfg.jitter:g}")
+    if abs(cfg.tilt_deg) > 90:
+        raise InputError(f"tilt_deg must be an angle in [-90, 90] degrees, got {cfg.tilt_deg:g}")
+    if abs(cfg.azimuth_deg) > 360:
+        raise InputError(f"azimuth_deg must be an angle in [-360, 360] degrees, "
+                         f"got {cfg.azimuth_deg:g}")
+    if abs(cfg.u0) > MAX_U0:
+        raise InputError(f"u0 must be a displacement in [0, {MAX_U0:g}] m, got {cfg.u0:g}")
+    for name in ("noise_density", "flicker"):
+        if getattr(cfg, name) > MAX_NOISE_DENSITY:
+            raise InputError(f"{name} = {getattr(cfg, name):g} µg/√Hz is beyond the limit of "
+                             f"{MAX_NOISE_DENSITY:g}")
+    for name, value in (("bias", max(abs(b) for b in cfg.bias)), ("drift", cfg.drift),
+                        ("quantization", cfg.quantization)):
+        if value > MAX_ACCEL:
+            raise InputError(f"{name} = {value:g} m/s² is beyond the limit of {MAX_ACCEL:g} m/s²")
+    hi = _GAP_LENGTH[1]
+    if cfg.gaps * (hi + 1) > int(n) // 2:
+        raise InputError(f"gaps = {cfg.gaps} gaps of up to {hi} samples do not fit into a "
+                         f"recording of about {int(n)} samples")
 
 
 #: Named realistic configurations (see :func:`preset`).

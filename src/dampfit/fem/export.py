@@ -16,7 +16,8 @@ most T/50) and the fixed time step comes from :func:`dampfit.fem.timestep.choose
 (≥ 200 steps per period, phase error ≤ 1e-3 rad at the end). With ``--gravity`` the mass
 hangs under g = 9.80665 m/s² and is released from static equilibrium + u0.
 
-The file is written atomically and an existing one is replaced only with ``--force``.
+The file is written atomically and an existing one (a symbolic link too, even a dangling one:
+the link is replaced, never its target) is replaced only with ``--force``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_write_text
+from .._files import atomic_write_text, check_output_file
 from ..cli import float_arg
 from ..errors import InputError
 from . import sdof as sdof_mod
@@ -143,12 +144,15 @@ def command(args: argparse.Namespace) -> int:
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     out = Path(args.out) if args.out else Path(args.folder) / FORMATS[fmt][1]
-    if out.is_dir():
-        raise InputError(f"{shown(out)} is a directory; give a file name with --out")
-    if out.exists() and not args.force:
-        raise InputError(f"{shown(out)} exists; use --force to replace it")
+    # before anything is written: an existing entry (a dangling link too) only with --force,
+    # a link is then replaced itself; a directory, a special file or a name too long never.
+    # An --out of the user's is checked first; the default one inside DIR once DIR is read.
+    if args.out:
+        check_output_file(out, args.force)
     text, info = build(args.folder, fmt, args.units, args.quantile, args.gravity,
                        args.duration, name=out.name)
+    if not args.out:
+        check_output_file(out, args.force)
     atomic_write_text(out, text)
     s, u = info["sdof"], units_mod.get(info["units"])
     print(f"wrote {out} ({FORMATS[fmt][0]}, units {u.name}, posterior quantile {info['quantile']:g}"

@@ -1,4 +1,4 @@
-"""OpenSees model of the identified system: an exported OpenSeesPy script and an in-process run.
+"""OpenSees model of the identified system: an exported OpenSeesPy script and a run in a child process.
 
 Model (both): a 1-D model (``-ndm 1 -ndf 1``), node 1 fixed, node 2 with the mass, one
 ``zeroLength`` element in direction 1 carrying two uniaxial materials in parallel —
@@ -19,10 +19,14 @@ numerical damping, period elongation (ωΔt/2)/atan(ωΔt/2) − 1 ≈ (ωΔt)²
 from __future__ import annotations
 
 import ctypes.util
+import functools
 import importlib
 import importlib.util
+import json
 import math
 import re
+import subprocess
+import sys
 from typing import Any
 
 import numpy as np
@@ -51,6 +55,10 @@ def unavailable() -> str | None:
     message behind "Failed to import openseespy on Linux", so the exception chain is searched,
     and ``ctypes.util.find_library`` decides if the chain says nothing); another shared library
     missing; any other import failure.
+
+    The import is tried in a child process (:func:`_probe`, once per process): OpenSees'
+    native code prints "Process 0 Terminating" on the standard error at the exit of any
+    process that imported it, which would break the CLI's one-line error contract.
     """
     try:
         found = importlib.util.find_spec("openseespy") is not None
@@ -58,11 +66,38 @@ def unavailable() -> str | None:
         found = False
     if not found:
         return NOT_INSTALLED_REASON
+    return _probe()
+
+
+#: Child process of :func:`_probe`: exit 0 if OpenSeesPy imports, else print the reason, exit 3
+#: (``os._exit``: no interpreter shutdown, so OpenSees prints nothing at exit).
+_PROBE_CODE = """\
+import os, sys
+try:
+    import openseespy.opensees
+except Exception as exc:
+    from dampfit.fem.opensees import _reason
+    sys.stdout.write(_reason(exc)); sys.stdout.flush(); os._exit(3)
+os._exit(0)
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def _probe() -> str | None:
+    """Import OpenSeesPy in a child process: ``None`` if it works, else the one-line reason."""
     try:
-        importlib.import_module("openseespy.opensees")
-    except Exception as exc:  # noqa: BLE001 - OpenSeesPy raises RuntimeError, not ImportError
-        return _reason(exc)
-    return None
+        proc = subprocess.run([sys.executable, "-c", _PROBE_CODE], capture_output=True,
+                              text=True, timeout=300, stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError) as exc:
+        return f"OpenSeesPy could not be tried in a child process ({type(exc).__name__}: {exc})"
+    if proc.returncode == 0:
+        return None
+    reason = " ".join(proc.stdout.split())
+    if proc.returncode == 3 and reason:
+        return reason
+    last = " ".join((proc.stderr.strip().splitlines() or ["no message"])[-1].split())[:160]
+    return (f"OpenSeesPy cannot be imported (exit {proc.returncode}: {last}); reinstall it: "
+            "pip install --force-reinstall 'dampfit[fem]'")
 
 
 def _reason(exc: BaseException) -> str:
@@ -103,10 +138,48 @@ def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt
     ``mass`` [kg], ``k`` [N/m], ``c`` [N·s/m] (any consistent units work), initial
     displacement ``u_init`` and velocity ``v_init`` of node 2, fixed step ``dt``, ``n_steps``
     steps, constant external ``force`` on the mass (e.g. −m·g). Arrays have n_steps + 1 entries.
+
+    The analysis runs in a child process (:func:`_run_child`): OpenSees keeps global state and
+    prints "Process 0 Terminating" on the standard error at the exit of a process that
+    imported it; the child ends with ``os._exit`` and its standard error is captured. The
+    arrays come back as raw float64 bytes on the child's standard output (3·(n_steps + 1)·8
+    bytes, the size of the result itself).
     """
     reason = unavailable()
     if reason is not None:  # not installed, or its BLAS/LAPACK libraries are missing
         raise InputError(reason)
+    params = {"mass": mass, "k": k, "c": c, "u_init": u_init, "v_init": v_init, "dt": dt,
+              "n_steps": int(n_steps), "force": force}
+    proc = subprocess.run([sys.executable, "-c", _RUN_CODE], input=json.dumps(params).encode(),
+                          capture_output=True, check=False)
+    n = int(n_steps) + 1
+    if proc.returncode != 0 or len(proc.stdout) != 3 * n * 8:
+        lines = proc.stderr.decode("utf-8", "replace").strip().splitlines() or ["no message"]
+        raise RuntimeError(f"OpenSees run failed (exit {proc.returncode}): "
+                           f"{' '.join(lines[-1].split())[:200]}")
+    u, v, a = np.frombuffer(proc.stdout, dtype="<f8").reshape(3, n)
+    return {"t": dt * np.arange(n), "u": u, "v": v, "a": a}
+
+
+#: Child process of :func:`free_decay`: parameters as JSON on stdin, u, v, a as float64 bytes
+#: on stdout; ``os._exit`` so that OpenSees prints nothing at exit.
+_RUN_CODE = """\
+import json, os, sys
+try:
+    from dampfit.fem.opensees import _run_child
+    res = _run_child(**json.loads(sys.stdin.buffer.read()))
+    for key in ("u", "v", "a"):
+        sys.stdout.buffer.write(res[key].astype("<f8").tobytes())
+    sys.stdout.buffer.flush()
+except BaseException as exc:
+    sys.stderr.write(f"{type(exc).__name__}: {exc}\\n"); sys.stderr.flush(); os._exit(1)
+os._exit(0)
+"""
+
+
+def _run_child(mass: float, k: float, c: float, u_init: float, v_init: float, dt: float,
+               n_steps: int, force: float = 0.0) -> dict[str, np.ndarray]:
+    """The OpenSees analysis of :func:`free_decay`, in this process (used by its child)."""
     import openseespy.opensees as ops  # lazy: heavy, and global state
 
     ops.wipe()

@@ -17,7 +17,16 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    MAE, MSE, NMSE = MSE/var(measured), regression — and the same against the fitted model;
    the decay rate of the FEM displacement's extrema against the identified p (posterior median).
 5. Write ``DIR/verification.json`` (all numbers with units, engine version, Δt) and the figure
-   (default ``DIR/verify.png``) atomically; print a short table.
+   (default ``DIR/verify.png``) atomically; print a short table. An existing report.html/.md
+   that dampfit wrote is refreshed; one it did not write is left alone (a note on stdout).
+
+Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
+``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
+link is replaced itself, never its target), is a directory, has a name the file system cannot
+hold or a suffix matplotlib cannot write; a bad summary.json or signals.npz (its ZIP directory
+and array headers are checked before loading, as :mod:`dampfit.io` does for recordings, so
+memory stays bounded by the file). OpenSees runs in a child process
+(:func:`dampfit.fem.opensees.free_decay`), so its native exit message never reaches stderr.
 """
 
 from __future__ import annotations
@@ -32,14 +41,14 @@ from typing import Any
 
 import numpy as np
 
-from .._files import atomic_write_text, publish
+from .._files import atomic_write_text, check_output_file, publish
 from ..cli import float_arg
 from ..errors import InputError
 from . import compare, timestep
 from . import sdof as sdof_mod
 from .sanitize import shown
 
-__all__ = ["SIGNAL_KEYS", "add_arguments", "command", "load_signals", "plot", "run"]
+__all__ = ["SIGNAL_KEYS", "add_arguments", "command", "figure_format", "load_signals", "plot", "run"]
 
 #: Arrays and scalars ``signals.npz`` must hold.
 SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
@@ -54,6 +63,7 @@ def load_signals(folder: str | Path) -> dict[str, Any]:
     path = Path(folder) / "signals.npz"
     if not path.is_file():
         raise InputError(f"{shown(path)} not found; re-run 'dampfit analyze' (it writes signals.npz)")
+    _check_npz(path)
     try:
         with np.load(path, allow_pickle=False) as data:
             missing = [k for k in SIGNAL_KEYS if k not in data.files]
@@ -79,6 +89,28 @@ def load_signals(folder: str | Path) -> dict[str, Any]:
             and sig["omega_d"] > 0 and math.isfinite(sig["t0"])):
         raise InputError(f"{shown(path)}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
     return sig
+
+
+def _check_npz(path: Path) -> None:
+    """Refuse a zip bomb or an array header declaring more bytes than the file holds before
+    ``np.load`` allocates anything (the checks :mod:`dampfit.io` applies to recordings), so the
+    memory used is bounded by the data present."""
+    import zipfile
+
+    from ..io import _check_npy_header, _check_zip
+
+    try:
+        with zipfile.ZipFile(path) as zf:
+            _check_zip(zf)
+            for info in zf.infolist():
+                if info.filename.endswith(".npy"):
+                    with zf.open(info) as fp:
+                        _check_npy_header(fp, info.file_size, f"array {info.filename[:-4]!r}")
+    except InputError as exc:
+        raise InputError(f"{shown(path)}: {exc}") from None
+    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError,
+            RuntimeError, ValueError) as exc:
+        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
 
 
 def run(folder: str | Path, dt: float | None = None) -> dict[str, Any]:
@@ -189,17 +221,38 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
                    f"{_fmt(rep['displacement']['vs_measured']['nmse'])}, acceleration NMSE "
                    f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}", fontsize=10)
     path = Path(path)
-    if not path.parent.is_dir():
-        raise InputError(f"cannot write {shown(path)}: directory {shown(path.parent)} does not exist")
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix or ".png")
-    os.close(fd)
+    fmt = figure_format(path)
     try:
-        fig.savefig(tmp, dpi=110)
+        if not path.parent.is_dir():
+            raise InputError(f"cannot write {shown(path)}: directory {shown(path.parent)} does not exist")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name[:40]}.", suffix=f".{fmt}")
+        os.close(fd)
+    except OSError as exc:
+        raise InputError(f"cannot write {shown(path)}: {exc.strerror or exc}") from None
+    try:
+        fig.savefig(tmp, dpi=110, format=fmt)
         publish(tmp)
-        os.replace(tmp, path)
+        os.replace(tmp, path)  # a link at ``path`` is replaced itself, not its target
+    except OSError as exc:
+        raise InputError(f"cannot write {shown(path)}: {exc.strerror or exc}") from None
     finally:
         Path(tmp).unlink(missing_ok=True)
     return path
+
+
+def figure_format(path: str | os.PathLike) -> str:
+    """The figure format of ``path`` from its suffix (none: PNG); :class:`InputError` for a
+    suffix matplotlib cannot write (checked before any work)."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    suffix = Path(path).suffix.lower().lstrip(".")
+    if not suffix:
+        return "png"
+    supported = FigureCanvasBase.get_supported_filetypes()
+    if suffix not in supported:
+        raise InputError(f"cannot write the figure {shown(path)}: unknown format .{suffix}; use "
+                         f"one of {', '.join('.' + k for k in sorted(supported))}")
+    return suffix
 
 
 def _fmt(x: float | None, spec: str = ".3g") -> str:
@@ -237,7 +290,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("folder", metavar="DIR", help="dampfit result folder (summary.json, signals.npz)")
     parser.add_argument("--dt", type=float_arg, metavar="S",
                         help="time step [s] (default: from the period and the window)")
-    parser.add_argument("--out", metavar="FIG", help="figure file (default: DIR/verify.png)")
+    parser.add_argument("--out", metavar="FIG",
+                        help="figure file, .png/.pdf/.svg/… (default: DIR/verify.png)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing --out file (a link is replaced, not its target)")
 
 
 def command(args: argparse.Namespace) -> int:
@@ -252,19 +308,49 @@ def command(args: argparse.Namespace) -> int:
     if reason is not None:
         raise InputError(reason)
     folder = Path(args.folder)
-    fig = Path(args.out) if args.out else folder / "verify.png"
-    if args.out and not fig.parent.is_dir():
-        raise InputError(f"cannot write {shown(fig)}: directory {shown(fig.parent)} does not exist")
-    result = run(folder, args.dt)
-    plot(result, fig)
+    # everything that can refuse is checked before anything is written
+    if args.out:
+        fig = check_output_file(args.out, getattr(args, "force", False))
+    else:
+        fig = folder / "verify.png"  # verify's own file in the result folder: refreshed
+    figure_format(fig)
+    refresh = _report_refresh(folder)
+    result = run(folder, args.dt)  # reads and checks every input; nothing written yet
+    for own in {fig, folder / "verification.json"}:  # verify's own files: never a folder
+        if own.is_dir() and not own.is_symlink():
+            raise InputError(f"refusing to overwrite {shown(own)}: it is a directory")
     rep = result["report"]
     rep["figure"] = str(fig)
-    atomic_write_text(folder / "verification.json", json.dumps(rep, indent=2, allow_nan=False) + "\n")
+    text = json.dumps(rep, indent=2, allow_nan=False) + "\n"
+    plot(result, fig)
+    atomic_write_text(folder / "verification.json", text)
     print(_table(rep))
     print(f"\n  written {folder / 'verification.json'}, {fig}")
-    if (folder / "report.html").exists():  # keep an existing report complete
+    if refresh is True:  # keep an existing report complete
         from ..report import write_report
 
-        write_report(folder)
-        print(f"  report updated: {folder / 'report.html'}")
+        try:
+            write_report(folder)
+        except InputError as exc:  # the verification itself is written: say so, exit 0
+            print(f"  report not updated: {' '.join(str(exc).split())}")
+        else:
+            print(f"  report updated: {folder / 'report.html'}")
+    elif refresh:
+        print(f"  report not updated: {refresh}")
     return 0
+
+
+def _report_refresh(folder: Path) -> bool | str:
+    """Whether verify refreshes the folder's report: False (there is none), True (dampfit
+    wrote it), or why not (a report.html/report.md that dampfit did not write is left alone;
+    decided read-only with the report module's own ownership test)."""
+    html = folder / "report.html"
+    if not os.path.lexists(html):
+        return False
+    from .. import report
+
+    for name, marker in (("report.html", report._MARK_HTML), ("report.md", report._MARK_MD)):
+        path = folder / name
+        if os.path.islink(path) or (os.path.lexists(path) and not report._ours(path, marker)):
+            return f"{shown(path)} was not written by dampfit (use 'dampfit report --force')"
+    return True

@@ -45,6 +45,8 @@ import hashlib
 import itertools
 import json
 import math
+import os
+import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -69,6 +71,10 @@ _STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicat
 _DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
 #: Most runs (scenarios × replicates) one study may have; see the module docstring.
 MAX_RUNS = 100_000
+#: Largest study file [bytes] read (a real one is a few hundred bytes).
+MAX_CONFIG_BYTES = 1 << 20
+#: Longest [study] name [characters]; it must be one printable line (it titles summary.md).
+MAX_NAME = 200
 
 
 @dataclass(frozen=True)
@@ -189,15 +195,26 @@ def load(path: str | Path, available: list[str] | None = None) -> StudyConfig:
     """Read and validate the TOML study file ``path``; ``available`` estimator names."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise InputError(f"study file {path} is not a regular file")
+        if st.st_size > MAX_CONFIG_BYTES:
+            raise InputError(f"study file {path} is {st.st_size / 2**20:.1f} MiB, more than the "
+                             f"limit of {MAX_CONFIG_BYTES // 2**10} KiB for a study configuration")
+        with open(path, "rb") as fh:
+            text = fh.read(MAX_CONFIG_BYTES + 1).decode("utf-8")
     except FileNotFoundError:
         raise InputError(f"study file {path} does not exist") from None
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputError(f"cannot read study file {path}: {exc}") from None
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
+        raise InputError(f"cannot read study file {path}: {reason}") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{path.name} is not valid TOML: {exc}") from None
+    except (RecursionError, ValueError, MemoryError):  # e.g. arrays nested 5000 deep
+        raise InputError(f"{path.name} is not a usable study file: its tables or arrays are "
+                         "nested too deeply") from None
     return parse(data, available, default_name=path.stem, source=text)
 
 
@@ -218,13 +235,19 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
     name = study.get("name", default_name)
     if not isinstance(name, str) or not name.strip():
         raise InputError("[study] name must be a non-empty string")
+    if not name.isprintable() or len(name) > MAX_NAME:
+        raise InputError(f"[study] name must be one line of at most {MAX_NAME} printable "
+                         "characters (no newlines or control characters)")
     replicates = _integer(study, "replicates", minimum=1, default=None)
     seed = _integer(study, "seed", minimum=0, default=0)
     estimators = _estimators(study.get("estimators"), available)
     mass = study.get("mass")
+    from ..cli import MAX_MASS  # the limit of 'analyze --mass' (lazy: cli imports late)
+
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float))
-                             or not math.isfinite(mass) or mass <= 0):
-        raise InputError(f"[study] mass must be a positive number of kilograms, got {mass!r}")
+                             or not math.isfinite(mass) or mass <= 0 or mass > MAX_MASS):
+        raise InputError(f"[study] mass must be a positive number of kilograms (at most "
+                         f"{MAX_MASS:g}), got {mass!r}")
     max_rep = _max_replicates(study.get("max_replicates", {}), estimators)
 
     if not grid:
@@ -349,9 +372,11 @@ def _check_size(cfg: StudyConfig) -> None:
 
 def _check_scenarios(cfg: StudyConfig) -> None:
     """Build every scenario's simulator configuration once, so bad values fail before any work."""
+    from .. import simulate as sim
+
     for sid, params in cfg.scenarios():
         try:
-            sim_config(params, cfg.sim_mass, seed=0)
+            sim.check_limits(sim_config(params, cfg.sim_mass, seed=0))
         except InputError as exc:
             label = ", ".join(f"{k}={params[k]}" for k in cfg.varying) or "the fixed scenario"
             raise InputError(f"scenario {label}: {exc}") from None

@@ -9,19 +9,25 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._files import publish
+from .._files import WriteError, _reason, publish
 
 __all__ = ["save_figures"]
 
 
 def _save(fig, path: Path) -> None:
     """Save atomically (temporary name in the same folder, then rename)."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-    os.close(fd)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
+        os.close(fd)
+    except OSError as exc:
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     try:
         fig.savefig(tmp, dpi=120, format="png")
         publish(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -82,7 +88,7 @@ def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, 
     ax.axhline(1.0, color="k", lw=1, ls="--")
     ax.text(len(order) - 0.45, 1.0, "CRLB", va="bottom", ha="right", fontsize=8)
     ax.set_ylabel(f"RMSE / CRLB of {quantity} [1]")
-    ax.set_title(f"{title}: efficiency (1 = the Cramér–Rao bound)", fontsize=10)
+    ax.set_title(f"{title}: efficiency (1 = the Cramér–Rao bound)", fontsize=10, parse_math=False)  # a '$' in the name is text
     ax.grid(True, which="both", axis="y", alpha=0.3)
     _legend(ax)
     _save(fig, out / "ranking.png")
@@ -101,7 +107,7 @@ def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, 
     ax.axhline(0.9, color="k", lw=1, ls="--")
     ax.set_ylim(-0.02, 1.02)
     ax.set_ylabel(f"coverage of the 90 % interval of {quantity} [1]")
-    ax.set_title(f"{title}: interval coverage (bars: 95 % Wilson interval)", fontsize=10)
+    ax.set_title(f"{title}: interval coverage (bars: 95 % Wilson interval)", fontsize=10, parse_math=False)  # a '$' in the name is text
     ax.grid(True, axis="y", alpha=0.3)
     _legend(ax)
     _save(fig, out / "coverage.png")

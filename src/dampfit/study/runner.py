@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import importlib.util
 import logging
+import re
 import sys
 import uuid
 from pathlib import Path
@@ -137,7 +138,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
                          "pip install 'dask[distributed]'")
     store = Store(out)
     try:
-        store.open(cfg, force=force, version=__version__)
+        store.open(cfg, force=force, version=__version__, start=False)  # nothing written yet
         tasks = cfg.tasks()
         done = _finished(store, tasks)
         todo = [t for t in tasks if t.key not in done]
@@ -150,11 +151,13 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
         if todo:
             with _client(workers, scheduler) as client:
                 _check_workers(client, scheduler, __version__, stderr)
+                store.start()  # the first write: study.json (and --force's clean-up)
                 failures = _execute(client, todo, store, len(tasks), len(done), cfg, quiet, stderr)
         if failures:
             raise StudyIncomplete(f"{len(failures)} of {len(tasks)} runs did not finish (first: "
                                   f"{failures[0]}); the others are stored in {store.runs_path}: "
                                   "run the same command again to complete the study")
+        store.start()
         records = list(_finished(store, tasks).values())
         result = write_outputs(cfg, records, store.root, figures=figures, version=__version__)
     finally:
@@ -193,8 +196,13 @@ def _atomic_parquet(df, path: Path) -> None:
 
     from .._files import publish
 
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    os.close(fd)
+    from .._files import WriteError, _reason
+
+    try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+        os.close(fd)
+    except OSError as exc:
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     try:
         frame = df.copy()
         for col in frame.columns:  # mixed None/bool columns → pandas nullable booleans
@@ -203,6 +211,9 @@ def _atomic_parquet(df, path: Path) -> None:
         frame.to_parquet(tmp, index=False)
         publish(tmp)
         os.replace(tmp, path)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -218,7 +229,7 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
     scen_cols = ["label", "estimator", "n", "n_failed", "true", "bias", "rel_bias", "rmse", "crlb",
                  "rmse_crlb", "coverage", "median_runtime_s"]
     parts = [
-        f"# Simulation study: {cfg.name}\n",
+        f"# Simulation study: {tables.md_escape(cfg.name)}\n",
         (f"dampfit {version}; {len(cfg.scenarios())} scenario(s) × {cfg.replicates} replicate(s), "
          f"{len(runs)} estimates; study seed {cfg.seed}; {mass}. Quantity compared: "
          f"**{q}** [{_UNITS[q]}].\n"),
@@ -241,5 +252,7 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
     ]
     if figures:
         parts.append("![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n")
-    parts += ["## Configuration\n", "```toml\n" + cfg.source.rstrip() + "\n```\n"]
+    # a fence longer than any backtick run of the file, so its text cannot end the code block
+    fence = "`" * max(3, 1 + max((len(r) for r in re.findall(r"`+", cfg.source)), default=0))
+    parts += ["## Configuration\n", f"{fence}toml\n" + cfg.source.rstrip() + f"\n{fence}\n"]
     return "\n".join(parts)

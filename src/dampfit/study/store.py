@@ -11,17 +11,22 @@ Layout of ``DIR``:
   parse, so at most the runs in flight are lost;
 * the tables and figures (written at the end, each atomically);
 * ``.lock`` — held (``flock``) while a study runs, so two processes never append to the
-  same folder.
+  same folder; removed at the end by the process that created it.
+
+Only a new or empty folder, or one holding a study dampfit wrote (its ``study.json``), is
+written to; ``--force`` discards the files in :data:`OUTPUTS` of a study of another
+configuration and nothing else. Every check comes before anything is created.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import stat
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_write_text, publish
+from .._files import _reason, atomic_write_text, publish, read_marker
 from ..errors import InputError
 from .config import StudyConfig
 
@@ -30,6 +35,8 @@ __all__ = ["OUTPUTS", "Store"]
 #: Files the study writes (and ``--force`` removes); nothing else in DIR is touched.
 OUTPUTS = ("study.json", "runs.jsonl", "runs.csv", "runs.parquet", "aggregate.csv",
            "ranking.csv", "summary.md", "ranking.png", "coverage.png")
+#: Largest study.json [bytes] read (the configuration and its TOML source: a few KiB).
+MAX_META_BYTES = 16 * 2**20
 
 
 class Store:
@@ -39,78 +46,181 @@ class Store:
         self.root = Path(root)
         self.runs_path = self.root / "runs.jsonl"
         self.meta_path = self.root / "study.json"
+        self.lock_path = self.root / ".lock"
         self._lock_fd: int | None = None
+        self._lock_created = False
+        self._created_root = False
+        self._started = False
+        self._discard = False
+        self._cfg: StudyConfig | None = None
+        self._version = ""
 
     # -- opening ------------------------------------------------------------------------
-    def open(self, cfg: StudyConfig, *, force: bool, version: str) -> None:
-        """Create or reopen the folder for ``cfg``; lock it.
+    def open(self, cfg: StudyConfig, *, force: bool, version: str, start: bool = True) -> None:
+        """Check, then create and lock the folder for ``cfg``; with ``start`` also :meth:`start`.
 
-        An existing study with another fingerprint is an :class:`InputError` unless ``force``,
-        which deletes the study's own files (and nothing else) and starts clean. A folder
-        with other content but no ``study.json`` is refused unless ``force``.
+        Refused (:class:`InputError`, nothing created or changed): ``root`` is not a
+        directory; it holds a ``study.json`` that is not a study dampfit wrote; it holds other
+        files but no study (``--force`` does not change that: it never writes into a folder
+        that is not a dampfit study); it holds a study with another fingerprint and ``force``
+        is not set; another process holds its lock. With ``start=False`` nothing is written
+        until :meth:`start` (the runner calls it once the workers are ready), so a refusal
+        later (an unreachable scheduler) leaves no trace: :meth:`close` removes the lock file
+        and the folder this store created.
         """
-        if self.root.exists() and not self.root.is_dir():
-            raise InputError(f"{self.root} exists and is not a directory")
-        if not self.root.exists():
-            if not self.root.parent.is_dir():
-                raise InputError(f"output folder {self.root.parent} does not exist")
-            self.root.mkdir()
-            publish(self.root)
-        self._lock()
+        self._check(cfg, force)  # read-only, before anything is created
+        if not os.path.lexists(self.root):
+            try:
+                self.root.mkdir()
+                publish(self.root)
+            except OSError as exc:
+                raise InputError(f"cannot create {self.root}: {_reason(exc)}") from None
+            self._created_root = True
         try:
-            self._prepare(cfg, force, version)
+            self._lock()
+            self._check(cfg, force)  # again under the lock: nobody changed it meanwhile
+            self._cfg, self._version, self._discard = cfg, version, force
+            if start:
+                self.start()
         except BaseException:
             self.close()
             raise
 
-    def _prepare(self, cfg: StudyConfig, force: bool, version: str) -> None:
+    def start(self) -> None:
+        """Write the study: with ``force`` remove the study's own files of a previous
+        configuration, else cut a torn last line; then write ``study.json``. Idempotent."""
+        if self._started or self._cfg is None:
+            return
         try:
-            meta = self._read_meta()
-        except InputError:
+            if self._discard:
+                for name in OUTPUTS:
+                    (self.root / name).unlink(missing_ok=True)
+            else:
+                self._repair_tail()
+        except OSError as exc:
+            raise InputError(f"cannot write into {self.root}: {_reason(exc)}") from None
+        self.write_meta(self._cfg, self._version)
+        self._started = True
+        self._discard = False
+
+    def _check(self, cfg: StudyConfig, force: bool) -> None:
+        """Refuse a folder this study must not write to (read-only; see :meth:`open`)."""
+        try:
+            st = os.stat(self.root)
+        except FileNotFoundError:
+            if os.path.islink(self.root):
+                raise InputError(f"{self.root} is a dangling symbolic link; choose another --out") from None
+            try:
+                parent_ok = self.root.parent.is_dir()
+            except OSError as exc:
+                raise InputError(f"cannot use {self.root}: {_reason(exc)}") from None
+            if not parent_ok:
+                raise InputError(f"output folder {self.root.parent} does not exist")
+            return
+        except OSError as exc:  # a name too long, no permission, a link loop
+            raise InputError(f"cannot use {self.root}: {_reason(exc)}") from None
+        if not stat.S_ISDIR(st.st_mode):
+            raise InputError(f"{self.root} exists and is not a directory")
+        meta = self._read_meta()
+        if meta is None:
+            try:
+                other = [p.name for p in self.root.iterdir() if p.name != ".lock"]
+            except OSError as exc:
+                raise InputError(f"cannot read {self.root}: {_reason(exc)}") from None
+            marked = (read_marker(self.root) or {}).get("kind") == "study"
+            if other and not marked:
+                raise InputError(f"{self.root} exists and holds no dampfit study (no study.json); "
+                                 "dampfit writes a study only into a new or empty folder or one "
+                                 "of its own studies (even with --force): choose another --out")
+            return
+        if meta.get("fingerprint") != cfg.fingerprint():
             if not force:
-                raise
-            meta = {}
-        if meta is None and any(p for p in self.root.iterdir() if p.name != ".lock") and not force:
-            raise InputError(f"{self.root} exists and holds no dampfit study; choose another --out "
-                             "or use --force to write the study there")
-        if meta is not None and meta.get("fingerprint") != cfg.fingerprint() and not force:
-            raise InputError(f"{self.root} holds a study with a different configuration "
-                             f"({meta.get('name', '?')!r}); use --force to discard it and restart, "
-                             "or choose another --out")
-        if force:
-            for name in OUTPUTS:
-                (self.root / name).unlink(missing_ok=True)
-        elif meta is not None:
-            self._repair_tail()
-        self.write_meta(cfg, version)
+                raise InputError(f"{self.root} holds a study with a different configuration "
+                                 f"({meta.get('name', '?')!r}); use --force to discard it and "
+                                 "restart, or choose another --out")
+            for name in OUTPUTS:  # --force removes these: only files or links, never a folder
+                path = self.root / name
+                if os.path.lexists(path) and not (path.is_symlink() or path.is_file()):
+                    raise InputError(f"refusing to replace {path}: it is not a regular file")
 
     def _lock(self) -> None:
         try:
             import fcntl
         except ImportError:  # pragma: no cover - not POSIX: no locking
             return
-        fd = os.open(self.root / ".lock", os.O_RDWR | os.O_CREAT, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        path = self.lock_path
+        for _ in range(20):
+            created = True
+            try:
+                fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+            except FileExistsError:
+                created = False
+                try:
+                    fd = os.open(path, os.O_RDWR | os.O_NOFOLLOW)
+                except FileNotFoundError:
+                    continue  # removed by its holder meanwhile: try again
+                except OSError as exc:
+                    raise InputError(f"cannot open the lock file {path}: {_reason(exc)}") from None
+            except OSError as exc:
+                raise InputError(f"cannot create the lock file {path}: {_reason(exc)}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                os.close(fd)
+                raise InputError(f"another dampfit study is running in {self.root}; wait for it "
+                                 "or choose another --out") from None
+            try:  # its holder may have removed the file before we locked it: lock the one there
+                same = os.path.samestat(os.fstat(fd), os.lstat(path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                self._lock_fd, self._lock_created = fd, created
+                return
             os.close(fd)
-            raise InputError(f"another dampfit study is running in {self.root}; wait for it "
-                             "or choose another --out") from None
-        self._lock_fd = fd
+        raise InputError(f"cannot lock {path}: it keeps changing")  # pragma: no cover
 
     def close(self) -> None:
-        """Release the lock."""
+        """Release the lock; remove the lock file and an unused folder this store created."""
         if self._lock_fd is not None:
+            if self._lock_created:
+                try:
+                    if os.path.samestat(os.fstat(self._lock_fd), os.lstat(self.lock_path)):
+                        os.unlink(self.lock_path)
+                except OSError:
+                    pass
             os.close(self._lock_fd)
             self._lock_fd = None
+        if self._created_root and not self._started:
+            try:
+                os.rmdir(self.root)  # only if still empty
+            except OSError:
+                pass
+            self._created_root = False
 
     def _read_meta(self) -> dict | None:
-        if not self.meta_path.is_file():
-            return None
+        """study.json as dampfit wrote it; None if there is none; refused if it is not ours."""
         try:
-            return json.loads(self.meta_path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            raise InputError(f"{self.meta_path} is unreadable; use --force to restart the study") from None
+            st = os.lstat(self.meta_path)
+        except FileNotFoundError:
+            return None
+        except OSError as exc:
+            raise InputError(f"cannot read {self.meta_path}: {_reason(exc)}") from None
+        why = None
+        if not stat.S_ISREG(st.st_mode):
+            why = "it is not a regular file"
+        elif st.st_size > MAX_META_BYTES:
+            why = f"it is larger than {MAX_META_BYTES // 2**20} MiB"
+        else:
+            try:
+                meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
+            except (OSError, ValueError, RecursionError):
+                meta = None
+            if isinstance(meta, dict) and isinstance(meta.get("fingerprint"), str) \
+                    and isinstance(meta.get("config"), dict):
+                return meta
+            why = "it is not a study file dampfit wrote"
+        raise InputError(f"{self.meta_path} is unusable ({why}); choose another --out or "
+                         "remove it yourself")
 
     def write_meta(self, cfg: StudyConfig, version: str) -> None:
         meta = {"name": cfg.name, "fingerprint": cfg.fingerprint(), "dampfit_version": version,
@@ -121,15 +231,27 @@ class Store:
         """Cut a torn last line (a kill during a write) so the next append starts a fresh line."""
         if not self.runs_path.is_file():
             return
-        data = self.runs_path.read_bytes()
-        if data and not data.endswith(b"\n"):
-            with open(self.runs_path, "r+b") as fh:
-                fh.truncate(data.rfind(b"\n") + 1)
+        with open(self.runs_path, "r+b") as fh:  # only the tail is read: memory stays small
+            end = fh.seek(0, os.SEEK_END)
+            pos = end
+            while pos > 0:
+                step = min(pos, 1 << 16)
+                fh.seek(pos - step)
+                chunk = fh.read(step)
+                if pos == end and chunk.endswith(b"\n"):
+                    return  # not torn
+                cut = chunk.rfind(b"\n")
+                if cut >= 0:
+                    fh.truncate(pos - step + cut + 1)
+                    return
+                pos -= step
+            if end:
+                fh.truncate(0)  # a single torn line
 
     # -- runs ---------------------------------------------------------------------------
     def records(self) -> list[dict[str, Any]]:
         """Every complete record in ``runs.jsonl`` (a later record of the same run wins)."""
-        if not self.runs_path.is_file():
+        if self._discard or not self.runs_path.is_file():  # --force: not yet removed, not used
             return []
         out: dict[tuple[str, int], dict] = {}
         with open(self.runs_path, encoding="utf-8", errors="replace") as fh:
@@ -146,11 +268,16 @@ class Store:
     def append(self, record: dict[str, Any]) -> None:
         """Append one record durably (one write, flush, fsync)."""
         line = (json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n").encode()
-        fd = os.open(self.runs_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
         try:
-            view = memoryview(line)
-            while view:
-                view = view[os.write(fd, view):]
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+            fd = os.open(self.runs_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW,
+                         0o666)
+            try:
+                view = memoryview(line)
+                while view:
+                    view = view[os.write(fd, view):]
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        except OSError as exc:  # a full disk: the runs stored so far are kept
+            raise InputError(f"cannot append to {self.runs_path}: {_reason(exc)}; the runs stored "
+                             "so far are kept: run the same command again to resume") from None

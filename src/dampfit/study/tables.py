@@ -15,7 +15,9 @@ failure fraction and median runtime, sorted by the geometric mean.
 
 from __future__ import annotations
 
+import html
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -155,14 +157,24 @@ def _fmt(v: Any) -> str:
     return str(v)
 
 
+def md_escape(text: str) -> str:
+    """``text`` as inert Markdown/HTML: one line, Markdown's special characters
+    (`` ` * [ ] # | ~ ! \\ ``; ``_`` is inert inside words) backslash-escaped and ``< > &``
+    as HTML entities."""
+    text = " ".join(str(text).split())
+    text = re.sub(r"([\\`*\[\]#|~!])", r"\\\1", text)
+    return html.escape(text, quote=False)
+
+
 def markdown(df: pd.DataFrame) -> str:
-    """A GitHub-flavoured Markdown table of ``df`` (numbers to 4 significant digits)."""
+    """A GitHub-flavoured Markdown table of ``df`` (numbers to 4 significant digits; every
+    cell through :func:`md_escape`)."""
     cols = [str(c) for c in df.columns]
     lines = ["| " + " | ".join(cols) + " |",
              "|" + "|".join("---:" if pd.api.types.is_numeric_dtype(df[c]) else "---"
                             for c in df.columns) + "|"]
     for row in df.itertuples(index=False):
-        lines.append("| " + " | ".join(_fmt(v) for v in row) + " |")
+        lines.append("| " + " | ".join(md_escape(_fmt(v)) for v in row) + " |")
     return "\n".join(lines) + "\n"
 
 
