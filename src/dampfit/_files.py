@@ -86,6 +86,25 @@ def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out
     return path
 
 
+def read_bounded(path: str | os.PathLike, limit: int, check) -> bytes:
+    """At most ``limit + 1`` bytes of ``path``, opened non-blocking (a FIFO or device swapped in
+    after the caller's ``stat`` cannot block the read); ``check(os.fstat(fd))`` runs on the
+    open descriptor first and raises the caller's own error. OSError passes through."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+    try:
+        check(os.fstat(fd))
+        chunks, size = [], 0
+        while size <= limit:
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` atomically (a symbolic link at ``path`` is replaced,
     not followed). Any failure — missing folder, a name too long, no permission, a full

@@ -83,6 +83,7 @@ import numpy as np
 import pandas as pd
 
 from . import matfile
+from ._files import read_bounded
 from .errors import InputError
 from .recording import STANDARD_GRAVITY, Recording, gap_summary, time_segments
 
@@ -359,19 +360,14 @@ def _read_bytes(path: Path) -> bytes:
     if info.st_size > MAX_INPUT_BYTES:
         raise InputError(f"is {info.st_size / 2**20:.0f} MiB, larger than the limit of "
                          f"{MAX_INPUT_BYTES / 2**20:.0f} MiB; split or decimate the recording")
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    except OSError as exc:
-        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
-    try:
-        if _file_kind(os.fstat(fd).st_mode) is not None:  # replaced since the stat above
+    def still_regular(st: os.stat_result) -> None:  # replaced since the stat above?
+        if _file_kind(st.st_mode) is not None:
             raise InputError("is not a regular file; only regular files are read")
-        with os.fdopen(fd, "rb", closefd=False) as fh:
-            data = fh.read(MAX_INPUT_BYTES + 1)
+
+    try:
+        data = read_bounded(path, MAX_INPUT_BYTES, still_regular)
     except OSError as exc:
         raise InputError(f"cannot be read ({exc.strerror or exc})") from None
-    finally:
-        os.close(fd)
     if len(data) > MAX_INPUT_BYTES:
         raise InputError(f"is larger than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MiB; "
                          "split or decimate the recording")

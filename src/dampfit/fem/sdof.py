@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .._files import read_bounded
 from ..errors import InputError
 from .sanitize import shown
 from .units import STANDARD_GRAVITY
@@ -175,26 +176,13 @@ def _read_regular(path: Path, limit: int, missing: str) -> bytes:
         raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
     _check_regular(path, st, limit)
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
+        data = read_bounded(path, limit, lambda st: _check_regular(path, st, limit))
     except OSError as exc:
         raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    try:
-        _check_regular(path, os.fstat(fd), limit)
-        chunks, size = [], 0
-        while size <= limit:
-            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            size += len(chunk)
-    except OSError as exc:
-        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    finally:
-        os.close(fd)
-    if size > limit:
+    if len(data) > limit:
         raise InputError(f"{shown(path)} is larger than {limit // 2**20} MB; a dampfit summary.json "
                          "is a few kB — is it the right file?")
-    return b"".join(chunks)
+    return data
 
 
 def _check_regular(path: Path, st: os.stat_result, limit: int) -> None:

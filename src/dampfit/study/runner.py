@@ -42,12 +42,17 @@ class StudyIncomplete(Exception):
 
 @contextlib.contextmanager
 def _client(workers: int, scheduler: str | None):
+    import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
         try:
             client = Client(scheduler, timeout="15s")
         except (OSError, TimeoutError, ValueError) as exc:
+            # a failed Client has already made itself dask's global scheduler: undo that, or
+            # every later dask computation in this process (xarray/arviz loads) tries to reach it
+            dask.config.config.pop("scheduler", None)
+            dask.config.config.pop("shuffle", None)
             raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
                              "with 'dask scheduler' or drop --scheduler") from None
         cluster = None
