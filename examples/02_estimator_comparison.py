@@ -2,15 +2,17 @@
 
 Run:  python examples/02_estimator_comparison.py   (about 15 s)
 
-Every estimator of ``dampfit.estimators`` sees the same recording, window and band. For a
+Every estimator of ``dampfit.estimators.registry`` sees the same recording, window and band. For a
 study over many replicates and scenarios (bias, RMSE/CRLB, coverage) use
 ``dampfit study examples/study_ranking.toml``.
 """
 
 import numpy as np
 
-from dampfit import crlb, estimators, simulate
-from dampfit.recording import STANDARD_GRAVITY
+from dampfit import simulate
+from dampfit.inference import crlb
+from dampfit.estimators import registry as estimators
+from dampfit.io.recording import STANDARD_GRAVITY
 
 MASS = 5.3  # [kg]
 cfg = simulate.from_modal(MASS, 2.0, 0.01, u0=0.02, duration=60.0, sample_rate=200.0,

@@ -93,7 +93,7 @@ def reference(rec, prep, steps: int, seed: int) -> dict:
 def dampfit_run(rec) -> dict:
     """The whole analyze() call, and its posterior stage alone (emcee + draws + arviz), timed."""
     import dampfit
-    from dampfit import posterior
+    from dampfit.inference import posterior
 
     calls = []
     original = posterior.sample
@@ -144,7 +144,8 @@ def import_floor() -> float:
 
 
 def throughput(n: int) -> float:
-    from dampfit import fit, preprocess
+    from dampfit.inference import least_squares as fit
+    from dampfit.signal import prepare as preprocess
     from dampfit import simulate as sim
 
     recs = [sim.simulate(sim.preset("paper", seed=1000 + i))[0] for i in range(n + 1)]
@@ -164,7 +165,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", help="also write the numbers to this JSON file")
     a = ap.parse_args(argv)
 
-    from dampfit import preprocess
+    from dampfit.signal import prepare as preprocess
     from dampfit import simulate as sim
 
     rec, truth = sim.simulate(sim.preset("paper", seed=0))

@@ -6,7 +6,7 @@ simulates ``--replicates`` recordings with independent seeds, runs :func:`dampfi
 with the mass known exactly (so the interval reflects the recording alone), and reports how
 often the 90 % posterior intervals of c and k contain the truth, with the binomial standard
 error, plus the RMSE of the posterior median of c relative to the Cramér–Rao bound when
-:mod:`dampfit.crlb` is available. Usage::
+:mod:`dampfit.inference.crlb` is available. Usage::
 
     python paper/calibration.py --replicates 100 --workers 2 --out paper/calibration.csv
 """
@@ -69,8 +69,8 @@ def one(args: tuple[str, int]) -> dict:
                     f"{q}_covered": par["q05"] <= truth[q] <= par["q95"]})
     row["c_crlb_estimated"] = s["parameters"]["c"].get("crlb_sd")
     # the bound at the truth: true parameters, the true white-noise level, the window's times
-    from dampfit import crlb
-    from dampfit.recording import STANDARD_GRAVITY
+    from dampfit.inference import crlb
+    from dampfit.io.recording import STANDARD_GRAVITY
 
     prep = an.prepared
     sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1])

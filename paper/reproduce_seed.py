@@ -121,7 +121,7 @@ def rows() -> list[dict]:
     delta = np.log(U_A0 / U_AN) / N_CYCLES
     out.append(_row(
         "δ = (1/97)·ln(4/0.679)", "10", 0.0182827682, delta, 9,
-        "Plain arithmetic (dampfit.baselines.log_decrement does the same on a signal's peaks).",
+        "Plain arithmetic (dampfit.estimators.baselines.log_decrement does the same on a signal's peaks).",
     ))
 
     # eq. 13: gamma = zeta from delta.

@@ -84,7 +84,7 @@ def short_paper():
 @pytest.fixture(scope="session")
 def analysed(short_paper):
     """The short paper recording analysed with a known mass ± 0.05 kg."""
-    from dampfit import analysis
+    from dampfit import pipeline as analysis
 
     rec, truth = short_paper
     with warnings.catch_warnings():

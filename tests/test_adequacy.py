@@ -23,10 +23,12 @@ import numpy as np
 import pytest
 
 import dampfit
-from dampfit import fit, noise, preprocess
+from dampfit.inference import least_squares as fit
+from dampfit.inference import noise
+from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.damping import assess, checks
-from dampfit.damping.reference import noisy_recording, reference_decay
+from tests.reference_sim import noisy_recording, reference_decay
 from dampfit.errors import InputError
 
 from .conftest import REAL

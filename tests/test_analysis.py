@@ -7,10 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from dampfit import analysis, preprocess
+from dampfit import pipeline as analysis
+from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.errors import InputError
-from dampfit.recording import Recording
+from dampfit.io.recording import Recording
 
 
 # ---------------------------------------------------------------- preprocessing
@@ -194,7 +195,7 @@ def test_summary_schema_and_json(analysed, tmp_path):
     assert s["parameters"]["c"]["unit"] == "N s/m"
     assert {"c", "zeta", "n_cycles"} <= set(s["baselines"]["log_decrement"])
     assert {"c", "zeta"} <= set(s["baselines"]["envelope_pipeline"])
-    from dampfit.noise import R_FLOOR
+    from dampfit.inference.noise import R_FLOOR
 
     assert s["noise_model"]["psd_ratio_at_f0"] >= R_FLOOR
 
@@ -249,7 +250,7 @@ def test_damping_options_are_validated_before_work(short_paper):
 def test_amplitude_draws_follow_their_moments():
     """posterior.conditional_amplitudes: one (A, B) per row of stored moments, with that mean
     and covariance (correlated case)."""
-    from dampfit import posterior
+    from dampfit.inference import posterior
 
     mom = np.tile([1.0, -2.0, 4e-4, -1.5e-4, 1e-4], (200_000, 1))
     ab = posterior.conditional_amplitudes(mom, np.random.default_rng(0))

@@ -8,9 +8,11 @@ import warnings
 import numpy as np
 import pytest
 
-from dampfit import fit, preprocess, render
+from dampfit.inference import least_squares as fit
+from dampfit.signal import prepare as preprocess
+from dampfit.output import text as render
 from dampfit.damping.assessment import assess
-from dampfit.damping.reference import noisy_recording
+from tests.reference_sim import noisy_recording
 
 F0, ZETA = 1.5, 0.004
 

@@ -1,4 +1,4 @@
-"""Tests of the seed paper's baseline estimators (:mod:`dampfit.baselines`).
+"""Tests of the seed paper's baseline estimators (:mod:`dampfit.estimators.baselines`).
 
 Synthetic windows are closed-form damped accelerations a(t) = A·e^{−pt}·cos(ω_d·t + φ) with
 known p and f_d, so every estimate is checked against the truth.
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from dampfit import physics
-from dampfit.baselines import BaselineResult, envelope_pipeline, log_decrement
+from dampfit.estimators.baselines import BaselineResult, envelope_pipeline, log_decrement
 from dampfit.errors import InputError
 
 MASS = 5.3  # [kg], the paper's weight

@@ -198,7 +198,7 @@ def test_internal_error_exits_1_without_traceback(csv_file, tmp_path, capsys, mo
     def boom(*a, **k):
         raise RuntimeError("kaput")
 
-    monkeypatch.setattr("dampfit.analysis.analyze", boom)
+    monkeypatch.setattr("dampfit.pipeline.analyze", boom)
     out = tmp_path / "o"
     assert main(["analyze", str(path), "--mass", "1", "--out", str(out), "--quiet"]) == 1
     err = capsys.readouterr().err

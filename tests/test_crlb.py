@@ -1,4 +1,4 @@
-"""Tests of the Cramér–Rao bound (:mod:`dampfit.crlb`).
+"""Tests of the Cramér–Rao bound (:mod:`dampfit.inference.crlb`).
 
 Analytic tier: scaling laws, the Yao–Pandit closed form against the numerical Fisher matrix,
 the delta method for c and k. Recovery tier: Monte-Carlo nonlinear least squares on white
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import optimize, signal
 
-from dampfit import crlb
+from dampfit.inference import crlb
 from dampfit.errors import InputError
 
 # 2 Hz, p = 0.4 1/s (ζ ≈ 0.032), 8 s at 50 Hz: 16 cycles, 3.2 decay times

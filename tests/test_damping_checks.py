@@ -17,11 +17,13 @@ import numpy as np
 import pytest
 
 import dampfit
-from dampfit import plots, preprocess
+from dampfit.output import figures as plots
+from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
-from dampfit.damping import assess, checks, models
-from dampfit.damping.reference import noisy_recording, reference_decay
-from dampfit.damping.sample import sample_emcee, sample_laplace
+from dampfit.damping import assess, checks
+from dampfit.model import laws as models
+from tests.reference_sim import noisy_recording, reference_decay
+from dampfit.inference.law_sampler import sample_emcee, sample_laplace
 from dampfit.errors import InputError
 
 from .conftest import REAL
@@ -147,7 +149,7 @@ def test_a_requested_law_is_reported_with_a_warning(cases):
 def test_emcee_posterior_agrees_with_laplace(cases):
     """The nested Laplace approximation of (L3) against emcee on the same tempered likelihood."""
     prep, fd, res = cases["quadratic"]
-    from dampfit.damping.fit import Data
+    from dampfit.inference.law_fit import Data
 
     mf, data = res.fits["quadratic"], Data.from_fit_data(fd)
     em = sample_emcee(mf, data, prep.band, seed=3, min_ess=300, max_steps=6000)
@@ -163,7 +165,7 @@ def test_emcee_posterior_agrees_with_laplace(cases):
 def test_emcee_draws_depend_on_the_seed_only(cases):
     """Same seed → same draws, whatever NumPy's global random state (a fresh process's)."""
     prep, fd, res = cases["quadratic"]
-    from dampfit.damping.fit import Data
+    from dampfit.inference.law_fit import Data
 
     mf, data = res.fits["quadratic"], Data.from_fit_data(fd)
     draws = []
@@ -178,7 +180,7 @@ def test_from_analysis_uses_the_pipeline_stages(cases):
     from types import SimpleNamespace
 
     from dampfit.damping import from_analysis
-    from dampfit.noise import NoiseModel
+    from dampfit.inference.noise import NoiseModel
 
     prep, fd, res = cases["coulomb"]
     visc = res.fits["viscous"]

@@ -1,4 +1,4 @@
-"""Analytic tests of the nonlinear damping laws (dampfit.damping.models and .reference).
+"""Analytic tests of the nonlinear damping laws (dampfit.model.laws and .reference).
 
 Tiers: the reference ODE solver against closed forms (viscous; exact piecewise Coulomb); the
 closed-form averaged envelopes against their own rate equation (K1)–(K2); the acceleration
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from dampfit import model as viscous_model
-from dampfit.damping import models
-from dampfit.damping.reference import noisy_recording, reference_decay
+from dampfit.model import viscous as viscous_model
+from dampfit.model import laws as models
+from tests.reference_sim import noisy_recording, reference_decay
 from dampfit.errors import InputError
 from dampfit.simulate import free_decay
 
@@ -135,7 +135,7 @@ def test_power_law_is_continuous_through_viscous():
 
 
 def test_viscous_columns_are_the_viscous_model_m1():
-    """For viscous damping the columns span exactly dampfit.model.acceleration (M1): the models nest."""
+    """For viscous damping the columns span exactly dampfit.model.viscous.acceleration (M1): the models nest."""
     p, wd = 0.3, 2 * np.pi * 1.7
     tau = np.linspace(0, 10, 3001)
     with jax.enable_x64(True):

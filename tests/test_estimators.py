@@ -1,4 +1,4 @@
-"""Tests of the common estimator interface (:mod:`dampfit.estimators`).
+"""Tests of the common estimator interface (:mod:`dampfit.estimators.registry`).
 
 Recovery tier: every estimator on one simulated white-noise free decay (f_n = 2 Hz, ζ = 0.01,
 60 s at 200 Hz), with a tolerance that reflects the estimator's known efficiency; the
@@ -16,10 +16,12 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from dampfit import crlb, estimators, preprocess
+from dampfit.inference import crlb
+from dampfit.estimators import registry as estimators
+from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.errors import InputError
-from dampfit.estimators import ESTIMATORS, Estimate
+from dampfit.estimators.registry import ESTIMATORS, Estimate
 
 MASS = 1.0  # [kg]
 NOISE = 2000.0  # [µg/√Hz]: σ ≈ 0.2 m/s² per sample against a 6.3 m/s² initial amplitude

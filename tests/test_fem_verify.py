@@ -16,7 +16,8 @@ import pytest
 
 from dampfit.cli import main
 from dampfit.errors import InputError
-from dampfit.fem import compare, opensees, timestep, verify
+from dampfit.fem import opensees, timestep, verify
+from dampfit.fem import response as compare
 from dampfit.physics import to_decay
 from dampfit.simulate import free_decay
 

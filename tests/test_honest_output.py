@@ -14,9 +14,10 @@ import warnings
 import numpy as np
 import pytest
 
-from dampfit import baselines, render
-from dampfit.analysis import _baselines_summary
-from dampfit.damping.sample import (MIN_BUDGET_STEPS, STEP_FACTOR, TIME_ALLOWANCE_S, Budget,
+from dampfit.estimators import baselines
+from dampfit.output import text as render
+from dampfit.pipeline import _baselines_summary
+from dampfit.inference.law_sampler import (MIN_BUDGET_STEPS, STEP_FACTOR, TIME_ALLOWANCE_S, Budget,
                                     conditioning, sample_emcee, sample_laplace)
 
 # -- a minimal summary the text renderer accepts --------------------------------------------
@@ -198,10 +199,10 @@ def test_zeta_eq_is_printed_with_its_value_for_a_non_viscous_law(mass):
 @pytest.fixture(scope="module")
 def viscous_case():
     """Least-squares + Laplace fits of every law to a clean simulated viscous decay."""
-    from dampfit import preprocess
+    from dampfit.signal import prepare as preprocess
     from dampfit.damping import assess
-    from dampfit.damping.fit import Data
-    from dampfit.damping.reference import noisy_recording, reference_decay
+    from dampfit.inference.law_fit import Data
+    from tests.reference_sim import noisy_recording, reference_decay
 
     m, f = 0.5, 3.0
     t = np.arange(0, 20.0, 0.01)

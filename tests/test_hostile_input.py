@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 
 import dampfit
-from dampfit import io as dio
-from dampfit import preprocess
+from dampfit.io import readers as dio
+from dampfit.signal import prepare as preprocess
 from dampfit.errors import InputError
-from dampfit.recording import time_segments
+from dampfit.io.recording import time_segments
 
 from .conftest import REAL
 from .hostile import assert_one_line_error, assert_unchanged, run, snapshot

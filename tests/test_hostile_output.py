@@ -3,7 +3,7 @@ never write the same folder, a failed write leaves the old result and no debris,
 number is one line and exit 2, and an unsafe JAX compilation cache is not used.
 
 Cases that must write a result share one analysis (the session's ``analysed`` fixture):
-``dampfit.analysis.analyze`` is replaced by a function returning it, so reading, the output
+``dampfit.pipeline.analyze`` is replaced by a function returning it, so reading, the output
 checks, staging, writing and publishing are the real ones.
 """
 
@@ -67,7 +67,7 @@ def fast(monkeypatch, analysed):
         calls.append(kwargs)
         return an
 
-    monkeypatch.setattr("dampfit.analysis.analyze", fake)
+    monkeypatch.setattr("dampfit.pipeline.analyze", fake)
     return calls
 
 
@@ -76,7 +76,7 @@ def no_analysis(monkeypatch):
     def boom(*a, **k):
         raise AssertionError("the analysis ran although the case must fail before it")
 
-    monkeypatch.setattr("dampfit.analysis.analyze", boom)
+    monkeypatch.setattr("dampfit.pipeline.analyze", boom)
 
 
 def analyze_argv(work, out, *extra):
@@ -202,7 +202,7 @@ def _h5py_like(*a, **k):  # h5py/h5netcdf wrap the system error in their own exc
 def test_full_disk_while_writing_keeps_old_result(work, capsys, fast, monkeypatch, writer):
     out = make_result(work, "res", capsys, fast)
     before = snapshot(work)
-    monkeypatch.setattr("dampfit.analysis.Analysis.to_netcdf", writer)
+    monkeypatch.setattr("dampfit.pipeline.Analysis.to_netcdf", writer)
     code, _, err = run(analyze_argv(work, out, "--force"), capsys)
     line = assert_one_line_error(code, err, match="No space left on device")
     assert "previous result is unchanged" in line and str(out) in line
@@ -304,7 +304,7 @@ def test_ctrl_c_while_writing_leaves_old_result_and_no_debris(work, capsys, fast
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("dampfit.analysis.Analysis.to_signals", interrupted)
+    monkeypatch.setattr("dampfit.pipeline.Analysis.to_signals", interrupted)
     code, _, err = run(analyze_argv(work, out, "--force"), capsys)
     assert code == 130 and "Traceback" not in err
     assert err.strip().splitlines() == ["dampfit: interrupted; no partial output was left behind"]
@@ -315,7 +315,7 @@ def test_sigterm_while_writing_leaves_no_debris(work, capsys, fast, monkeypatch)
     def killed(self, path):
         os.kill(os.getpid(), signal.SIGTERM)  # dampfit's handler turns it into an exception
 
-    monkeypatch.setattr("dampfit.analysis.Analysis.to_signals", killed)
+    monkeypatch.setattr("dampfit.pipeline.Analysis.to_signals", killed)
     before = snapshot(work)
     handler = signal.getsignal(signal.SIGTERM)
     code, _, err = run(analyze_argv(work, work / "res"), capsys)

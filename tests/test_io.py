@@ -1,4 +1,4 @@
-"""Tests of :mod:`dampfit.io`: every format and dialect, the real recordings, every bad input."""
+"""Tests of :mod:`dampfit.io.readers`: every format and dialect, the real recordings, every bad input."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pandas as pd
 import pytest
 
 from dampfit.errors import InputError
-from dampfit.io import detect_format, read
-from dampfit.recording import STANDARD_GRAVITY
+from dampfit.io.readers import detect_format, read
+from dampfit.io.recording import STANDARD_GRAVITY
 
 G = STANDARD_GRAVITY
 N = 200

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import scipy.io as sio
 
-from dampfit import matfile
+from dampfit.io import matlab as matfile
 from dampfit.errors import InputError
 
 FS = 200.0

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from dampfit import model, physics
+from dampfit import physics
+from dampfit.model import viscous as model
 
 M = 5.3  # [kg]
 

@@ -1,4 +1,4 @@
-"""Tests of the figures (:mod:`dampfit.plots`): every PNG is written, valid and not blank.
+"""Tests of the figures (:mod:`dampfit.output.figures`): every PNG is written, valid and not blank.
 
 One short simulated recording of the seed paper's spring (20 s, 500 Hz) is analysed once
 with a mass and once without; the figures of both are written to a temporary directory.
@@ -15,7 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dampfit import analysis, plots, simulate
+from dampfit import simulate
+from dampfit import pipeline as analysis
+from dampfit.output import figures as plots
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 ALL = {"signal", "spectrum", "fit", "displacement", "posterior", "trace", "amplitude"}
@@ -116,7 +118,7 @@ def test_plots_module_imports_matplotlib_lazily():
 
 
 def test_numeric_core_does_not_import_matplotlib():
-    code = "import dampfit.analysis, sys; print('matplotlib' in sys.modules)"
+    code = "import dampfit.pipeline, sys; print('matplotlib' in sys.modules)"
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     assert res.stdout.strip() == "False"

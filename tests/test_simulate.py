@@ -14,7 +14,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from dampfit.errors import InputError
-from dampfit.recording import STANDARD_GRAVITY, Recording
+from dampfit.io.recording import STANDARD_GRAVITY, Recording
 from dampfit.simulate import (
     PRESETS,
     SimulationConfig,

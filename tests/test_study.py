@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dampfit import estimators
+from dampfit.estimators import registry as estimators
 from dampfit import simulate as sim
 from dampfit.cli import main
 from dampfit.errors import InputError

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dampfit import preprocess as pp
-from dampfit.recording import Recording
+from dampfit.signal import prepare as pp
+from dampfit.io.recording import Recording
 
 FS, F, ZETA = 400.0, 5.0, 0.005
 
@@ -48,7 +48,7 @@ def test_smooth_decays_are_not_cut(zeta):
 
 def test_amplitude_dependent_decay_is_not_a_catch():
     """Quadratic drag: ζ falls ≈ 5× along the decay, smoothly; no drop is reported."""
-    from dampfit.damping.reference import noisy_recording, reference_decay
+    from tests.reference_sim import noisy_recording, reference_decay
 
     t = np.arange(0.0, 30.0, 1 / 200.0)
     m, k = 1.0, (2 * np.pi * 3.0) ** 2

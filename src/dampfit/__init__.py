@@ -16,15 +16,15 @@ Typical use::
 
 from importlib import metadata as _metadata
 
-from .analysis import Analysis as Analysis
-from .analysis import analyze as analyze
-from .errors import DampfitError as DampfitError
-from .errors import InputError as InputError
-from .io import read as read
-from .recording import Recording as Recording
-from . import crlb as crlb
-from . import estimators as estimators
-from . import simulate as simulate
+from dampfit.pipeline import Analysis as Analysis
+from dampfit.pipeline import analyze as analyze
+from dampfit.errors import DampfitError as DampfitError
+from dampfit.errors import InputError as InputError
+from dampfit.io.readers import read as read
+from dampfit.io.recording import Recording as Recording
+from dampfit.inference import crlb
+from dampfit import estimators
+from dampfit import simulate as simulate
 
 try:
     __version__ = _metadata.version("dampfit")

@@ -1,5 +1,5 @@
 """``python -m dampfit …`` runs the command-line interface."""
 
-from .cli import run
+from dampfit.cli import run
 
 run()

@@ -26,7 +26,7 @@ import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from .errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["atomic_write_text", "check_output_file", "publish", "MARKER", "ResultFolder",
            "WriteError", "read_marker"]

@@ -49,10 +49,10 @@ from typing import Any
 
 import numpy as np
 
-from ._files import atomic_write_text
-from .errors import InputError
-from .physics import critical_damping, from_decay, to_decay
-from .recording import STANDARD_GRAVITY, Recording
+from dampfit._files import atomic_write_text
+from dampfit.errors import InputError
+from dampfit.physics import critical_damping, from_decay, to_decay
+from dampfit.io.recording import STANDARD_GRAVITY, Recording
 
 __all__ = [
     "SimulationConfig",
@@ -270,7 +270,7 @@ def check_limits(cfg: SimulationConfig) -> None:
     [µg/√Hz]; |bias|, drift and quantization ≤ :data:`MAX_ACCEL` [m/s²]; the gaps must fit
     into the recording. Raises :class:`InputError` (one line naming the option).
     """
-    from .cli import MAX_MASS, MAX_SIM_SAMPLES  # the CLI's limits (lazy: cli imports this)
+    from dampfit.cli import MAX_MASS, MAX_SIM_SAMPLES  # the CLI's limits (lazy: cli imports this)
 
     if cfg.mass > MAX_MASS:
         raise InputError(f"mass = {cfg.mass:g} kg is beyond the limit of {MAX_MASS:g} kg")

@@ -14,21 +14,21 @@ fits, and says which damper an FEM model needs:
     res.warnings           # the text a user sees when one viscous c is not adequate
     res.c_report()         # c (viscous) or c_eq at a stated amplitude
 
-Modules: :mod:`~dampfit.damping.models` (laws, averaged envelopes, c_eq),
-:mod:`~dampfit.damping.fit` (least squares, evidence), :mod:`~dampfit.damping.compare`,
-:mod:`~dampfit.damping.sample` (emcee / Laplace draws), :mod:`~dampfit.damping.curve`
+Modules: :mod:`~dampfit.model.laws` (laws, averaged envelopes, c_eq),
+:mod:`~dampfit.inference.law_fit` (least squares, evidence), :mod:`~dampfit.damping.evidence`,
+:mod:`~dampfit.inference.law_sampler` (emcee / Laplace draws), :mod:`~dampfit.damping.curve`
 (ζ(amplitude)), :mod:`~dampfit.damping.checks`, :mod:`~dampfit.damping.quantities`,
-:mod:`~dampfit.damping.report`, :mod:`~dampfit.damping.reference` (reference ODE solution);
+:mod:`~dampfit.damping.summary`;
 :mod:`~dampfit.damping.assessment` holds :func:`assess`.
 """
 
-from .assessment import CHOICES as CHOICES
-from .assessment import POSTERIORS as POSTERIORS
-from .assessment import DampingAssessment as DampingAssessment
-from .assessment import assess as assess
-from .assessment import from_analysis as from_analysis
-from .models import MODELS as MODELS
-from .models import c_equivalent as c_equivalent
+from dampfit.damping.assessment import CHOICES as CHOICES
+from dampfit.damping.assessment import POSTERIORS as POSTERIORS
+from dampfit.damping.assessment import DampingAssessment as DampingAssessment
+from dampfit.damping.assessment import assess as assess
+from dampfit.damping.assessment import from_analysis as from_analysis
+from dampfit.model.laws import MODELS as MODELS
+from dampfit.model.laws import c_equivalent as c_equivalent
 
 __all__ = ["CHOICES", "POSTERIORS", "DampingAssessment", "MODELS", "assess", "c_equivalent",
            "from_analysis"]

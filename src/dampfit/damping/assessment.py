@@ -2,9 +2,9 @@ r"""The entry point: :func:`assess` — is one viscous c enough, and if not, whi
 
 Pipeline, after the viscous least-squares fit and noise model of :func:`dampfit.analyze`:
 
-1. least squares of every law (:mod:`~dampfit.damping.fit`, NumPy variable projection), with
+1. least squares of every law (:mod:`~dampfit.inference.law_fit`, NumPy variable projection), with
    J = 0…3 frequency-drift phase terms (K4) chosen by BIC on the viscous law and shared;
-2. one Whittle factor r from the best law's residuals (:mod:`~dampfit.damping.compare`);
+2. one Whittle factor r from the best law's residuals (:mod:`~dampfit.damping.evidence`);
 3. evidence of every law, the comparison table and the verdict (amplitude dependence,
    preferred law);
 4. posterior draws of every law (emcee for the chosen law by default, the nested Laplace
@@ -27,13 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from .. import noise as _noise
-from .._json import jsonable
-from ..errors import InputError
-from . import checks, compare, curve, models, quantities
-from .report import summary as _summary
-from . import fit as dfit
-from . import sample as dsample
+from dampfit.inference import noise as _noise
+from dampfit._json import jsonable
+from dampfit.errors import InputError
+from dampfit.damping import checks, curve, quantities
+from dampfit.damping import evidence as compare
+from dampfit.model import laws as models
+from dampfit.damping.summary import summary as _summary
+from dampfit.inference import law_fit as dfit
+from dampfit.inference import law_sampler as dsample
 
 __all__ = ["assess", "from_analysis", "DampingAssessment", "CHOICES", "POSTERIORS"]
 
@@ -145,9 +147,9 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
            max_steps: int = 20000, min_ess: float = 1000.0, budget=None) -> DampingAssessment:
     """Compare damping laws on a prepared recording (see the module docstring).
 
-    ``prep`` :class:`~dampfit.preprocess.Prepared`, ``fd`` :class:`~dampfit.preprocess.FitData`,
-    ``ls`` the viscous :class:`~dampfit.fit.LeastSquaresResult` (start values; None: from the
-    envelope), ``noise_model`` its :class:`~dampfit.noise.NoiseModel` or None (its r is
+    ``prep`` :class:`~dampfit.signal.prepare.Prepared`, ``fd`` :class:`~dampfit.signal.prepare.FitData`,
+    ``ls`` the viscous :class:`~dampfit.inference.least_squares.LeastSquaresResult` (start values; None: from the
+    envelope), ``noise_model`` its :class:`~dampfit.inference.noise.NoiseModel` or None (its r is
     reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
     [kg]; ``model`` one of :data:`CHOICES` (``auto`` = the preferred law); ``amplitude`` [m]
     the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
@@ -240,7 +242,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
 
 
 def from_analysis(an, **kw) -> DampingAssessment:
-    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
+    """:func:`assess` on the stages of a :class:`dampfit.pipeline.Analysis` (same mass, seed)."""
     kw.setdefault("seed", an.seed)
     return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
 
@@ -299,7 +301,7 @@ def _q50(q: dict, name: str) -> float:
 
 def _fit_check(mf: dfit.ModelFit, fd, data, noise_of, white_r: float, sigma_exp: float,
                lb: dict | None) -> dict:
-    """Residual checks of one fit: Ljung–Box p at f₀ and :func:`dampfit.noise.misfit_check`."""
+    """Residual checks of one fit: Ljung–Box p at f₀ and :func:`dampfit.inference.noise.misfit_check`."""
     nm = noise_of(mf)
     osc = mf.fitted - data.drift @ mf.beta[2:]
     resid_rms = float(np.sqrt(np.mean(mf.residuals**2)))

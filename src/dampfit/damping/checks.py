@@ -11,24 +11,24 @@ Ljung–Box statistic (Ljung & Box 1978)
 of the real and of the imaginary parts (summed: χ² with 2H degrees of freedom under
 whiteness) tests them, with H = min(10, B/5) lags over B cycles. A small p-value with the
 viscous law and a large one with the preferred law says the envelope was the misfit. The
-Whittle factor r (:mod:`dampfit.noise`) of each law's residuals is reported beside it.
+Whittle factor r (:mod:`dampfit.inference.noise`) of each law's residuals is reported beside it.
 
 **Adequacy verdict** (:func:`adequacy`): one decision from all the evidence the analysis
 computes. Inputs: the windowed slope s = d ln p/d ln a (:func:`~dampfit.damping.curve.slope`)
 with its standard error and the amplitude span a_max/a_min of the windows; the windowed
 frequency trend (:func:`~dampfit.damping.curve.frequency_trend`); P(viscous | data) and the
-best non-viscous law (:mod:`~dampfit.damping.compare`); for the viscous fit and for the
+best non-viscous law (:mod:`~dampfit.damping.evidence`); for the viscous fit and for the
 best-fitting law: the Ljung–Box p at f₀, r_raw/r_white and the residual rms relative to the
-fitted decay and to the sensor noise (:func:`dampfit.noise.misfit_check`). Criteria:
+fitted decay and to the sensor noise (:func:`dampfit.inference.noise.misfit_check`). Criteria:
 
 * *slope decisive*: the 99 % interval of s excludes 0 (|s| > t₀.₉₉₅,ν·sd) **and** the implied
   change of ζ over the recorded amplitudes, (a_max/a_min)^|s|, is ≥ :data:`ZETA_RATIO_MATTERS`;
-* *law decisive*: P(viscous | data) < :data:`~dampfit.damping.compare.P_VISCOUS_MAX`, unless
+* *law decisive*: P(viscous | data) < :data:`~dampfit.damping.evidence.P_VISCOUS_MAX`, unless
   the windows contradict it: the whole 90 % interval of s implies a change of ζ below
   :data:`ZETA_RATIO_MATTERS` (*slope null*) — then the law evidence only comes from
   something else in the waveform;
 * *fit misfit* (for the viscous fit, and for the best law): the absolute rule of
-  :func:`dampfit.noise.misfit_check` (r_raw/r_white > 3, or residual > 5 % of the signal and
+  :func:`dampfit.inference.noise.misfit_check` (r_raw/r_white > 3, or residual > 5 % of the signal and
   > 3× the sensor noise) holds **and** the residual is structured at f₀ (Ljung–Box
   p < :data:`P_WHITE`) — or the residual is > 5 % of the signal and > 3× the sensor noise,
   whatever the Ljung–Box p (a large residual is misfit even if it is not at f₀). The same rule is applied to the constant-frequency viscous least squares whose c
@@ -174,7 +174,7 @@ def _fit_misfit(name: str, fit: dict | None) -> list[str]:
         return []
     p = fit.get("ljung_box_p")
     structured = p is not None and np.isfinite(p) and p < P_WHITE
-    from ..noise import NOISE_EXCESS, RESID_FRACTION, R_WARN
+    from dampfit.inference.noise import NOISE_EXCESS, RESID_FRACTION, R_WARN
 
     r_ex, frac, nex = fit["r_excess"], fit["resid_fraction"], fit["noise_excess"]
     big = frac > RESID_FRACTION and nex > NOISE_EXCESS
@@ -277,7 +277,7 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
 
 
 def _p_decisive() -> float:
-    from .compare import P_VISCOUS_MAX
+    from dampfit.damping.evidence import P_VISCOUS_MAX
 
     return P_VISCOUS_MAX
 

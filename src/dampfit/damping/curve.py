@@ -10,11 +10,11 @@ is fitted by variable projection (scipy's Levenberg–Marquardt over (p, ω); A,
 linear). Centring τ' makes the amplitude √(A² + B²) the acceleration amplitude at τ_c [m/s²],
 nearly uncorrelated with p; the displacement amplitude is that over ω_n²·|G| [m]. The 1-σ of p
 comes from the Jacobian, s²·(JᵀJ)⁻¹, multiplied by the global Whittle factor r
-(:mod:`dampfit.noise`) so that the windows carry the same calibration as the global fits. p may come out negative in
+(:mod:`dampfit.inference.noise`) so that the windows carry the same calibration as the global fits. p may come out negative in
 a noisy window; it is kept (dropping it would bias the curve).
 
 If the damping is viscous, p does not depend on the amplitude a. A power law
-p(a) = p_ref·(a/a_ref)^s (s = α − 1 of the power-law damper, :mod:`~dampfit.damping.models`)
+p(a) = p_ref·(a/a_ref)^s (s = α − 1 of the power-law damper, :mod:`~dampfit.model.laws`)
 is fitted by weighted least squares to the *non-overlapping* windows (every second one), its
 standard errors scaled by √max(1, χ²/ν) (overdispersion), and the 90 % interval of s uses
 Student's t with ν = n_windows − 2. NumPy/SciPy only; no I/O.
@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize, stats
 
-from ..errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["Window", "windows", "slope", "frequency_trend", "auto_cycles",
            "MIN_WINDOW_SAMPLES"]

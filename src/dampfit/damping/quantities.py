@@ -1,14 +1,14 @@
 r"""Physical quantities of each damping law from posterior draws, and their summaries.
 
-For draws of θ and the start amplitude a₀ [m] (:mod:`dampfit.damping.sample`) and, with a
+For draws of θ and the start amplitude a₀ [m] (:mod:`dampfit.inference.law_sampler`) and, with a
 mass, draws of m [kg] (normal, truncated at m > 0, independent of the data — the recording
-identifies only rates per unit mass, exactly as in :mod:`dampfit.posterior`), this module
-evaluates the law's coefficients (:func:`dampfit.damping.models.physical`), the natural
+identifies only rates per unit mass, exactly as in :mod:`dampfit.inference.posterior`), this module
+evaluates the law's coefficients (:func:`dampfit.model.laws.physical`), the natural
 frequency f_n = ω/2π [Hz] (first-order averaging: ω_n = ω), k = m·ω² [N/m], and the
 equivalent viscous damping at chosen displacement amplitudes,
 
     ζ_eq(a) = ρ(a)/ω,   c_eq(a) = 2·m·ρ(a)   (Jacobsen 1930; (K2) of
-    :mod:`~dampfit.damping.models`).
+    :mod:`~dampfit.model.laws`).
 
 Summaries are plain JSON-safe dicts (unit, mean, sd, q05, q50, q95).
 """
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import models
+from dampfit.model import laws as models
 
 __all__ = ["UNITS", "draws", "summarise", "mass_draws"]
 
@@ -32,8 +32,8 @@ UNITS = {
 
 
 def mass_draws(mass: float | None, mass_sd: float, size: int, rng) -> np.ndarray | None:
-    """Mass draws [kg] (:func:`dampfit.posterior.mass_draws`)."""
-    from ..posterior import mass_draws as draws
+    """Mass draws [kg] (:func:`dampfit.inference.posterior.mass_draws`)."""
+    from dampfit.inference.posterior import mass_draws as draws
 
     return draws(mass, mass_sd, size, rng)
 

@@ -8,6 +8,6 @@ Modules (nothing is imported here, so building the CLI stays fast):
 * :mod:`~dampfit.fem.keyword` — fixed-width LS-DYNA cards and their reader;
 * :mod:`~dampfit.fem.lsdyna`, :mod:`~dampfit.fem.opensees`, :mod:`~dampfit.fem.calculix` —
   the decks (and, for OpenSees, an in-process run);
-* :mod:`~dampfit.fem.compare` — pure numerics of the verification;
+* :mod:`~dampfit.fem.response` — pure numerics of the verification;
 * :mod:`~dampfit.fem.export`, :mod:`~dampfit.fem.verify` — ``dampfit export`` and ``dampfit verify``.
 """

@@ -26,11 +26,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from .lsdyna import reference_length
-from .sanitize import ascii_line, calculix_comment
-from .sdof import Sdof
-from .timestep import newmark_period_error
-from .units import UnitSystem, factor
+from dampfit.fem.lsdyna import reference_length
+from dampfit.fem.sanitize import ascii_line, calculix_comment
+from dampfit.fem.sdof import Sdof
+from dampfit.fem.timestep import newmark_period_error
+from dampfit.fem.units import UnitSystem, factor
 
 __all__ = ["deck", "read_deck", "real"]
 

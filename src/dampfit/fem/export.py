@@ -27,13 +27,13 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .._files import atomic_write_text, check_output_file
-from ..cli import float_arg
-from ..errors import InputError
-from . import sdof as sdof_mod
-from . import timestep
-from . import units as units_mod
-from .sanitize import shown
+from dampfit._files import atomic_write_text, check_output_file
+from dampfit.cli import float_arg
+from dampfit.errors import InputError
+from dampfit.fem import sdof as sdof_mod
+from dampfit.fem import timestep
+from dampfit.fem import units as units_mod
+from dampfit.fem.sanitize import shown
 
 __all__ = ["FORMATS", "add_arguments", "build", "command", "output_interval"]
 
@@ -103,15 +103,15 @@ def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5
     if dur / dt > 5e7:
         raise InputError(f"{dur:g} s at a step of {dt:.3g} s is over 5e7 steps; give a shorter --duration")
     if fmt == "lsdyna":
-        from .lsdyna import deck
+        from dampfit.fem.lsdyna import deck
 
         text = deck(sdof, system, dur, dt, output_dt)
     elif fmt == "opensees":
-        from .opensees import script
+        from dampfit.fem.opensees import script
 
         text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1])
     else:
-        from .calculix import deck
+        from dampfit.fem.calculix import deck
 
         text = deck(sdof, system, dur, dt, output_dt)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,

@@ -34,11 +34,11 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from . import keyword as kw
-from .sanitize import ascii_line, lsdyna_comment, lsdyna_title
-from .sdof import Sdof
-from .timestep import central_difference_period_error
-from .units import UnitSystem
+from dampfit.fem import keyword as kw
+from dampfit.fem.sanitize import ascii_line, lsdyna_comment, lsdyna_title
+from dampfit.fem.sdof import Sdof
+from dampfit.fem.timestep import central_difference_period_error
+from dampfit.fem.units import UnitSystem
 
 __all__ = ["deck", "read_deck", "reference_length"]
 
@@ -68,7 +68,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     (:mod:`dampfit.fem.sanitize`): it can only appear inside ``$`` comments or as the
     ``*TITLE`` line, never start a card.
     """
-    from .units import factor
+    from dampfit.fem.units import factor
 
     L, T, M = (factor(q, units) for q in ("length", "time", "mass"))
     K, C, A = (factor(q, units) for q in ("stiffness", "damping", "acceleration"))

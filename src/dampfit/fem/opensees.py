@@ -31,11 +31,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from .sanitize import python_comment, python_literal
-from .sdof import Sdof
-from .timestep import newmark_period_error
-from .units import UnitSystem, factor
+from dampfit.errors import InputError
+from dampfit.fem.sanitize import python_comment, python_literal
+from dampfit.fem.sdof import Sdof
+from dampfit.fem.timestep import newmark_period_error
+from dampfit.fem.units import UnitSystem, factor
 
 __all__ = ["BLAS_REASON", "NOT_INSTALLED_REASON", "engine_version", "free_decay", "script",
            "unavailable"]

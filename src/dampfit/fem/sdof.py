@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .._files import read_bounded
-from ..errors import InputError
-from .sanitize import shown
-from .units import STANDARD_GRAVITY
+from dampfit._files import read_bounded
+from dampfit.errors import InputError
+from dampfit.fem.sanitize import shown
+from dampfit.fem.units import STANDARD_GRAVITY
 
 __all__ = ["MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "Sdof", "load", "number",
            "read_summary", "summary_quantile"]

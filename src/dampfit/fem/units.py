@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["DIMENSIONS", "STANDARD_GRAVITY", "UNIT_SYSTEMS", "UnitSystem", "factor", "get", "to_system"]
 

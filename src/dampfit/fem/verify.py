@@ -6,7 +6,7 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    what ``dampfit export --quantile 0.5`` hands to a FEM code.
 2. Start: the FEM run starts at the first sample of the analysis window in the state of the
    fitted model, (u, v) from ``accel_model`` of ``DIR/signals.npz``
-   (:func:`dampfit.fem.compare.initial_state`), so FEM and model share the phase; with the
+   (:func:`dampfit.fem.response.initial_state`), so FEM and model share the phase; with the
    model's release-from-rest this is the same free decay the deck of ``export`` describes.
 3. Run: OpenSeesPy, zeroLength with Elastic + Viscous (α = 1), Newmark average acceleration
    (γ = 1/2, β = 1/4) with a fixed step Δt that divides the sample interval, from
@@ -24,7 +24,7 @@ Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unus
 ``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
 link is replaced itself, never its target), is a directory, has a name the file system cannot
 hold or a suffix matplotlib cannot write; a bad summary.json or signals.npz (its ZIP directory
-and array headers are checked before loading, as :mod:`dampfit.io` does for recordings, so
+and array headers are checked before loading, as :mod:`dampfit.io.readers` does for recordings, so
 memory stays bounded by the file). OpenSees runs in a child process
 (:func:`dampfit.fem.opensees.free_decay`), so its native exit message never reaches stderr.
 """
@@ -41,12 +41,13 @@ from typing import Any
 
 import numpy as np
 
-from .._files import atomic_write_text, check_output_file, publish
-from ..cli import float_arg
-from ..errors import InputError
-from . import compare, timestep
-from . import sdof as sdof_mod
-from .sanitize import shown
+from dampfit._files import atomic_write_text, check_output_file, publish
+from dampfit.cli import float_arg
+from dampfit.errors import InputError
+from dampfit.fem import timestep
+from dampfit.fem import response as compare
+from dampfit.fem import sdof as sdof_mod
+from dampfit.fem.sanitize import shown
 
 __all__ = ["SIGNAL_KEYS", "add_arguments", "command", "figure_format", "load_signals", "plot", "run"]
 
@@ -93,11 +94,11 @@ def load_signals(folder: str | Path) -> dict[str, Any]:
 
 def _check_npz(path: Path) -> None:
     """Refuse a zip bomb or an array header declaring more bytes than the file holds before
-    ``np.load`` allocates anything (the checks :mod:`dampfit.io` applies to recordings), so the
+    ``np.load`` allocates anything (the checks :mod:`dampfit.io.readers` applies to recordings), so the
     memory used is bounded by the data present."""
     import zipfile
 
-    from ..io import _check_npy_header, _check_zip
+    from dampfit.io.readers import _check_npy_header, _check_zip
 
     try:
         with zipfile.ZipFile(path) as zf:
@@ -118,7 +119,7 @@ def run(folder: str | Path, dt: float | None = None) -> dict[str, Any]:
 
     ``dt`` [s] overrides the automatic step (it must keep the period error below 1e-4).
     """
-    from . import opensees
+    from dampfit.fem import opensees
 
     folder, summary = sdof_mod.read_summary(folder)
     ident = sdof_mod.load(folder, 0.5)
@@ -302,7 +303,7 @@ def command(args: argparse.Namespace) -> int:
     First of all OpenSeesPy must be usable (:func:`dampfit.fem.opensees.unavailable`): if not,
     one error line says why and how to fix it, before any file is read or written.
     """
-    from . import opensees
+    from dampfit.fem import opensees
 
     reason = opensees.unavailable()
     if reason is not None:
@@ -327,7 +328,7 @@ def command(args: argparse.Namespace) -> int:
     print(_table(rep))
     print(f"\n  written {folder / 'verification.json'}, {fig}")
     if refresh is True:  # keep an existing report complete
-        from ..report import write_report
+        from dampfit.output.report import write_report
 
         try:
             write_report(folder)
@@ -347,7 +348,7 @@ def _report_refresh(folder: Path) -> bool | str:
     html = folder / "report.html"
     if not os.path.lexists(html):
         return False
-    from .. import report
+    from dampfit.output import report
 
     for name, marker in (("report.html", report._MARK_HTML), ("report.md", report._MARK_MD)):
         path = folder / name

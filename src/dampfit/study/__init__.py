@@ -1,8 +1,8 @@
 """``dampfit study CONFIG.toml``: a resumable simulation study comparing damping estimators.
 
 Every scenario of a TOML grid (:mod:`dampfit.study.config`) is simulated ``replicates`` times;
-each recording goes through every estimator of :mod:`dampfit.estimators` and is compared with
-the truth and with the Cramér–Rao lower bound (:mod:`dampfit.crlb`). Runs execute on Dask
+each recording goes through every estimator of :mod:`dampfit.estimators.registry` and is compared with
+the truth and with the Cramér–Rao lower bound (:mod:`dampfit.inference.crlb`). Runs execute on Dask
 ``distributed`` (:mod:`dampfit.study.runner`: a local cluster, or ``--scheduler ADDRESS``),
 are stored as they finish (:mod:`dampfit.study.store`) so an interrupted study resumes, and
 end in tidy tables, a ranking and figures (:mod:`dampfit.study.tables`,
@@ -29,11 +29,11 @@ __all__ = ["add_arguments", "command", "load", "run_study"]
 
 def load(path, available=None):
     """Read and validate a study file (see :func:`dampfit.study.config.load`); estimator names
-    are checked against ``available`` (default: :data:`dampfit.estimators.ESTIMATORS`)."""
-    from .config import load as _load
+    are checked against ``available`` (default: :data:`dampfit.estimators.registry.ESTIMATORS`)."""
+    from dampfit.study.config import load as _load
 
     if available is None:
-        from .. import estimators
+        from dampfit.estimators import registry as estimators
 
         available = list(estimators.ESTIMATORS)
     return _load(path, available)
@@ -41,7 +41,7 @@ def load(path, available=None):
 
 def run_study(cfg, out, **kw):
     """Run or resume a study (see :func:`dampfit.study.runner.run_study`)."""
-    from .runner import run_study as _run
+    from dampfit.study.runner import run_study as _run
 
     return _run(cfg, out, **kw)
 
@@ -88,8 +88,8 @@ def command(args) -> int:
     """Run ``dampfit study``; return the exit code (0 done, 1 runs missing, 130 interrupted)."""
     import sys
 
-    from .runner import StudyIncomplete
-    from .runner import run_study as _run
+    from dampfit.study.runner import StudyIncomplete
+    from dampfit.study.runner import run_study as _run
 
     cfg = load(args.config)
     out = Path(args.out) if args.out else Path(Path(args.config).stem + ".study")

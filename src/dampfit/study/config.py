@@ -6,7 +6,7 @@ A study file has three tables::
     name = "ranking"            # title of the summary (optional; default: the file's stem)
     replicates = 40             # simulated recordings per scenario (≥ 1)
     seed = 0                    # study seed (≥ 0)
-    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.estimators
+    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.estimators.registry
     mass = 5.3                  # [kg]; known exactly to the estimators. Omit it to study ζ (no c)
     max_replicates = { bayes = 5 }   # optional: an expensive estimator on the first 5 only
 
@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["FIELDS", "MAX_RUNS", "StudyConfig", "Task", "load", "parse"]
 
@@ -242,7 +242,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
     seed = _integer(study, "seed", minimum=0, default=0)
     estimators = _estimators(study.get("estimators"), available)
     mass = study.get("mass")
-    from ..cli import MAX_MASS  # the limit of 'analyze --mass' (lazy: cli imports late)
+    from dampfit.cli import MAX_MASS  # the limit of 'analyze --mass' (lazy: cli imports late)
 
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float))
                              or not math.isfinite(mass) or mass <= 0 or mass > MAX_MASS):
@@ -372,7 +372,7 @@ def _check_size(cfg: StudyConfig) -> None:
 
 def _check_scenarios(cfg: StudyConfig) -> None:
     """Build every scenario's simulator configuration once, so bad values fail before any work."""
-    from .. import simulate as sim
+    from dampfit import simulate as sim
 
     for sid, params in cfg.scenarios():
         try:
@@ -384,7 +384,7 @@ def _check_scenarios(cfg: StudyConfig) -> None:
 
 def sim_config(params: dict[str, Any], mass: float, seed: int):
     """The :class:`~dampfit.simulate.SimulationConfig` of one run."""
-    from .. import simulate as sim
+    from dampfit import simulate as sim
 
     fields = dict(params)
     f_n, zeta = fields.pop("f_n"), fields.pop("zeta")

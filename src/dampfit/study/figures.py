@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .._files import WriteError, _reason, publish
+from dampfit._files import WriteError, _reason, publish
 
 __all__ = ["save_figures"]
 

@@ -23,12 +23,12 @@ import uuid
 from pathlib import Path
 from typing import Any, TextIO
 
-from .._files import atomic_write_text
-from ..errors import InputError
-from . import tables
-from .config import StudyConfig, Task
-from .store import Store
-from .task import run_task, worker_info
+from dampfit._files import atomic_write_text
+from dampfit.errors import InputError
+from dampfit.study import tables
+from dampfit.study.config import StudyConfig, Task
+from dampfit.study.store import Store
+from dampfit.study.task import run_task, worker_info
 
 __all__ = ["StudyIncomplete", "run_study"]
 
@@ -134,7 +134,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
     unreachable scheduler or unusable workers, and :class:`StudyIncomplete` if some runs did
     not finish (the finished ones are kept: run again to complete the study).
     """
-    from .. import __version__
+    from dampfit import __version__
 
     stdout = stdout or sys.stdout
     stderr = stderr or sys.stderr
@@ -189,7 +189,7 @@ def write_outputs(cfg: StudyConfig, records: list[dict], out: Path, *, figures: 
     atomic_write_text(out / "ranking.csv", rank.to_csv(index=False))
     atomic_write_text(out / "summary.md", _summary_md(cfg, runs, agg, rank, version, figures))
     if figures:
-        from .figures import save_figures
+        from dampfit.study.figures import save_figures
 
         save_figures(agg, rank, out, cfg.name)
     return {"runs": runs, "aggregate": agg, "ranking": rank}
@@ -199,9 +199,9 @@ def _atomic_parquet(df, path: Path) -> None:
     import os
     import tempfile
 
-    from .._files import publish
+    from dampfit._files import publish
 
-    from .._files import WriteError, _reason
+    from dampfit._files import WriteError, _reason
 
     try:
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -249,7 +249,7 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
         "## Definitions\n",
         ("Each run simulates one recording (`dampfit.simulate`) and runs every estimator on that "
          "same recording. bias = mean(estimate − truth); RMSE = √mean((estimate − truth)²); "
-         "failed runs are left out of both. CRLB = Cramér–Rao bound sd (`dampfit.crlb.bound`) "
+         "failed runs are left out of both. CRLB = Cramér–Rao bound sd (`dampfit.inference.crlb.bound`) "
          "for the whole simulated free decay with white noise of the simulated σ (quantization "
          "included), an unknown offset and the exact mass; it omits drift and coloured noise, "
          "whose cost shows as RMSE/CRLB > 1. With n runs, RMSE/CRLB has a sampling scatter of "

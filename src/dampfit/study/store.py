@@ -26,9 +26,9 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from .._files import _reason, atomic_write_text, publish, read_marker
-from ..errors import InputError
-from .config import StudyConfig
+from dampfit._files import _reason, atomic_write_text, publish, read_marker
+from dampfit.errors import InputError
+from dampfit.study.config import StudyConfig
 
 __all__ = ["OUTPUTS", "Store"]
 

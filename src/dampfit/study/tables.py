@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from .config import StudyConfig
+from dampfit.study.config import StudyConfig
 
 __all__ = ["aggregate", "markdown", "ranking", "runs_frame", "scenario_labels"]
 

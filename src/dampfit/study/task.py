@@ -1,8 +1,8 @@
 r"""One study run, executed on a Dask worker: simulate, estimate, bound. Pure: no file output.
 
 :func:`run_task` simulates one recording of a scenario, runs every estimator of the task on
-that same recording (:func:`dampfit.estimators.run`, which never raises for a numerical
-failure) and computes the Cramér–Rao lower bound of the design (:func:`dampfit.crlb.bound`).
+that same recording (:func:`dampfit.estimators.registry.run`, which never raises for a numerical
+failure) and computes the Cramér–Rao lower bound of the design (:func:`dampfit.inference.crlb.bound`).
 It returns a plain, JSON-safe record; the client stores it.
 
 The bound's design is the noise-free free decay as simulated: every sample from the release
@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from .config import Task, sim_config
+from dampfit.study.config import Task, sim_config
 
 __all__ = ["QUANTITIES", "crlb_design", "run_task", "worker_info"]
 
@@ -40,13 +40,13 @@ QUANTITIES = ("p", "f_n", "zeta", "c")
 
 def worker_info() -> dict[str, Any]:
     """Identity of the process this runs in (checked by the client before submitting)."""
-    from .. import __version__
+    from dampfit import __version__
 
     return {"dampfit": __version__, "pid": os.getpid(), "host": socket.gethostname()}
 
 
 def crlb_design(recording, truth: dict[str, Any]) -> dict[str, Any]:
-    """Arguments of :func:`dampfit.crlb.bound` for a simulated recording (module docstring).
+    """Arguments of :func:`dampfit.inference.crlb.bound` for a simulated recording (module docstring).
 
     Returns ``times`` [s] (from the first free sample), ``sigma`` [m/s²], ``p`` [1/s],
     ``omega_d`` [rad/s], ``a_cos`` and ``a_sin`` [m/s²].
@@ -78,8 +78,8 @@ def _finite(x) -> float | None:
 
 
 def _bound(recording, truth: dict, mass: float | None) -> tuple[dict[str, float | None], str]:
-    from .. import crlb
-    from ..errors import InputError
+    from dampfit.inference import crlb
+    from dampfit.errors import InputError
 
     try:
         b = crlb.bound(**crlb_design(recording, truth), mass=mass, mass_sd=0.0, drift_degree=0)
@@ -140,8 +140,8 @@ def run_task(task: Task) -> dict[str, Any]:
     with ``covers_c``/``covers_zeta``, ``runtime_s``, ``ok`` and ``message``. A simulation or
     recording the estimators cannot use becomes rows with ``ok = False`` (data, not an error).
     """
-    from .. import estimators
-    from .. import simulate as sim
+    from dampfit.estimators import registry as estimators
+    from dampfit import simulate as sim
 
     started = time.time()
     record: dict[str, Any] = {"scenario": task.scenario, "replicate": task.replicate,

@@ -35,7 +35,7 @@ energy per cycle, W_d = π·c_eq·ω·a²) is c_eq(a) = 2·m·ρ(a); for the pow
 
 **Shape parameters.** The envelope *shape* e(τ) = a(τ)/a₀ depends on the law's coefficients
 only through rates at the window start (amplitude a₀), so the amplitude itself stays a linear
-parameter (the acceleration quadratures of :mod:`dampfit.model`):
+parameter (the acceleration quadratures of :mod:`dampfit.model.viscous`):
 
     viscous    θ = (ln p, ln ω)              e = exp(−pτ)
     coulomb    θ = (ln p₀, f, ln ω)          p_v = (1−f)·p₀, p_c = f·p₀ = 2F_c/(π·m·ω·a₀)
@@ -52,7 +52,7 @@ nonlinear term (f = 0 or α = 1 is the viscous model). These are the closed-form
 ü = Re[−ω²·Z·h(τ)·e^{iωτ}] with h = e·(1 + 2iρ/ω − R'ρ/ω²), R(e) = ρ·e the envelope's rate
 function and R' = dR/de. The two columns Re, Im of h·e^{iωτ} span the acceleration with the
 linear quadratures (A, B); |(A, B)| = ω²·a₀. For viscous damping this is *exactly* the model
-(M1) of :mod:`dampfit.model` with ω = ω_d (h = s²/(−ω_d²), s = −p + iω_d), so the models nest.
+(M1) of :mod:`dampfit.model.viscous` with ω = ω_d (h = s²/(−ω_d²), s = −p + iω_d), so the models nest.
 Accuracy against a DOP853 solution of the equation of motion (``tests/test_damping_models.py``),
 ζ_eq from 10⁻³ to 0.1, decay to 30 % of the initial amplitude, quadratures and ω fitted: the
 in-band (0.5–1.5 f) acceleration error is ≈ 0.05–0.08·ζ_eq of the amplitude for coulomb,
@@ -73,7 +73,7 @@ frequency Ω = dψ/dτ: ü = Re[−Ω²·Z·e·(1 + 2iρ/Ω − R'ρ/Ω² − i�
 
 All functions are pure and shape-static; the law is a static Python string. :func:`envelope`
 and :func:`columns` run on ``jax.numpy`` (jit/vmap/grad) or on NumPy (``xp=numpy``), where
-the fits of :mod:`dampfit.damping.fit` call them: a handful of nonlinear parameters on a few
+the fits of :mod:`dampfit.inference.law_fit` call them: a handful of nonlinear parameters on a few
 thousand samples needs no compiled kernel (and XLA compiles these graphs in seconds, which a
 per-recording fit of four laws cannot afford).
 """

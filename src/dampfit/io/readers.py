@@ -1,8 +1,8 @@
-"""File readers: an accelerometer recording on disk → :class:`~dampfit.recording.Recording`.
+"""File readers: an accelerometer recording on disk → :class:`~dampfit.io.recording.Recording`.
 
 :func:`read` detects the format from the file's extension *and* its content (magic bytes,
 header line, column names), never from the file name alone, and returns a validated
-:class:`~dampfit.recording.Recording` with time [s], acceleration [m/s²], the axis names,
+:class:`~dampfit.io.recording.Recording` with time [s], acceleration [m/s²], the axis names,
 ``gravity_removed`` and human-readable ``notes`` of every assumption and conversion.
 :func:`detect_format` returns the format name only.
 
@@ -32,7 +32,7 @@ Formats (``Recording.format``)
 ``"matlab"``
     MATLAB ``.mat`` files, v4–v7 and v7.3 (HDF5): one numeric variable, found through structs
     or named by ``variable="Fe.Out.Acc"``, with a time row, a sibling time vector or sample
-    rate; ``row=`` picks the acceleration row (:mod:`dampfit.matfile`).
+    rate; ``row=`` picks the acceleration row (:mod:`dampfit.io.matlab`).
 ``"npy"`` / ``"npz"``
     NumPy arrays: ``.npy`` of shape (2, N) / (N, 2) = time, acceleration or (4, N) / (N, 4)
     = time, x, y, z; ``.npz`` with arrays named like ``t``/``time`` and ``a``/``acc``/``x``…
@@ -82,10 +82,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from . import matfile
-from ._files import read_bounded
-from .errors import InputError
-from .recording import STANDARD_GRAVITY, Recording, gap_summary, time_segments
+from dampfit.io import matlab as matfile
+from dampfit._files import read_bounded
+from dampfit.errors import InputError
+from dampfit.io.recording import STANDARD_GRAVITY, Recording, gap_summary, time_segments
 
 __all__ = ["read", "detect_format", "MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO",
            "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS"]
@@ -207,7 +207,7 @@ def read(
         Worksheet of an Excel workbook by name or 0-based position.
     variable
         MATLAB file: the array to read, a dotted struct path such as ``"Fe.Out.Acc"``;
-        default: detected (:mod:`dampfit.matfile`).
+        default: detected (:mod:`dampfit.io.matlab`).
     row
         MATLAB file: 0-based row (variable) of that array holding the acceleration.
 
@@ -395,7 +395,7 @@ def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> _
 
 
 def _mat_table(data: bytes, name: str, opts: _Options) -> _Table:
-    """One variable of a MATLAB file (:mod:`dampfit.matfile`) as a time + acceleration table."""
+    """One variable of a MATLAB file (:mod:`dampfit.io.matlab`) as a time + acceleration table."""
     mat = matfile.load(data, variable=opts.variable, row=opts.row, max_bytes=MAX_UNPACKED_BYTES)
     return _Table(pd.DataFrame(mat.columns), True, "matlab", name, list(mat.notes))
 

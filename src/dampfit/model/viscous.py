@@ -25,7 +25,7 @@ to the oscillation.
 
 Every function here is pure and shape-static, so callers jit/vmap them once; nothing here
 touches global JAX configuration (callers enable float64 where they enter, see
-:func:`dampfit.fit.least_squares`).
+:func:`dampfit.inference.least_squares.least_squares`).
 """
 
 from __future__ import annotations
@@ -124,7 +124,7 @@ def profile(theta, tau, y, drift, mask=None):
     covariance of (A, B) is ``s²·diag(1/scale)·(LLᵀ)⁻¹·diag(1/scale)``).
 
     ``mask`` [1] (optional, 0 or 1 per sample) switches samples off: padded rows (see
-    :class:`dampfit.preprocess.Padded`) carry y = 0 and zero drift rows, and the mask zeroes
+    :class:`dampfit.signal.prepare.Padded`) carry y = 0 and zero drift rows, and the mask zeroes
     their oscillation columns, so they contribute nothing.
     """
     xo = oscillation_columns(theta, tau)
@@ -158,7 +158,7 @@ def log_marginal_likelihood(theta, tau, y, drift, temper, mask=None, n=None, q=N
 
     ``temper`` = 1/r divides the information by the ratio r of the noise power spectral
     density at the oscillation frequency to its mean (r = 1 for white noise; see
-    :mod:`dampfit.noise`), which keeps the posterior calibrated for coloured noise and for
+    :mod:`dampfit.inference.noise`), which keeps the posterior calibrated for coloured noise and for
     filtered, decimated samples. With padded inputs give ``mask`` and the real sample count
     ``n`` and coefficient count ``q``.
     """

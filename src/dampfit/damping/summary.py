@@ -8,7 +8,7 @@ Three keys, all JSON-safe (non-finite numbers become ``None``):
   summaries), least-squares θ, method and FEM hint;
 * ``amplitude_curve`` — the windowed ζ(amplitude) estimates, the slope of ln p against ln a,
   and each law's ζ_eq(a) (and c_eq(a) with a mass) on an amplitude grid, with a 90 % band for
-  the chosen law — what :func:`dampfit.plots.amplitude_figure` draws.
+  the chosen law — what :func:`dampfit.output.figures.amplitude_figure` draws.
 """
 
 from __future__ import annotations
@@ -17,11 +17,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .._json import jsonable
-from . import checks, compare, models, quantities
+from dampfit._json import jsonable
+from dampfit.damping import checks, quantities
+from dampfit.damping import evidence as compare
+from dampfit.model import laws as models
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .assessment import DampingAssessment
+    from dampfit.damping.assessment import DampingAssessment
 
 __all__ = ["summary"]
 
@@ -129,7 +131,7 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
                 "frequency_trend: ln f_d = const + g ln a over non-overlapping windows, rel_change "
                 "= (a_max/a_min)^g - 1 (< 0 softening, > 0 hardening); the viscous law of "
                 "damping_models follows the drift with phase_terms Legendre phase coefficients "
-                "(K4 in dampfit.damping.models), so its p, zeta and c are not biased by it",
+                "(K4 in dampfit.model.laws), so its p, zeta and c are not biased by it",
     }
     return {
         "window_cycles": a.window_cycles, "windows": wins, "slope": a.slope, "backbone": backbone,

@@ -2,10 +2,10 @@ r"""Posterior of c, k, u₀ (and ζ, f_n) with emcee, diagnosed and stored with 
 
 Model and priors
 ----------------
-* Likelihood: the decay model (:mod:`dampfit.model`) with Gaussian noise of unknown σ; the
+* Likelihood: the decay model (:mod:`dampfit.model.viscous`) with Gaussian noise of unknown σ; the
   linear coefficients (acceleration quadratures A, B and the drift terms) have flat priors
   and σ a Jeffreys prior 1/σ, all marginalised analytically
-  (:func:`dampfit.model.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.noise`),
+  (:func:`dampfit.model.viscous.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.inference.noise`),
   where r is floored at its white-noise value r_white on the fit path: misfit or coloured
   noise can only widen the intervals, never make the likelihood sharper than white noise of
   the same residual variance would.
@@ -42,9 +42,9 @@ import jax.numpy as jnp
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from . import model
-from .fit import LeastSquaresResult
-from .preprocess import FitData
+from dampfit.model import viscous as model
+from dampfit.inference.least_squares import LeastSquaresResult
+from dampfit.signal.prepare import FitData
 
 if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric import path
     import arviz as az
@@ -68,7 +68,7 @@ PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
 
 def MOVES():
     """emcee proposal mixture for the 2-D θ = (ln p, ln ω_d) (and, in
-    :mod:`dampfit.damping.sample`, the 3–6 parameters of a nonlinear damping law).
+    :mod:`dampfit.inference.law_sampler`, the 3–6 parameters of a nonlinear damping law).
 
     80 % :class:`emcee.moves.KDEMove` — an independence proposal from a Gaussian kernel density
     estimate of the complementary half-ensemble (Scott's bandwidth). The posterior of θ is
@@ -105,7 +105,7 @@ class PosteriorResult:
 @jax.jit
 def _batched_log_prob(thetas, tau, y, drift, mask, n, q, temper, bounds):
     """(log posterior, conditional moments of (A, B)) for a batch of θ; see
-    :func:`dampfit.model.marginal_and_amplitudes`."""
+    :func:`dampfit.model.viscous.marginal_and_amplitudes`."""
     lw_lo, lw_hi = bounds[0], bounds[1]
 
     def one(theta):
@@ -187,7 +187,7 @@ def sample(
 ) -> PosteriorResult:
     """Sample the posterior; see the module docstring for the model, priors and stopping rule.
 
-    ``temper`` = 1/r (r from :func:`dampfit.noise.estimate`, ≥ r_white); ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
+    ``temper`` = 1/r (r from :func:`dampfit.inference.noise.estimate`, ≥ r_white); ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
     """
     rng = np.random.default_rng(seed)
     log_prob = _make_log_prob(fd, band, temper)

@@ -1,21 +1,21 @@
 r"""Least squares, tempered likelihood and Laplace evidence for each damping law.
 
-The data and noise model are those of the viscous fit (:mod:`dampfit.fit`, :mod:`dampfit.noise`):
+The data and noise model are those of the viscous fit (:mod:`dampfit.inference.least_squares`, :mod:`dampfit.inference.noise`):
 the acceleration is ``y = X(θ)·(A, B) + Q·d + noise`` with the law's two oscillation columns
-(:func:`dampfit.damping.models.columns`), the orthonormal drift basis Q of
-:func:`dampfit.model.drift_basis`, and Gaussian noise of unknown σ. The linear coefficients
+(:func:`dampfit.model.laws.columns`), the orthonormal drift basis Q of
+:func:`dampfit.model.viscous.drift_basis`, and Gaussian noise of unknown σ. The linear coefficients
 (A, B, d) are solved exactly at every θ (variable projection, drift projected out once — the
-Schur complement of :func:`dampfit.model.profile`), so Levenberg–Marquardt sees only the
+Schur complement of :func:`dampfit.model.viscous.profile`), so Levenberg–Marquardt sees only the
 nonlinear parameters θ (two to six: the law's, ln ω and the frequency-drift terms). With flat
 priors on (A, B, d) and a Jeffreys prior on σ, the marginal log likelihood is (as
-:func:`dampfit.model.log_marginal_likelihood`)
+:func:`dampfit.model.viscous.log_marginal_likelihood`)
 
     ℓ(θ) = −½·ln det(X⊥ᵀX⊥) − ½·(n − q)·ln RSS(θ),                                     (L1)
 
-used tempered, ℓ/r, with the Whittle factor r (:mod:`dampfit.noise`). **Evidence** with the
+used tempered, ℓ/r, with the Whittle factor r (:mod:`dampfit.inference.noise`). **Evidence** with the
 priors of :func:`log_prior` (ln p₀ uniform on [ln 10⁻⁶ω, ln ω], ln ω uniform over the pass band,
 the shape parameter s — friction or drag fraction, or exponent α — uniform on its support
-:data:`~dampfit.damping.models.PRIOR_SHAPE`):
+:data:`~dampfit.model.laws.PRIOR_SHAPE`):
 
 * viscous: Laplace, ln Z ≈ ℓ(θ̂)/r + ln π(θ̂) + (k/2)·ln 2π − ½·ln det H,  H = −∇²ℓ/r;  (L2)
 * nonlinear laws: the shape s is integrated *numerically* over its support and only
@@ -27,7 +27,7 @@ the shape parameter s — friction or drag fraction, or exponent α — uniform 
   plus a uniform grid over the support), trapezoidal rule. This stays accurate when the
   likelihood in s is skewed or peaks outside the support (a negative friction fraction on
   viscous data), where a Gaussian in s would not. H = Gauss–Newton information (below).
-  The frequency-drift coefficients c_j (K4 of :mod:`~dampfit.damping.models`) get a flat
+  The frequency-drift coefficients c_j (K4 of :mod:`~dampfit.model.laws`) get a flat
   prior common to every law, so ln Z is defined up to a constant that cancels in comparisons.
 
 A handful of nonlinear parameters on a few thousand samples needs no compiled kernel: this
@@ -42,9 +42,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy import optimize
 
-from ..fit import amplitude_gain
-from ..preprocess import FitData
-from . import models
+from dampfit.inference.least_squares import amplitude_gain
+from dampfit.signal.prepare import FitData
+from dampfit.model import laws as models
 
 __all__ = ["Data", "ModelFit", "ShapeGrid", "fit_model", "laplace", "log_prior", "loglik_batch",
            "loglik_jax",
@@ -156,7 +156,7 @@ def loglik_jax(model: str, data: Data):
 class ModelFit:
     """Least-squares optimum of one law (and, after :func:`laplace`, its Laplace evidence).
 
-    ``theta`` (see :mod:`~dampfit.damping.models`); ``beta`` = (A, B [m/s²], drift…);
+    ``theta`` (see :mod:`~dampfit.model.laws`); ``beta`` = (A, B [m/s²], drift…);
     ``rss`` [(m/s²)²]; ``loglik`` untempered ℓ(θ̂) of (L1); ``residuals``, ``fitted`` [m/s²];
     ``a0`` [m] displacement amplitude at the window start; ``gain`` |G| [1] of the decimation
     filter on the decay. ``cov`` = Σ, ``ln_evidence`` of (L2) and ``temper`` = 1/r are set by
@@ -197,7 +197,7 @@ class ModelFit:
 
 def _start_grid(model: str, p_visc: float, w: float, span: float, phase0) -> np.ndarray:
     ph = list(phase0)
-    if model == "viscous":  # ω over ±3 Fourier bins of the window, as dampfit.fit does
+    if model == "viscous":  # ω over ±3 Fourier bins of the window, as dampfit.inference.least_squares does
         ws = w + 2 * np.pi / span * np.linspace(-3, 3, 25)
         return np.array([[np.log(p_visc * x), np.log(ww)] + ph
                          for x in (0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0) for ww in ws if ww > 0])
@@ -276,7 +276,7 @@ def information(model: str, theta, beta, rss: float, data: Data, idx=None) -> np
     J_θ⊥ᵀ·J_θ⊥/s² [1/θ²]: J_θ⊥ is the θ-Jacobian of the model at fixed (A, B) = ``beta[:2]``
     with the linear columns (X, Q) projected out, s² = RSS/(n − q − k) — the inverse of the
     θ-block of s²·(JᵀJ)⁻¹ for the full Jacobian J = [∂f/∂θ, X, Q], the covariance
-    :mod:`dampfit.fit` uses (Golub & Pereyra 2003).
+    :mod:`dampfit.inference.least_squares` uses (Golub & Pereyra 2003).
     """
     theta = np.asarray(theta, dtype=float)
     idx = list(range(theta.size)) if idx is None else list(idx)

@@ -1,6 +1,6 @@
 r"""Which damping law? Evidence comparison with one calibrated noise model.
 
-**Criterion.** Each law's log evidence ln Z (:func:`dampfit.damping.fit.laplace`: Laplace for
+**Criterion.** Each law's log evidence ln Z (:func:`dampfit.inference.law_fit.laplace`: Laplace for
 the viscous law; for the others the shape parameter integrated numerically and the rest by
 Laplace, eq. L3) with the likelihood tempered by the *same* Whittle factor r for every law. r is measured on the
 residuals of the best-fitting law (smallest RSS), the best available estimate of the noise
@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import fit as dfit
-from . import models
+from dampfit.inference import law_fit as dfit
+from dampfit.model import laws as models
 
 __all__ = ["compare", "MODEL_PRIOR", "P_VISCOUS_MAX"]
 

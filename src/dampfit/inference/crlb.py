@@ -1,11 +1,11 @@
 r"""Cramér–Rao lower bound (CRLB) of a free-decay recording design.
 
-The data model is the acceleration (M1) of :mod:`dampfit.model` plus white Gaussian noise,
+The data model is the acceleration (M1) of :mod:`dampfit.model.viscous` plus white Gaussian noise,
 
     y_i = e^{−pτ_i}·(A·cos ω_dτ_i + B·sin ω_dτ_i) + Σ_j c_j·Q_j(τ_i) + ε_i,   ε_i ~ N(0, σ_i²),
 
 with φ = (p, ω_d, A, B, c_0…c_d) and Q the orthonormal Legendre drift basis of
-:func:`dampfit.model.drift_basis` (degree d; ``drift_degree=None`` drops it). Its Fisher
+:func:`dampfit.model.viscous.drift_basis` (degree d; ``drift_degree=None`` drops it). Its Fisher
 information is F = Jᵀ·diag(1/σ²)·J with J = ∂y/∂φ (exact, ``jax.jacfwd`` in float64), and any
 unbiased estimator has Cov φ̂ ⪰ F⁻¹. Derived quantities g(φ, m) — ζ = p/ω_n, f_n = ω_n/2π,
 u₀ = √(A²+B²)/ω_n² (eq. M2), c = 2mp, k = m·ω_n² with ω_n² = p² + ω_d² — get
@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["yao_pandit_var_p", "fisher", "bound", "from_noise_density", "UNITS"]
 
@@ -124,14 +124,14 @@ def fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree: int | None = 0)
     instant where the quadratures are defined; ``sigma`` [m/s²] white-noise sd, scalar or one
     per sample; ``p`` [1/s], ``omega_d`` [rad/s], ``a_cos``, ``a_sin`` [m/s²] as in (M1).
     ``drift_degree`` d adds the d + 1 orthonormal Legendre drift columns of
-    :func:`dampfit.model.drift_basis` (0 = a constant offset, which every analysis removes;
+    :func:`dampfit.model.viscous.drift_basis` (0 = a constant offset, which every analysis removes;
     ``None`` = no nuisance terms, the pure model of Yao & Pandit). Units of F are those of
     1/(φ_i·φ_j); shape (4 + d + 1,)*2.
     """
     import jax
     import jax.numpy as jnp
 
-    from . import model
+    from dampfit.model import viscous as model
 
     t, s, (p, wd, a, b), degree = _check_design(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
     with jax.enable_x64(True):

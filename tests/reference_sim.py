@@ -9,7 +9,7 @@ constant, so the right-hand side is smooth there, and an event stops the integra
 u̇ = 0. At each stop the mass sticks for good if the spring force cannot beat static friction
 (k·|u| ≤ F_c); otherwise the next half-cycle starts with s = −sgn(u). This is exact up to the
 integrator's tolerance (no smoothed sign), which is what the averaged envelopes of
-:mod:`dampfit.damping.models` are tested against. NumPy/SciPy only; used by tests and examples.
+:mod:`dampfit.model.laws` are tested against. NumPy/SciPy only; used by tests and examples.
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..errors import InputError
-from ..recording import Recording
+from dampfit.errors import InputError
+from dampfit.io.recording import Recording
 
 __all__ = ["reference_decay", "noisy_recording"]
 
@@ -76,7 +76,7 @@ def reference_decay(
 
 
 def noisy_recording(t, accel, noise_sd: float, *, seed: int = 0, lead: float = 0.0) -> Recording:
-    """A one-axis :class:`~dampfit.recording.Recording` of ``accel`` [m/s²] plus white noise.
+    """A one-axis :class:`~dampfit.io.recording.Recording` of ``accel`` [m/s²] plus white noise.
 
     ``noise_sd`` [m/s²] per sample; ``lead`` [s] of noise-only samples at rest before the release
     (same spacing as the first two samples of ``t`` [s]).

@@ -1,6 +1,6 @@
 """Rendering of report blocks to self-contained HTML and to Markdown (no data logic here).
 
-:mod:`dampfit.report` turns a result folder into a list of *blocks* — ``(kind, payload)``
+:mod:`dampfit.output.report` turns a result folder into a list of *blocks* — ``(kind, payload)``
 tuples such as headings, paragraphs, tables, figures and notes — and this module renders that
 list: :func:`render_html` (figures embedded as base64 ``data:`` URIs, inline CSS, a
 Content-Security-Policy that forbids any other resource) and :func:`render_markdown` (figures

@@ -20,11 +20,15 @@ from typing import Any
 
 import numpy as np
 
-from . import baselines, fit, noise, posterior, preprocess
-from ._json import jsonable
-from ._files import atomic_write_text, publish
-from .errors import InputError
-from .recording import Recording
+from dampfit.estimators import baselines
+from dampfit.inference import least_squares as fit
+from dampfit.inference import noise
+from dampfit.inference import posterior
+from dampfit.signal import prepare as preprocess
+from dampfit._json import jsonable
+from dampfit._files import atomic_write_text, publish
+from dampfit.errors import InputError
+from dampfit.io.recording import Recording
 
 __all__ = ["Analysis", "analyze", "PARAMETER_UNITS"]
 
@@ -184,7 +188,7 @@ class Analysis:
 
     def true_quadratures(self) -> tuple[float, float]:
         """Least-squares acceleration quadratures (A, B) [m/s²] at the window start, filter
-        gain removed (:meth:`dampfit.fit.LeastSquaresResult.true_quadratures`)."""
+        gain removed (:meth:`dampfit.inference.least_squares.LeastSquaresResult.true_quadratures`)."""
         return self.least_squares.true_quadratures()
 
     def signals(self) -> dict[str, np.ndarray]:
@@ -197,7 +201,7 @@ class Analysis:
         baseline failed), ``displacement_model`` [m]; scalars ``fs`` [Hz], ``p`` [1/s],
         ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0).
         """
-        from . import model
+        from dampfit.model import viscous as model
 
         prep, ls = self.prepared, self.least_squares
         sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
@@ -303,11 +307,11 @@ def analyze(
             "the recording is free of noise to numerical precision (residual "
             f"{np.sqrt(ls.rss / ls.rss_drift):.1g} of the signal): a simulation or FEM output? A "
             "posterior needs measurement noise; add the sensor's noise (dampfit simulate does) "
-            "or read the least-squares values of dampfit.fit"
+            "or read the least-squares values of dampfit.inference.least_squares"
         )
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
-    # r floored at its white-noise value on this path: intervals only widen (dampfit.noise)
+    # r floored at its white-noise value on this path: intervals only widen (dampfit.inference.noise)
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
                         white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
     bound = _crlb(prep, fd, ls, nm, m, sd, warns)
@@ -389,9 +393,9 @@ def unit_plausibility(rec: Recording, prep: preprocess.Prepared, mass: float | N
 
 # --------------------------------------------------------------------- helpers
 def _baselines_summary(base: dict, p_post: dict | None) -> dict[str, Any]:
-    """Each baseline's summary with its support (:mod:`dampfit.baselines`) and whether it
+    """Each baseline's summary with its support (:mod:`dampfit.estimators.baselines`) and whether it
     agrees with the posterior of p within its expected spread (``agrees_with_posterior``,
-    ``note``; :func:`dampfit.baselines.agreement`)."""
+    ``note``; :func:`dampfit.estimators.baselines.agreement`)."""
     out: dict[str, Any] = {}
     for name, b in base.items():
         if b is None:
@@ -415,7 +419,7 @@ def _initial_decay_rate(base: dict) -> float:
 
 def _check_damping_options(model: str, amplitude: float | None) -> None:
     """Validate ``model`` and ``amplitude`` before any work is done."""
-    from .damping import CHOICES
+    from dampfit.damping import CHOICES
 
     if model not in CHOICES:
         raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
@@ -431,9 +435,9 @@ def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, pro
 
     The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
     when it is not the viscous one (whose emcee posterior is ``parameters``), within a step
-    and time budget tied to the viscous sampler's (:class:`dampfit.damping.sample.Budget`)."""
-    from . import damping
-    from .damping.sample import Budget
+    and time budget tied to the viscous sampler's (:class:`dampfit.inference.law_sampler.Budget`)."""
+    from dampfit import damping
+    from dampfit.inference.law_sampler import Budget
 
     budget = Budget.from_viscous(viscous_steps, viscous_seconds)
     common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
@@ -445,14 +449,14 @@ def _assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, pro
 
 
 def _crlb(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] | None:
-    """Cramér–Rao bound of this recording's design (:mod:`dampfit.crlb`).
+    """Cramér–Rao bound of this recording's design (:mod:`dampfit.inference.crlb`).
 
     Design: the raw usable sample times of the window; white noise at the level the residuals
     show at f₀ — one-sided density S(f₀) = r·σ²·2/f_fit from the noise model (σ per fitted
     sample, r the Whittle factor), i.e. σ_raw = √(S(f₀)·f_s/2) per raw sample — since by the
     Whittle argument only the noise near f₀ limits the estimate; the least-squares parameters
     (amplitude with the decimation filter's gain removed); the fitted drift as nuisance."""
-    from . import crlb
+    from dampfit.inference import crlb
 
     sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
     density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))

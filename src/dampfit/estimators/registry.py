@@ -1,7 +1,7 @@
 r"""One interface for every damping estimator, for comparison studies.
 
 Each estimator is a function ``(prep, mass, *, seed) -> Estimate`` of a
-:class:`~dampfit.preprocess.Prepared` recording; all of them see the same free-decay window
+:class:`~dampfit.signal.prepare.Prepared` recording; all of them see the same free-decay window
 (``prep.window`` [s]) of the same analysed axis on the uniform grid (``prep.grid_signal``
 [m/s²] at ``prep.fs`` [Hz]) and the same pass band ``prep.band`` [Hz]. :func:`run` prepares a
 recording once and runs the named estimators, turning a numerical failure of one of them
@@ -11,9 +11,9 @@ Every estimator reports the decay rate p [1/s] and the natural frequency f_n [Hz
 ζ = p/ω_n and, with the mass m [kg], c = 2·m·p (seed paper eq. 3). The estimators
 (:data:`ESTIMATORS`):
 
-``bayes``              dampfit's posterior (:func:`dampfit.analysis.analyze`), median and
+``bayes``              dampfit's posterior (:func:`dampfit.pipeline.analyze`), median and
                        90 % credible interval;
-``least_squares``      variable-projection least squares (:func:`dampfit.fit.least_squares`),
+``least_squares``      variable-projection least squares (:func:`dampfit.inference.least_squares.least_squares`),
                        90 % normal interval from the calibrated Jacobian covariance;
 ``log_decrement``      the seed paper's logarithmic decrement (eqs. 9, 13);
 ``envelope_pipeline``  the seed paper's band-pass → integrate twice → Hilbert envelope →
@@ -35,11 +35,13 @@ from typing import Callable, Iterable
 import numpy as np
 from scipy import signal
 
-from . import baselines, filters, preprocess
-from .errors import InputError
-from .physics import from_decay
-from .preprocess import Prepared
-from .recording import Recording
+from dampfit.estimators import baselines
+from dampfit.signal import filters
+from dampfit.signal import prepare as preprocess
+from dampfit.errors import InputError
+from dampfit.physics import from_decay
+from dampfit.signal.prepare import Prepared
+from dampfit.io.recording import Recording
 
 __all__ = ["Estimate", "ESTIMATORS", "run", "BAYES_MIN_ESS", "Z90"]
 
@@ -132,7 +134,7 @@ def _estimator(name: str):
 # --------------------------------------------------------------------------- estimators
 @_estimator("bayes")
 def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
-    """dampfit's posterior (:func:`dampfit.analysis.analyze`): medians, 90 % credible intervals.
+    """dampfit's posterior (:func:`dampfit.pipeline.analyze`): medians, 90 % credible intervals.
 
     The analysed axis as ``prep`` projected it is passed as a one-axis recording (masked
     clipped/spike samples left out) with ``prep``'s window and band, so the posterior sees
@@ -140,7 +142,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     CLI asks 1000); the mass is taken as exact (``mass_sd`` = 0). ``ok`` is False when the
     least squares or the chain did not converge (the numbers are still reported).
     """
-    from . import analysis
+    from dampfit import pipeline as analysis
 
     keep = prep.usable
     rec = Recording(prep.time[keep], prep.signal[keep][:, None], axes=("a",), format="prepared")
@@ -159,15 +161,17 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
 
 @_estimator("least_squares")
 def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
-    """Variable-projection least squares of the decay model (:func:`dampfit.fit.least_squares`).
+    """Variable-projection least squares of the decay model (:func:`dampfit.inference.least_squares.least_squares`).
 
     Started from the :func:`hilbert` decay rate. The covariance of θ = (ln p, ln ω_d) is the
-    Jacobian covariance times the noise calibration factor r of :func:`dampfit.noise.estimate`
-    (as in :func:`dampfit.analysis.analyze`); the 90 % intervals are normal,
+    Jacobian covariance times the noise calibration factor r of :func:`dampfit.inference.noise.estimate`
+    (as in :func:`dampfit.pipeline.analyze`); the 90 % intervals are normal,
     p·(1 ± 1.645·sd(ln p)) and ζ·(1 ± 1.645·sd(ln ζ)) with
     sd(ln ζ) = (1 − ζ²)·√(C₁₁ − 2C₁₂ + C₂₂) (ln ζ = ln p − ½·ln(p² + ω_d²)).
     """
-    from . import analysis, fit, noise
+    from dampfit import pipeline as analysis
+    from dampfit.inference import least_squares as fit
+    from dampfit.inference import noise
 
     fd = preprocess.fit_data(prep)
     try:
@@ -195,7 +199,7 @@ def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
 def log_decrement(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     """Seed paper's logarithmic decrement over all cycles, δ = (1/n)·ln(a₀/aₙ) (eq. 9), ζ (eq. 13).
 
-    Wraps :func:`dampfit.baselines.log_decrement` (first to last usable peak); no interval.
+    Wraps :func:`dampfit.estimators.baselines.log_decrement` (first to last usable peak); no interval.
     """
     t, y = _window(prep)
     b = baselines.log_decrement(t, y, prep.fs, prep.band)
@@ -206,7 +210,7 @@ def log_decrement(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
 def envelope_pipeline(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     """Seed paper's pipeline: band-pass, integrate twice, Hilbert envelope, ln fit (eqs. 2–4).
 
-    Wraps :func:`dampfit.baselines.envelope_pipeline` (env²-weighted); no interval.
+    Wraps :func:`dampfit.estimators.baselines.envelope_pipeline` (env²-weighted); no interval.
     """
     t, y = _window(prep)
     b = baselines.envelope_pipeline(t, y, prep.fs, prep.band)
@@ -308,7 +312,7 @@ def matrix_pencil(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     """Total-least-squares matrix pencil (Hua & Sarkar 1990; Sarkar & Pereira 1995).
 
     The window (linear trend removed) is low-passed at the band's upper edge (zero-phase
-    Butterworth, :func:`dampfit.filters.lowpass`) and decimated to ≈ 4× that edge (fewer
+    Butterworth, :func:`dampfit.signal.filters.lowpass`) and decimated to ≈ 4× that edge (fewer
     samples if there would be more than 1500: the SVD is O(n·L²)). A low-pass, not the
     band-pass: the band-pass rings for ≈ 1/(hi − lo) at both window ends and those
     transients biased p (white noise, f_n = 2 Hz, ζ = 0.01: RMSE(p) ≈ 1.6× the CRLB
@@ -340,7 +344,7 @@ def matrix_pencil(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
 # --------------------------------------------------------------------------- runner
 def run(names: Iterable[str] | str, recording: Recording, mass: float | None = None, *,
         seed: int = 0) -> list[Estimate]:
-    """Prepare ``recording`` once (:func:`dampfit.preprocess.prepare`) and run each named estimator.
+    """Prepare ``recording`` once (:func:`dampfit.signal.prepare.prepare`) and run each named estimator.
 
     ``names`` — names from :data:`ESTIMATORS` (or one name); ``mass`` [kg] for c; ``seed``
     for the stochastic ones. Returns one :class:`Estimate` per name, in order. Any exception

@@ -1,4 +1,4 @@
-"""From a raw :class:`~dampfit.recording.Recording` to the samples the decay model is fitted to.
+"""From a raw :class:`~dampfit.io.recording.Recording` to the samples the decay model is fitted to.
 
 Steps (each one reported in :class:`Prepared` so the user can see what was done):
 
@@ -6,9 +6,9 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    value (e.g. an ADXL345 at 400 Hz read at 533 Hz). If more than 10 % of consecutive samples
    repeat exactly on every axis, the repeats are dropped: their true sample time is unknown.
 2. **Offset / gravity** — the per-axis median is subtracted (gravity or bias); the slow drift
-   that remains is modelled later as nuisance terms (:func:`dampfit.model.drift_basis`).
+   that remains is modelled later as nuisance terms (:func:`dampfit.model.viscous.drift_basis`).
 3. **Continuous part and uniform grid** — a time step far larger than the typical one
-   (:func:`dampfit.recording.time_segments`: > 50× the median step and > 1 s; a long dropout,
+   (:func:`dampfit.io.recording.time_segments`: > 50× the median step and > 1 s; a long dropout,
    clock jump or corrupt time stamp) splits the record; the longest continuous part is analysed
    (with ``window``: the part holding it; a window across such a gap is an error), with a
    warning. Irregular phone timestamps within it are interpolated (cubic) onto a uniform grid at
@@ -40,9 +40,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import interpolate, ndimage, signal
 
-from . import filters, model
-from .errors import InputError
-from .recording import MIN_SAMPLES, Recording, gap_summary, time_segments
+from dampfit.signal import filters
+from dampfit.model import viscous as model
+from dampfit.errors import InputError
+from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary, time_segments
 
 __all__ = ["Prepared", "FitData", "prepare", "fit_data", "dominant_frequency", "auto_band"]
 
@@ -130,7 +131,7 @@ class FitData:
 
     @functools.cached_property
     def drift(self) -> np.ndarray:
-        """Orthonormal drift basis on ``tau`` (:func:`dampfit.model.drift_basis`), built once."""
+        """Orthonormal drift basis on ``tau`` (:func:`dampfit.model.viscous.drift_basis`), built once."""
         return model.drift_basis(self.tau, self.drift_degree)
 
     @functools.cached_property
@@ -214,7 +215,7 @@ def _continuous_part(
 ) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
     """Time [s], acceleration [m/s²], notes and warnings of the continuous part to analyse.
 
-    The recording is split at gaps (:func:`dampfit.recording.time_segments`); the part with
+    The recording is split at gaps (:func:`dampfit.io.recording.time_segments`); the part with
     the most samples is used, or with ``window`` = (start, end) [s] the part holding it. A
     window reaching across a gap or into one is an :class:`InputError` (a fit across a gap of
     unknown length would be wrong, and silently cutting the user's window would hide it).

@@ -50,7 +50,7 @@ Support and expected spread (every result carries them, see :class:`BaselineResu
 difference exceeds :data:`DISAGREE_SD` combined expected sd (its own and the posterior's).
 
 All conversions go through :mod:`dampfit.physics`; filtering through
-:func:`dampfit.filters.bandpass` (zero-phase Butterworth). Pure NumPy/SciPy: no I/O.
+:func:`dampfit.signal.filters.bandpass` (zero-phase Butterworth). Pure NumPy/SciPy: no I/O.
 """
 
 from __future__ import annotations
@@ -62,9 +62,9 @@ from typing import Any
 import numpy as np
 from scipy import integrate, signal
 
-from .errors import InputError
-from .filters import bandpass, bandpass_sos
-from .physics import from_decay, zeta_from_log_decrement
+from dampfit.errors import InputError
+from dampfit.signal.filters import bandpass, bandpass_sos
+from dampfit.physics import from_decay, zeta_from_log_decrement
 
 __all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import signal
 
-from .errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["bandpass_sos", "lowpass_sos", "bandpass", "lowpass", "filtfilt_gain"]
 

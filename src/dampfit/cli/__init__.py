@@ -39,8 +39,8 @@ import warnings
 from pathlib import Path
 from collections.abc import Sequence
 
-from ._files import MIN_FREE, ResultFolder
-from .errors import DampfitError, InputError
+from dampfit._files import MIN_FREE, ResultFolder
+from dampfit.errors import DampfitError, InputError
 
 __all__ = ["main", "run", "get_parser"]
 
@@ -111,7 +111,7 @@ def get_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="dampfit", description=(
         "Damping coefficient c [N s/m], stiffness k [N/m] and initial amplitude u0 [m] "
         "from a free-decay accelerometer recording, with a Bayesian posterior."))
-    from . import __version__
+    from dampfit import __version__
 
     p.add_argument("--version", action="version", version=f"dampfit {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -180,7 +180,7 @@ def get_parser() -> argparse.ArgumentParser:
 
 #: (command, help, module) of the commands that live outside this file.
 _EXTERNAL = (
-    ("report", "write report.html and report.md for a result folder", "report"),
+    ("report", "write report.html and report.md for a result folder", "output.report"),
     ("export", "write an FEM deck (LS-DYNA, OpenSees, CalculiX) of the identified system", "fem.export"),
     ("verify", "run the identified system in OpenSeesPy and compare with the measurement", "fem.verify"),
     ("study", "simulation study comparing damping estimators (Dask, resumable)", "study"),
@@ -245,7 +245,7 @@ def _old_demo_folder(folder: Path) -> bool:
 
 def _result_folder(out: Path, kind: str, force: bool, inputs=(), **kw) -> ResultFolder:
     """The :class:`~dampfit._files.ResultFolder` of a result written to ``out``."""
-    from . import __version__
+    from dampfit import __version__
 
     need = MIN_FREE
     for path in inputs:  # results are a few times the size of the recording (2.9 MB per 0.7 MB)
@@ -265,20 +265,20 @@ def _write_outputs(an, folder: ResultFolder, figures: bool) -> None:
         an.to_netcdf(stage / "posterior.nc")
         an.to_signals(stage / "signals.npz")
         if figures:
-            from .plots import save_figures
+            from dampfit.output.figures import save_figures
 
             save_figures(an, stage)
 
 
 def _write_report(out: Path) -> None:
     """report.html + report.md in the finished folder (the report names the folder's commands)."""
-    from .report import write_report
+    from dampfit.output.report import write_report
 
     write_report(out)
 
 
 def _report(an, out: Path, as_json: bool) -> None:
-    from . import render
+    from dampfit.output import text as render
 
     s = an.summary()
     if as_json:
@@ -308,8 +308,8 @@ def _check_analysis_options(args) -> None:
 
 
 def _cmd_analyze(args) -> int:
-    from .analysis import analyze
-    from .io import read
+    from dampfit.pipeline import analyze
+    from dampfit.io.readers import read
 
     _check_analysis_options(args)
     out = Path(args.out) if args.out else Path(Path(args.file).name + ".dampfit")
@@ -337,13 +337,13 @@ _SIM_FIELDS = {"mass": "mass", "u0": "u0", "duration": "duration", "sample_rate"
 
 
 def _sim_config(args):
-    from . import simulate as sim
+    from dampfit import simulate as sim
 
     over = {field: getattr(args, name) for name, field in _SIM_FIELDS.items()
             if getattr(args, name) is not None}
     cfg = sim.preset(args.preset, seed=args.seed, **over)
     if args.f_n is not None or args.zeta is not None:
-        from .physics import critical_damping
+        from dampfit.physics import critical_damping
 
         f_n = args.f_n if args.f_n is not None else (cfg.k / cfg.mass) ** 0.5 / (2 * 3.141592653589793)
         zeta = args.zeta if args.zeta is not None else cfg.c / float(critical_damping(cfg.k, cfg.mass))
@@ -373,8 +373,8 @@ def _cmd_simulate(args) -> int:
     import shutil
     import tempfile
 
-    from . import simulate as sim
-    from ._files import _reason, check_output_file
+    from dampfit import simulate as sim
+    from dampfit._files import _reason, check_output_file
 
     out = Path(args.out)
     if not out.name or out.name in (".", ".."):
@@ -420,9 +420,9 @@ def _cmd_simulate(args) -> int:
 
 
 def _cmd_demo(args) -> int:
-    from . import simulate as sim
-    from .analysis import analyze
-    from .io import read
+    from dampfit import simulate as sim
+    from dampfit.pipeline import analyze
+    from dampfit.io.readers import read
 
     out = Path(args.out)
     cfg = sim.preset("paper", seed=args.seed)
@@ -506,7 +506,7 @@ def _compile_cache() -> Path | None:
     bit) is not used: one warning line on stderr, and the run continues without the cache.
     Set through environment variables so that Dask workers of ``dampfit study`` inherit it;
     it takes effect only if nothing was compiled yet in this process (as in a CLI run).
-    Size: ≈ 1 MB per shape bucket of recordings (:class:`dampfit.preprocess.Padded`); entries
+    Size: ≈ 1 MB per shape bucket of recordings (:class:`dampfit.signal.prepare.Padded`); entries
     of other JAX or dampfit versions are never read again, so deleting the folder is safe.
     """
     choice = os.environ.get(CACHE_ENV, "")

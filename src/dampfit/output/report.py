@@ -19,14 +19,14 @@ What a reader relies on:
 * every warning appears once, in the red box at the top (the model check's warning, which
   the analysis also lists among the diagnostics, is not repeated);
 * numbers with a 90 % interval get their digits from the interval's width
-  (:func:`dampfit.render.interval`), so q05, median and q95 are distinct as printed; least
+  (:func:`dampfit.output.text.interval`), so q05, median and q95 are distinct as printed; least
   squares take the posterior's digits and a baseline those of its own expected spread;
 * the noise level is defined once, in "Noise model": σ [m/s²], the residual sd per fitted
   sample at the fit rate, and the density at f₀ [m/s²/√Hz] that the Cramér–Rao bound
   assumes, each with its definition; the bound refers to it;
 * the model checks open with the verdict in plain words and its reasons, then one short table
   of the damping laws (weight, parameters with units, ζ_eq) and one of the fit checks; the
-  amplitude dependence is the ζ(A) and f(A) figure (``amplitude.png``, :mod:`dampfit.plots`);
+  amplitude dependence is the ζ(A) and f(A) figure (``amplitude.png``, :mod:`dampfit.output.figures`);
 * every key shown has a human label; the reproduce command names absolute, quoted paths.
 
 Regenerating a report is harmless (it is a pure rendering of the folder), so an existing
@@ -44,15 +44,15 @@ import shlex
 from pathlib import Path
 from typing import Any
 
-from ._document import _MARK_HTML, _MARK_MD, Block, _png
-from ._document import GENERATOR as GENERATOR
-from ._document import PNG_MAGIC as PNG_MAGIC
-from ._document import render_html as render_html
-from ._document import render_markdown as render_markdown
-from ._files import atomic_write_text
-from .errors import InputError
-from .render import _own_spread
-from .render import interval as _honest
+from dampfit.output.document import _MARK_HTML, _MARK_MD, Block, _png
+from dampfit.output.document import GENERATOR as GENERATOR
+from dampfit.output.document import PNG_MAGIC as PNG_MAGIC
+from dampfit.output.document import render_html as render_html
+from dampfit.output.document import render_markdown as render_markdown
+from dampfit._files import atomic_write_text
+from dampfit.errors import InputError
+from dampfit.output.text import _own_spread
+from dampfit.output.text import interval as _honest
 
 __all__ = ["write_report", "load", "build", "render_html", "render_markdown", "GENERATOR",
            "PNG_MAGIC", "add_arguments", "command"]
@@ -142,7 +142,7 @@ def _fixed(x: Any, fmt: str) -> str:
 
 
 def _interval(q: dict) -> str:
-    """``[q05, q95]`` with the digits of :func:`dampfit.render.interval` (from the width)."""
+    """``[q05, q95]`` with the digits of :func:`dampfit.output.text.interval` (from the width)."""
     lo, hi = q.get("q05"), q.get("q95")
     if not (_finite(lo) and _finite(hi)):
         return "—"
@@ -169,7 +169,7 @@ def _point(s: dict, name: str, x: Any) -> str:
 
 def _baseline_value(b: dict, name: str) -> str:
     """A baseline's value with the digits of its own expected 90 % spread
-    (:func:`dampfit.render._own_spread`), else six significant digits."""
+    (:func:`dampfit.output.text._own_spread`), else six significant digits."""
     x, rel = b.get(name), b.get("expected_rel_sd")
     if not (_finite(x) and _finite(rel)):
         return _num(x)
@@ -304,7 +304,7 @@ def load(directory: str | os.PathLike) -> dict[str, Any]:
     path = d / "summary.json"
     if not path.is_file():
         raise InputError(f"{d} has no summary.json; run 'dampfit analyze FILE --out {d}' first")
-    from .fem.sdof import MAX_SUMMARY_BYTES, _read_regular
+    from dampfit.fem.sdof import MAX_SUMMARY_BYTES, _read_regular
 
     data = _read_regular(path, MAX_SUMMARY_BYTES, missing=f"{d} has no summary.json")
     try:
@@ -328,7 +328,7 @@ def load(directory: str | os.PathLike) -> dict[str, Any]:
 
 # ----------------------------------------------------------------------------- commands
 def _is_demo(s: dict, directory: Path) -> bool:
-    from .cli import DEMO_MARKER
+    from dampfit.cli import DEMO_MARKER
 
     path = _get(s, "input", "path")
     return (directory / DEMO_MARKER).is_file() and isinstance(path, str) \
@@ -573,7 +573,7 @@ def _methods(s: dict, directory: Path) -> list[Block]:
 def _truth(s: dict, directory: Path) -> dict | None:
     if not _is_demo(s, directory):
         return None
-    from .cli import DEMO_MARKER
+    from dampfit.cli import DEMO_MARKER
 
     try:
         truth = json.loads((directory / DEMO_MARKER).read_text(encoding="utf-8"))

@@ -1,6 +1,6 @@
 """The :class:`Recording`: one accelerometer recording, validated once at the boundary.
 
-Every reader in :mod:`dampfit.io` and the simulator return a ``Recording``; every later
+Every reader in :mod:`dampfit.io.readers` and the simulator return a ``Recording``; every later
 stage may rely on its invariants:
 
 * ``time`` is float64 [s], finite and strictly increasing (irregular spacing is allowed:
@@ -11,7 +11,7 @@ stage may rely on its invariants:
 
 The time stamps may have gaps: :func:`time_segments` splits them where a gap is far larger than
 the typical step (a dropout of many seconds, a clock jump or one corrupt time stamp), and the
-analysis uses one continuous segment (:func:`dampfit.preprocess.prepare`); the recording itself
+analysis uses one continuous segment (:func:`dampfit.signal.prepare.prepare`); the recording itself
 keeps every sample. :meth:`Recording.time_unit_hint` names a likely time-unit mix-up.
 
 Anything else is an :class:`~dampfit.errors.InputError` with a one-line message.
@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["Recording", "MIN_SAMPLES", "STANDARD_GRAVITY", "MAX_ACCEL", "time_segments",
            "gap_summary", "GAP_FACTOR", "MIN_GAP_S", "PLAUSIBLE_RATE_HZ"]

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
+from dampfit.errors import InputError
 
 __all__ = ["MatTable", "load", "is_mat", "HDF5_MAGIC"]
 

@@ -1,4 +1,4 @@
-r"""Least-squares fit of the decay model (:mod:`dampfit.model`) with optimistix.
+r"""Least-squares fit of the decay model (:mod:`dampfit.model.viscous`) with optimistix.
 
 Variable projection: for the two nonlinear parameters θ = (ln p, ln ω_d) the linear
 coefficients β = (A, B, drift…) are the exact linear least-squares solution, so the
@@ -10,7 +10,7 @@ minimum.
 
 The covariance of all parameters φ = (θ, β) comes from the Jacobian J of the full model at
 the optimum: ``Cov φ ≈ s²·r·(JᵀJ)⁻¹`` with ``s² = RSS/(n − dim φ)`` and the noise
-calibration factor r of :mod:`dampfit.noise`. Failure to converge is data
+calibration factor r of :mod:`dampfit.inference.noise`. Failure to converge is data
 (``converged=False`` and a message), never an exception.
 """
 
@@ -23,9 +23,9 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from . import model
-from .filters import filtfilt_gain
-from .preprocess import FitData
+from dampfit.model import viscous as model
+from dampfit.signal.filters import filtfilt_gain
+from dampfit.signal.prepare import FitData
 
 __all__ = ["LeastSquaresResult", "least_squares", "amplitude_gain"]
 

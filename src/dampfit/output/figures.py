@@ -1,4 +1,4 @@
-"""Figures of an :class:`~dampfit.analysis.Analysis` (PNG files for the report).
+"""Figures of an :class:`~dampfit.pipeline.Analysis` (PNG files for the report).
 
 Every figure has its own function returning a :class:`matplotlib.figure.Figure` built with
 the object API (no pyplot, no global state), so a report can reuse it; :func:`save_figures`
@@ -33,7 +33,7 @@ import numpy as np
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-    from .analysis import Analysis
+    from dampfit.pipeline import Analysis
 
 __all__ = [
     "save_figures",
@@ -148,7 +148,7 @@ def _model_curve(an: "Analysis", n: int) -> tuple[np.ndarray, np.ndarray]:
     import jax
     import jax.numpy as jnp
 
-    from . import model
+    from dampfit.model import viscous as model
 
     fd, ls = an.fit_data, an.least_squares
     # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
@@ -302,7 +302,7 @@ def spectrum_figure(an: "Analysis") -> "Figure":
     """
     from scipy import signal as sps
 
-    from .filters import bandpass_sos
+    from dampfit.signal.filters import bandpass_sos
 
     prep = an.prepared
     lo, hi = prep.band

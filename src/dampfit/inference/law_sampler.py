@@ -1,18 +1,18 @@
 r"""Posterior draws of one damping law: emcee, or the Laplace approximation for cheap runs.
 
-Target: the tempered marginal likelihood ℓ(θ)/r of :mod:`dampfit.damping.fit` (A, B, drift
-and σ integrated out, Whittle factor r from :mod:`dampfit.noise`) times the prior
-:func:`~dampfit.damping.fit.log_prior` — the same calibrated noise model as
-:mod:`dampfit.posterior`, which samples the viscous law this way.
+Target: the tempered marginal likelihood ℓ(θ)/r of :mod:`dampfit.inference.law_fit` (A, B, drift
+and σ integrated out, Whittle factor r from :mod:`dampfit.inference.noise`) times the prior
+:func:`~dampfit.inference.law_fit.log_prior` — the same calibrated noise model as
+:mod:`dampfit.inference.posterior`, which samples the viscous law this way.
 
 * ``emcee``: 64 walkers over θ with the viscous sampler's proposals
-  (:func:`dampfit.posterior.MOVES`: kernel-density independence + differential evolution;
+  (:func:`dampfit.inference.posterior.MOVES`: kernel-density independence + differential evolution;
   on the real phone spring's 5-parameter power law 4 s and ESS ≈ 6,600 where the default
   stretch move took 12–15 s for ESS ≈ 2,500), the likelihood compiled once with JAX and
   vmapped, started in a ball from the Laplace covariance; runs in blocks until the chain exceeds 50
   integrated autocorrelation times, R-hat < 1.01 and bulk ESS ≥ ``min_ess`` (arviz), or
   ``max_steps`` (then ``converged`` is False and the reason is in ``warnings``).
-* ``laplace``: the (nested) Laplace approximation of :mod:`dampfit.damping.fit` — viscous
+* ``laplace``: the (nested) Laplace approximation of :mod:`dampfit.inference.law_fit` — viscous
   θ ~ N(θ̂, Σ); for a nonlinear law the shape s from its marginal on the evidence grid (L3)
   (inverse CDF), then (ln p₀, ln ω) ~ N(φ̂_s, Σ_s). Exact for a Gaussian posterior in
   (ln p₀, ln ω); used where thousands of replicates or a quick look are wanted.
@@ -48,9 +48,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..posterior import burn_thin, diagnose, ensemble, run_adaptive
-from . import fit as dfit
-from . import models
+from dampfit.inference.posterior import burn_thin, diagnose, ensemble, run_adaptive
+from dampfit.inference import law_fit as dfit
+from dampfit.model import laws as models
 
 __all__ = ["ModelPosterior", "Budget", "conditioning", "sample_emcee", "sample_laplace",
            "N_WALKERS"]
@@ -134,7 +134,7 @@ class ModelPosterior:
 
 
 def conditioning(mf: dfit.ModelFit) -> str | None:
-    """Why ``mf`` (after :func:`dampfit.damping.fit.laplace`) is too ill-conditioned for
+    """Why ``mf`` (after :func:`dampfit.inference.law_fit.laplace`) is too ill-conditioned for
     emcee, or None when it is fine (criteria in the module docstring)."""
     cov = mf.cov
     if cov is None or not np.all(np.isfinite(cov)):
@@ -216,7 +216,7 @@ class _WallBudgetReached(Exception):
 
 
 class _DeadlineBar:
-    """Progress-bar stand-in for :func:`dampfit.posterior.run_adaptive` (which advances its
+    """Progress-bar stand-in for :func:`dampfit.inference.posterior.run_adaptive` (which advances its
     ``bar`` once per block): forwards to the real bar and stops the run between two blocks
     once ``deadline`` (``time.monotonic()`` [s]) has passed."""
 
