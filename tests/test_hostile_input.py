@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import dampfit
-from dampfit.io import readers as dio
+from dampfit.io import bounded as dio
 from dampfit.signal import prepare as preprocess
 from dampfit.errors import InputError
 from dampfit.io.recording import time_segments

@@ -10,6 +10,7 @@ Typical use::
     result.summary()["parameters"]["c"]      # posterior summary of c [N·s/m]
     result.posterior                         # arviz InferenceData
     result.to_json("summary.json")
+    again = dampfit.load("Raw Data.csv.dampfit")   # a result folder read back: same class
 
     rec, truth = dampfit.simulate.simulate(dampfit.simulate.preset("paper"))
 """
@@ -18,6 +19,7 @@ from importlib import metadata as _metadata
 
 from dampfit.pipeline import Analysis as Analysis
 from dampfit.pipeline import analyze as analyze
+from dampfit.result import load as load
 from dampfit.errors import DampfitError as DampfitError
 from dampfit.errors import InputError as InputError
 from dampfit.io.readers import read as read
@@ -32,6 +34,7 @@ except _metadata.PackageNotFoundError:  # pragma: no cover - source tree without
     __version__ = "unknown"
 
 __all__ = [
-    "Analysis", "DampfitError", "InputError", "Recording", "__version__", "analyze", "read",
+    "Analysis", "DampfitError", "InputError", "Recording", "__version__", "analyze", "load",
+    "read",
     "crlb", "estimators", "simulate",
 ]

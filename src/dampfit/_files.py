@@ -25,10 +25,12 @@ import stat
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from collections.abc import Callable
 
 from dampfit.errors import InputError
 
-__all__ = ["atomic_write_text", "check_output_file", "publish", "MARKER", "ResultFolder",
+__all__ = ["atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
+           "ResultFolder",
            "WriteError", "read_marker"]
 
 
@@ -105,36 +107,52 @@ def read_bounded(path: str | os.PathLike, limit: int, check) -> bytes:
         os.close(fd)
 
 
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (a symbolic link at ``path`` is replaced,
-    not followed). Any failure — missing folder, a name too long, no permission, a full
-    disk — is a :class:`WriteError` (an :class:`InputError`: one line, exit 2) and leaves
-    ``path`` as it was and no temporary file behind."""
+def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *,
+                 suffix: str = ".tmp", shown: Callable[[object], str] = str) -> Path:
+    """Write ``path`` atomically through ``write(tmp)``, which writes a temporary file ``tmp``
+    in the same folder; it is then made readable like any file the user creates
+    (:func:`publish`) and renamed over ``path`` (a symbolic link at ``path`` is replaced, not
+    followed). Any failure — missing folder, a name too long, no permission, a full disk — is a
+    :class:`WriteError` (an :class:`InputError`: one line, exit 2) and leaves ``path`` as it was
+    and no temporary file behind. ``suffix`` keeps the format visible to writers that infer it
+    from the name (``.png``, ``.nc``); ``shown`` renders paths in the message."""
     path = Path(path)
     try:
         if not path.parent.is_dir():
-            raise WriteError(f"cannot write {path}: directory {path.parent} does not exist")
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=".tmp")
+            raise WriteError(f"cannot write {shown(path)}: directory {shown(path.parent)} "
+                             "does not exist")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=suffix)
+        os.close(fd)
     except OSError as exc:
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
+        raise WriteError(f"cannot write {shown(path)}: {_reason(exc)}") from exc
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
+        write(tmp)
         publish(tmp)
         os.replace(tmp, path)
     except OSError as exc:
+        raise WriteError(f"cannot write {shown(path)}: {_reason(exc)}") from exc
+    finally:
         Path(tmp).unlink(missing_ok=True)
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
+
+
+def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_write`)."""
+
+    def write(tmp: str) -> None:
+        with open(tmp, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+
+    return atomic_write(path, write)
 
 
 # ----------------------------------------------------------------- result folders
 #: File in every result folder dampfit writes (analyze, demo): JSON ``{"kind", "dampfit"}``.
 #: ``--force`` replaces only a real directory holding it.
 MARKER = ".dampfit-result"
+#: File of a demo folder: the truth of the simulated recording (``dampfit demo`` writes it,
+#: also into old demo folders written before :data:`MARKER` existed).
+DEMO_MARKER = "paper-preset.truth.json"
 
 #: Hidden helpers beside a target ``NAME``: ``.NAME.dampfit-stage-PID-XXXX`` (being written),
 #: ``.NAME.dampfit-old-PID-XXXX`` (previous result while it is swapped out) and the lock file.

@@ -14,38 +14,100 @@ real damped frequency is ``√(k/m − (c/2m)²)``.) Derived quantities:
 * logarithmic decrement δ = p·T_d = 2π·p/ω_d = 2πζ/√(1−ζ²) (paper eq. 11);
 * quality factor Q = 1/(2ζ).
 
+:func:`quantities` is the one place where the physical quantities of an analysis are
+computed from (p, ω_d) — least-squares values, posterior draws, baselines, estimators, the
+Cramér–Rao bound and the simulator's truth all call it; :func:`check_mass` is the one check
+of a mass [kg] and its standard uncertainty [kg], and :data:`UNITS` the one table of units.
+
 All functions are plain NumPy and broadcast over arrays, so they convert posterior draws
-as well as point estimates.
+as well as point estimates; :func:`quantities` also accepts JAX arrays (it uses arithmetic
+operators only), so the Cramér–Rao bound differentiates it.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from dampfit.errors import InputError
+
 __all__ = [
+    "quantities",
     "from_decay",
     "to_decay",
+    "check_mass",
+    "UNITS",
     "zeta_from_log_decrement",
     "log_decrement_from_zeta",
     "critical_damping",
+    "damping_coefficient",
+    "stiffness",
 ]
+
+#: Unit of every quantity dampfit reports (ASCII, as written to ``summary.json``).
+UNITS = {
+    "p": "1/s", "omega_d": "rad/s", "omega_n": "rad/s", "f_n": "Hz", "f_d": "Hz",
+    "zeta": "1", "delta": "1", "Q": "1", "c": "N s/m", "k": "N/m", "c_crit": "N s/m",
+    "u0": "m", "mass": "kg",
+}
 
 TWO_PI = 2.0 * np.pi
 
 
-def from_decay(p, omega_d, mass=None) -> dict[str, np.ndarray]:
-    """Derived quantities from decay rate ``p`` [1/s] and damped frequency ``ω_d`` [rad/s].
+def _real(x):
+    """``x`` as a float array, leaving JAX arrays (and tracers) to JAX."""
+    if isinstance(x, (np.ndarray, np.generic)) or not hasattr(x, "shape"):
+        return np.asarray(x, dtype=float)
+    return x
 
-    Returns a dict with ``p`` [1/s], ``omega_n`` [rad/s], ``f_n`` and ``f_d`` [Hz], ``zeta`` [1],
-    ``delta`` (log decrement) [1], ``Q`` [1] and, if ``mass`` [kg] is given, ``c`` [N·s/m],
-    ``k`` [N/m] and ``c_crit`` [N·s/m].
+
+def _sqrt(x):
+    return np.sqrt(x) if isinstance(x, (np.ndarray, np.generic)) else x ** 0.5
+
+
+def damping_coefficient(mass, p):
+    """Viscous damping coefficient ``c = 2·m·p`` [N·s/m] from the mass [kg] and the decay
+    rate (or a local decay rate ρ(a) of a nonlinear law) ``p`` [1/s] (paper eq. 3)."""
+    return 2.0 * mass * p
+
+
+def stiffness(mass, omega_n):
+    """Stiffness ``k = m·ω_n²`` [N/m] from the mass [kg] and ``ω_n`` [rad/s]."""
+    return mass * omega_n**2
+
+
+def quantities(p, omega_d, mass=None, *, accel_amplitude=None) -> dict[str, np.ndarray]:
+    """Every reported physical quantity from decay rate ``p`` [1/s] and damped angular
+    frequency ``omega_d`` [rad/s] — point values or arrays of draws (broadcast together).
+
+    Mass-free (identified by the recording alone):
+
+    * ``omega_n`` [rad/s]: ω_n² = p² + ω_d² (the decay's pole is −p ± i·ω_d, |pole| = ω_n);
+    * ``f_n``, ``f_d`` [Hz]: ω_n/2π, ω_d/2π;
+    * ``zeta`` [1]: ζ = p/ω_n (from p = ζ·ω_n);
+    * ``delta`` [1]: logarithmic decrement δ = 2π·p/ω_d (paper eq. 11);
+    * ``Q`` [1]: quality factor 1/(2ζ).
+
+    With ``mass`` m [kg] (a value or draws): ``c`` = 2·m·p [N·s/m] (paper eq. 3),
+    ``k`` = m·ω_n² [N/m] (ω_n² = k/m) and ``c_crit`` = 2·m·ω_n = 2√(k·m) [N·s/m] (paper
+    eq. 14).
+
+    With ``accel_amplitude`` [m/s²], the acceleration envelope amplitude √(A² + B²) at the
+    window start (quadratures of the model's acceleration e^{−pτ}(A·cos ω_dτ + B·sin ω_dτ),
+    filter gain removed): ``u0`` = √(A² + B²)/ω_n² [m] (eq. M2 of
+    :mod:`dampfit.model.viscous`: the displacement is the acceleration divided by
+    −(−p + iω_d)², of modulus ω_n²).
+
+    ``p`` and ``omega_d`` are returned as given (as float arrays). Q is infinite for p = 0.
     """
-    p = np.asarray(p, dtype=float)
-    omega_d = np.asarray(omega_d, dtype=float)
-    omega_n = np.sqrt(omega_d**2 + p**2)
+    p, omega_d = _real(p), _real(omega_d)
+    wn2 = p**2 + omega_d**2
+    omega_n = _sqrt(wn2)
     zeta = p / omega_n
     out = {
         "p": p,
+        "omega_d": omega_d,
         "omega_n": omega_n,
         "f_n": omega_n / TWO_PI,
         "f_d": omega_d / TWO_PI,
@@ -54,11 +116,18 @@ def from_decay(p, omega_d, mass=None) -> dict[str, np.ndarray]:
         "Q": 0.5 / zeta,
     }
     if mass is not None:
-        m = np.asarray(mass, dtype=float)
-        out["c"] = 2.0 * m * p
-        out["k"] = m * omega_n**2
+        m = _real(mass)
+        out["c"] = damping_coefficient(m, p)
+        out["k"] = m * wn2
         out["c_crit"] = 2.0 * m * omega_n
+    if accel_amplitude is not None:
+        out["u0"] = _real(accel_amplitude) / wn2
     return out
+
+
+def from_decay(p, omega_d, mass=None) -> dict[str, np.ndarray]:
+    """:func:`quantities` without an amplitude (the earlier name, kept for its callers)."""
+    return quantities(p, omega_d, mass)
 
 
 def to_decay(c, k, mass) -> tuple[np.ndarray, np.ndarray]:
@@ -89,3 +158,38 @@ def log_decrement_from_zeta(zeta):
 def critical_damping(k, mass):
     """Critical damping ``c_crit = 2√(k·m)`` [N·s/m] (paper, after eq. 14)."""
     return 2.0 * np.sqrt(np.asarray(k, dtype=float) * np.asarray(mass, dtype=float))
+
+
+def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
+    """The one check of an oscillating mass ``mass`` [kg] and its standard uncertainty
+    ``mass_sd`` [kg]; returns ``(mass, mass_sd)`` as floats (``(None, 0.0)`` without a mass).
+
+    A mass must be a finite number > 0; ``mass_sd`` (None = 0) a finite number ≥ 0 and at most
+    half the mass (the mass prior is a normal truncated at 0: a wider one is no longer a
+    measured mass); a non-zero ``mass_sd`` needs a mass. Raises :class:`InputError` with one
+    line otherwise.
+    """
+    sd = 0.0 if mass_sd is None else _as_float(mass_sd)
+    if mass is None:
+        if sd != 0.0:  # NaN too
+            raise InputError("mass_sd was given without mass (--mass-sd without --mass)")
+        return None, 0.0
+    m = _as_float(mass)
+    if not (math.isfinite(m) and m > 0.0):
+        raise InputError("mass must be positive: the oscillating mass must be a positive "
+                         f"number of kilograms, got {mass!r}")
+    if not (math.isfinite(sd) and sd >= 0.0):
+        raise InputError(f"mass_sd, the mass standard deviation, must be ≥ 0 kg, got {mass_sd!r}")
+    if sd > 0.5 * m:
+        raise InputError(f"mass standard deviation {sd:g} kg is more than half the mass {m:g} kg")
+    return m, sd
+
+
+def _as_float(x) -> float:
+    """``float(x)`` for a real number, NaN for anything else (a string, a bool, an array)."""
+    if isinstance(x, bool):
+        return float("nan")
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return float("nan")

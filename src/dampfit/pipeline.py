@@ -11,7 +11,6 @@ import json
 import os
 import platform
 import time
-import warnings as _warnings
 from datetime import datetime, timezone
 from dataclasses import dataclass, field
 from importlib import metadata
@@ -20,23 +19,23 @@ from typing import Any
 
 import numpy as np
 
+from dampfit import physics
+from dampfit.damping.quantities import summarise
 from dampfit.estimators import baselines
 from dampfit.inference import least_squares as fit
 from dampfit.inference import noise
 from dampfit.inference import posterior
 from dampfit.signal import prepare as preprocess
 from dampfit._json import jsonable
-from dampfit._files import atomic_write_text, publish
+from dampfit._files import atomic_write, atomic_write_text
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 
 __all__ = ["Analysis", "analyze", "PARAMETER_UNITS"]
 
 #: Unit of every reported parameter.
-PARAMETER_UNITS = {
-    "c": "N s/m", "k": "N/m", "u0": "m", "zeta": "1", "f_n": "Hz",
-    "p": "1/s", "f_d": "Hz", "delta": "1", "Q": "1", "c_crit": "N s/m",
-}
+PARAMETER_UNITS = {name: physics.UNITS[name] for name in (
+    "c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta", "Q", "c_crit")}
 #: A PSD ratio r above this many times its white-noise value signals residual structure.
 R_WARN = noise.R_WARN
 #: A free decay must explain at least this fraction of the window's variance beyond the drift
@@ -52,24 +51,21 @@ def _version() -> str:
 
 
 def _check_mass(mass: float | None, mass_sd: float | None) -> tuple[float | None, float]:
-    sd = 0.0 if mass_sd is None else float(mass_sd)
-    if mass is None:
-        if sd:
-            raise InputError("--mass-sd was given without --mass")
-        return None, 0.0
-    m = float(mass)
-    if not np.isfinite(m) or m <= 0:
-        raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
-    if not np.isfinite(sd) or sd < 0:
-        raise InputError(f"mass standard deviation must be ≥ 0 kg, got {mass_sd!r}")
-    if sd > 0.5 * m:
-        raise InputError(f"mass standard deviation {sd:g} kg is more than half the mass {m:g} kg")
-    return m, sd
+    """Mass [kg] and its standard deviation [kg] checked (:func:`dampfit.physics.check_mass`)."""
+    return physics.check_mass(mass, mass_sd)
 
 
 @dataclass
 class Analysis:
-    """Everything :func:`analyze` computed. ``summary()`` is the plain-data view of it."""
+    """Everything :func:`analyze` computed. ``summary()`` is the plain-data view of it.
+
+    The same class is what :func:`dampfit.load` returns for a result folder: then
+    :meth:`summary` is the folder's summary.json as written (not recomputed), ``posterior`` is
+    read from posterior.nc and :meth:`signals` from signals.npz when first used, ``folder`` is
+    the folder, and the live pipeline objects (``recording``, ``prepared``, ``fit_data``,
+    ``least_squares``, ``noise``, ``sampling``, ``baselines``, ``damping``) raise a
+    :class:`~dampfit.errors.DampfitError` saying the result was loaded from that folder.
+    """
 
     recording: Recording
     prepared: preprocess.Prepared
@@ -86,16 +82,25 @@ class Analysis:
     warnings: list[str] = field(default_factory=list)
     damping: Any = None  # dampfit.damping.DampingAssessment (None when not assessed)
     date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    #: Result folder this analysis was loaded from (:func:`dampfit.load`); None when live.
+    folder: Path | None = None
+    #: What :func:`dampfit.result.folder.load` read (summary, lazily posterior and signals).
+    _loaded: Any = field(default=None, repr=False, compare=False)
+    _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
 
     # --------------------------------------------------------------- views
     @property
     def posterior(self):
-        """The posterior as arviz ``InferenceData``."""
+        """The posterior as arviz ``InferenceData`` (of a loaded result: posterior.nc)."""
+        if self._loaded is not None:
+            return self._loaded.posterior()
         return self.sampling.idata
 
     @property
     def converged(self) -> bool:
-        """Least squares and posterior both converged."""
+        """Least squares and posterior both converged (of a loaded result: its summary says so)."""
+        if self._loaded is not None:
+            return self._loaded.converged()
         return bool(self.least_squares.converged and self.sampling.converged)
 
     def draws(self, name: str) -> np.ndarray:
@@ -103,12 +108,30 @@ class Analysis:
         return np.asarray(self.posterior.posterior[name]).ravel()
 
     def summary(self) -> dict[str, Any]:
-        """The JSON-safe summary (schema in the README)."""
+        """The JSON-safe summary (schema in the README; ``schema_version``
+        :data:`dampfit.result.schema.SCHEMA_VERSION`), a fresh copy on every call.
+
+        Computed once per analysis and cached; of a loaded result it is the summary.json read.
+        """
+        import copy
+
+        if self._summary is None:
+            if self._loaded is not None:
+                self._summary = self._loaded.summary
+            else:
+                from dampfit.result.schema import SCHEMA_VERSION
+
+                self._summary = {"schema_version": SCHEMA_VERSION, **self._compute_summary()}
+        return copy.deepcopy(self._summary)
+
+    def _compute_summary(self) -> dict[str, Any]:
+        """The summary of the live pipeline objects (see :meth:`summary`)."""
         rec, prep, fd = self.recording, self.prepared, self.fit_data
         post = self.posterior.posterior
         params: dict[str, Any] = {}
         for name in PARAMETER_UNITS:
-            params[name] = _param_summary(self.posterior, name) if name in post else None
+            params[name] = (_param_summary(self.posterior, name, self.sampling.diagnostics)
+                            if name in post else None)
             bound = (self.crlb or {}).get(name)
             if params[name] is not None and isinstance(bound, dict):
                 params[name]["crlb_sd"] = bound.get("sd_with_mass", bound["sd"])
@@ -189,6 +212,8 @@ class Analysis:
     def true_quadratures(self) -> tuple[float, float]:
         """Least-squares acceleration quadratures (A, B) [m/s²] at the window start, filter
         gain removed (:meth:`dampfit.inference.least_squares.LeastSquaresResult.true_quadratures`)."""
+        if self._loaded is not None:
+            raise self._loaded.live_only("true_quadratures()")
         return self.least_squares.true_quadratures()
 
     def signals(self) -> dict[str, np.ndarray]:
@@ -200,7 +225,11 @@ class Analysis:
         measured displacement of the paper's pipeline (band-pass, ∫∫, band-pass; NaN when that
         baseline failed), ``displacement_model`` [m]; scalars ``fs`` [Hz], ``p`` [1/s],
         ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0).
+
+        Of a loaded result: the arrays of its signals.npz (a copy).
         """
+        if self._loaded is not None:
+            return self._loaded.signals()
         from dampfit.model import viscous as model
 
         prep, ls = self.prepared, self.least_squares
@@ -225,21 +254,13 @@ class Analysis:
 
     def to_signals(self, path: str | os.PathLike) -> Path:
         """Write :meth:`signals` to an ``.npz`` file (atomically)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".part.npz")
-        np.savez_compressed(tmp, **self.signals())
-        publish(tmp)
-        os.replace(tmp, path)
-        return path
+        arrays = self.signals()
+        return atomic_write(path, lambda tmp: np.savez_compressed(tmp, **arrays), suffix=".npz")
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".part")
-        self.posterior.to_netcdf(str(tmp), engine="h5netcdf")
-        publish(tmp)
-        os.replace(tmp, path)
-        return path
+        return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
+                            suffix=".nc")
 
 
 # --------------------------------------------------------------------- the job
@@ -475,26 +496,21 @@ def _crlb(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] |
     return out
 
 
-def _param_summary(idata, name: str) -> dict[str, Any]:
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        import arviz as az
-
-        x = np.asarray(idata.posterior[name])
-        rhat = float(az.rhat(x)) if x.shape[1] > 4 else float("nan")
-        ess = float(az.ess(x, method="bulk")) if x.shape[1] > 4 else float("nan")
-    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
-    return {"unit": PARAMETER_UNITS[name], "mean": float(x.mean()), "sd": float(x.std(ddof=1)),
-            "q05": float(q05), "q50": float(q50), "q95": float(q95),
-            "r_hat": rhat, "ess_bulk": ess}
+def _param_summary(idata, name: str, diagnostics: dict[str, dict[str, float]]) -> dict[str, Any]:
+    """Quantiles of one posterior quantity (:func:`dampfit.damping.quantities.summarise`) with
+    the R-hat and bulk ESS the posterior stage computed
+    (:attr:`dampfit.inference.posterior.PosteriorResult.diagnostics`; NaN for ≤ 4 draws)."""
+    x = np.asarray(idata.posterior[name])
+    return summarise(x, PARAMETER_UNITS[name],
+                     (diagnostics.get(name) or {}) if x.shape[1] > 4 else {})
 
 
 def _ls_physical(ls: fit.LeastSquaresResult, mass: float | None, r: float = 1.0) -> dict[str, Any]:
-    p, wd = ls.p, ls.omega_d
-    wn = float(np.hypot(p, wd))
-    out = {"p": p, "zeta": p / wn, "f_n": wn / (2 * np.pi), "u0": float(ls.u0()),
-           "c": 2 * mass * p if mass is not None else None,
-           "k": mass * wn**2 if mass is not None else None}
+    """Least-squares p, ζ, f_n, u₀ and (with ``mass`` [kg]) c, k (:func:`dampfit.physics.quantities`),
+    with 1-σ of c and ζ."""
+    q = ls_quantities(ls, mass)
+    out = {name: (float(q[name]) if name in q else None)
+           for name in ("p", "zeta", "f_n", "u0", "c", "k")}
     # 1-σ from the Jacobian covariance × the noise calibration factor r (as the posterior),
     # by the delta method in (ln p, ln ω_d)
     cov = ls.cov[:2, :2] * r
@@ -503,6 +519,28 @@ def _ls_physical(ls: fit.LeastSquaresResult, mass: float | None, r: float = 1.0)
         out["c_sd"] = out["c"] * sd_lnp if mass is not None else None
         out["zeta_sd"] = out["zeta"] * sd_lnp
     return out
+
+
+def ls_quantities(ls: fit.LeastSquaresResult, mass: float | None = None) -> dict[str, np.ndarray]:
+    """:func:`dampfit.physics.quantities` of the least-squares optimum: p, ω_d and the
+    acceleration amplitude with the decimation filter's gain removed
+    (:meth:`~dampfit.inference.least_squares.LeastSquaresResult.true_quadratures`)."""
+    return physics.quantities(ls.p, ls.omega_d, mass,
+                              accel_amplitude=np.hypot(*ls.true_quadratures()))
+
+
+def fitted_curve(fd: preprocess.FitData, ls: fit.LeastSquaresResult,
+                 n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares model of the fitted samples (decay and drift, as fitted: filter gain
+    included) on ``n`` uniform times over the fitted span: (t [s], a [m/s²])."""
+    from dampfit.model import viscous as model
+
+    # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
+    tau = np.linspace(fd.tau[0], fd.tau[-1], int(n))
+    drift = model.drift_basis(fd.tau, fd.drift_degree, at=tau)
+    # NumPy columns: a figure needs no JAX trace
+    x = np.concatenate([model.M1.columns(np.asarray(ls.theta), tau, xp=np), drift], axis=1)
+    return fd.t0 + tau, x @ np.asarray(ls.beta)
 
 
 def _versions() -> dict[str, str]:

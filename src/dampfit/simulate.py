@@ -39,20 +39,16 @@ from __future__ import annotations
 
 import dataclasses
 import importlib.metadata
-import json
 import math
-import os
-import re
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dampfit._files import atomic_write_text
 from dampfit.errors import InputError
-from dampfit.physics import critical_damping, from_decay, to_decay
+from dampfit.physics import check_mass, critical_damping, quantities, stiffness, to_decay
 from dampfit.io.recording import STANDARD_GRAVITY, Recording
+from dampfit.io.writers import DIALECTS, write_phyphox_csv, write_truth  # re-exported
 
 __all__ = [
     "SimulationConfig",
@@ -157,7 +153,9 @@ class SimulationConfig:
     seed: int = 0
 
     def __post_init__(self) -> None:
-        for name in ("mass", "k", "sample_rate", "duration"):
+        _require_number(self, "mass", positive=None)
+        check_mass(self.mass)
+        for name in ("k", "sample_rate", "duration"):
             _require_number(self, name, positive=True)
         for name in ("c", "u0", "jitter", "noise_density", "flicker", "drift", "quantization",
                      "handheld"):
@@ -237,17 +235,22 @@ def from_modal(mass: float, f_n: float, zeta: float, **kw: Any) -> SimulationCon
 
     ``k = m·(2π·f_n)²`` [N/m] and ``c = 2·ζ·√(k·m)`` [N·s/m]; ``kw`` sets the other options.
     """
-    for name, value in (("mass", mass), ("f_n", f_n)):
-        if not (math.isfinite(value) and value > 0):
-            raise InputError(f"{name} must be positive, got {value!r}")
+    check_mass(mass)
+    if not (math.isfinite(f_n) and f_n > 0):
+        raise InputError(f"f_n must be positive, got {f_n!r}")
     if not (math.isfinite(zeta) and 0 <= zeta < 1):
         raise InputError(f"damping ratio zeta must be in [0, 1) for a free decay, got {zeta!r}")
     if {"k", "c"} & set(kw):
         raise InputError("from_modal sets k and c itself; pass f_n and zeta instead")
-    k = mass * (TWO_PI * f_n) ** 2
+    k = float(stiffness(mass, TWO_PI * f_n))
     return _build(mass=mass, k=k, c=zeta * float(critical_damping(k, mass)), **kw)
 
 
+#: Largest mass [kg] accepted (simulated, analysed, studied): far above any spring–mass test,
+#: far below overflow.
+MAX_MASS = 1e6
+#: Largest simulated recording [samples] (duration × sample rate): ≈ 2 GB of arrays.
+MAX_SIM_SAMPLES = 5e7
 #: Highest sample rate [Hz] simulated (MEMS accelerometers sample at ≤ 32 kHz).
 MAX_SAMPLE_RATE = 1e6
 #: Fewest samples [1] a simulated recording may have.
@@ -263,15 +266,13 @@ def check_limits(cfg: SimulationConfig) -> None:
     """Refuse a configuration the simulator must not run, before it allocates anything.
 
     The one check shared by ``dampfit simulate`` and ``dampfit study`` (each scenario):
-    mass ≤ :data:`dampfit.cli.MAX_MASS` [kg]; duration × sample rate between
-    :data:`MIN_SAMPLES` and :data:`dampfit.cli.MAX_SIM_SAMPLES` samples (memory); sample rate
+    mass ≤ :data:`MAX_MASS` [kg]; duration × sample rate between
+    :data:`MIN_SAMPLES` and :data:`MAX_SIM_SAMPLES` samples (memory); sample rate
     ≤ :data:`MAX_SAMPLE_RATE` [Hz]; natural frequency below Nyquist; jitter in [0, 1]; tilt
     in [−90°, 90°]; u0 ≤ :data:`MAX_U0` [m]; noise densities ≤ :data:`MAX_NOISE_DENSITY`
     [µg/√Hz]; |bias|, drift and quantization ≤ :data:`MAX_ACCEL` [m/s²]; the gaps must fit
     into the recording. Raises :class:`InputError` (one line naming the option).
     """
-    from dampfit.cli import MAX_MASS, MAX_SIM_SAMPLES  # the CLI's limits (lazy: cli imports this)
-
     if cfg.mass > MAX_MASS:
         raise InputError(f"mass = {cfg.mass:g} kg is beyond the limit of {MAX_MASS:g} kg")
     if cfg.sample_rate > MAX_SAMPLE_RATE:
@@ -380,7 +381,7 @@ def _truth(cfg: SimulationConfig, t_catch: float | None, direction: np.ndarray) 
     """JSON-safe truth of ``cfg``."""
     p, omega_d = to_decay(cfg.c, cfg.k, cfg.mass)
     with np.errstate(divide="ignore"):  # Q = 1/(2ζ) is infinite for c = 0; it is not reported
-        derived = {name: float(v) for name, v in from_decay(p, omega_d, cfg.mass).items()}
+        derived = {name: float(v) for name, v in quantities(p, omega_d, cfg.mass).items()}
     config = {k: v.item() if isinstance(v, np.generic) else v for k, v in dataclasses.asdict(cfg).items()}
     config["bias"] = list(cfg.bias)
     return {
@@ -562,43 +563,3 @@ def simulate(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
         ),
     )
     return recording, _truth(cfg, t_catch, direction)
-
-
-# -- writers --------------------------------------------------------------------------------
-
-#: CSV dialects of phyphox's export: separator and decimal mark.
-DIALECTS: dict[str, tuple[str, str]] = {"comma": (",", "."), "tab": ("\t", "."), "semicolon": (";", ",")}
-_EXPONENT = re.compile(r"E\+?(-?)0*(\d)")
-
-
-def _phyphox_numbers(values: np.ndarray, sep: str, decimal: str) -> str:
-    """Rows of ``values`` in phyphox's number format (``0.000000000E0``), one line per row."""
-    values = np.asarray(values, dtype=float) + 0.0  # turns −0.0 into 0.0
-    row = sep.join(["%.9E"] * values.shape[1]) + "\n"
-    text = _EXPONENT.sub(r"E\1\2", (row * values.shape[0]) % tuple(values.ravel().tolist()))
-    return text.replace(".", decimal) if decimal != "." else text
-
-
-def write_phyphox_csv(recording: Recording, path: str | os.PathLike, dialect: str = "comma") -> Path:
-    """Write ``recording`` like phyphox's CSV export of the accelerometer; returns the path.
-
-    ``dialect``: ``"comma"`` (comma, decimal point), ``"tab"`` (tab, decimal point) or
-    ``"semicolon"`` (semicolon, decimal comma). Columns: time [s], x, y, z and absolute
-    acceleration [m/s²]; "Linear Acceleration" when ``recording.gravity_removed`` is True.
-    """
-    try:
-        sep, decimal = DIALECTS[dialect]
-    except KeyError:
-        choices = ", ".join(DIALECTS)
-        raise InputError(f"unknown CSV dialect {dialect!r}; choose one of {choices}") from None
-    xyz = np.column_stack([recording.axis(name) for name in _AXES])
-    label = "Linear Acceleration" if recording.gravity_removed else "Acceleration"
-    names = ["Time (s)", *(f"{label} {a} (m/s^2)" for a in _AXES), "Absolute acceleration (m/s^2)"]
-    header = sep.join(f'"{n}"' for n in names) + "\n"
-    table = np.column_stack([recording.time, xyz, np.sqrt(np.sum(xyz**2, axis=1))])
-    return atomic_write_text(path, header + _phyphox_numbers(table, sep, decimal))
-
-
-def write_truth(truth: dict[str, Any], path: str | os.PathLike) -> Path:
-    """Write the truth dict of :func:`simulate` as JSON (indent 2); returns the path."""
-    return atomic_write_text(path, json.dumps(truth, indent=2, allow_nan=False) + "\n")

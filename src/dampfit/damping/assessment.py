@@ -2,8 +2,9 @@ r"""The entry point: :func:`assess` — is one viscous c enough, and if not, whi
 
 Pipeline, after the viscous least-squares fit and noise model of :func:`dampfit.analyze`:
 
-1. least squares of every law (:mod:`~dampfit.inference.law_fit`, NumPy variable projection), with
-   J = 0…3 frequency-drift phase terms (K4) chosen by BIC on the viscous law and shared;
+1. least squares of every law (:mod:`~dampfit.inference.law_fit`, the variable projection of
+   :mod:`~dampfit.model.profile`), with J = 0…3 frequency-drift phase terms (K4) chosen by BIC
+   on the viscous law and shared;
 2. one Whittle factor r from the best law's residuals (:mod:`~dampfit.damping.evidence`);
 3. evidence of every law, the comparison table and the verdict (amplitude dependence,
    preferred law);

@@ -10,20 +10,24 @@ equivalent viscous damping at chosen displacement amplitudes,
     ζ_eq(a) = ρ(a)/ω,   c_eq(a) = 2·m·ρ(a)   (Jacobsen 1930; (K2) of
     :mod:`~dampfit.model.laws`).
 
-Summaries are plain JSON-safe dicts (unit, mean, sd, q05, q50, q95).
+The arithmetic (k = m·ω², c = 2·m·ρ, ζ = p/ω_n) is :mod:`dampfit.physics`'s. Summaries are
+plain JSON-safe dicts (unit, mean, sd, q05, q50, q95; :func:`summarise` is also the summariser
+of the viscous posterior in :func:`dampfit.analyze`, there with R-hat and bulk ESS).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from dampfit import physics
 from dampfit.model import laws as models
 
 __all__ = ["UNITS", "draws", "summarise", "mass_draws"]
 
 #: Unit of every reported quantity.
 UNITS = {
-    "p0": "1/s", "p": "1/s", "zeta": "1", "f_n": "Hz", "u0": "m", "k": "N/m", "c": "N s/m",
+    **{name: physics.UNITS[name] for name in ("p", "zeta", "f_n", "u0", "k", "c")},
+    "p0": "1/s",
     "F_c": "N", "mu_c": "m/s^2", "friction_fraction": "1", "c2": "N s^2/m^2", "beta": "1/m",
     "drag_fraction": "1", "alpha": "1", "c_alpha": "N (s/m)^alpha", "gamma": "(m/s)^(1-alpha)/s",
     "zeta_eq_ref": "1", "zeta_eq_start": "1", "zeta_eq_end": "1",
@@ -51,30 +55,41 @@ def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,
     phys = models.physical(model, theta, a0, m)
     if model == "viscous":
         out["p"] = out["p0"]
-        out["zeta"] = out["p0"] / np.hypot(out["p0"], w)
+        out["zeta"] = physics.quantities(out["p0"], w)["zeta"]
     elif model in ("coulomb", "quadratic"):
         out[models.SHAPE[model]] = theta[:, 1]
     keep = {"c", "F_c", "mu_c", "c2", "beta", "alpha", "c_alpha", "gamma"}
     out.update({k_: v for k_, v in phys.items() if k_ in keep})
     if m is not None:
-        out["k"] = m * w * w
+        out["k"] = physics.stiffness(m, w)
     for name, a in amplitudes.items():
         if a is None or not np.isfinite(a) or a <= 0:
             continue
         rho = models.local_rate(model, theta, a / a0)
         out[f"zeta_eq_{name}"] = rho / w
         if m is not None:
-            out[f"c_eq_{name}"] = 2.0 * m * rho
+            out[f"c_eq_{name}"] = physics.damping_coefficient(m, rho)
     return out
 
 
-def summarise(x: np.ndarray, unit: str) -> dict:
-    """``{"unit", "mean", "sd", "q05", "q50", "q95"}`` of draws ``x`` (NaN-free part)."""
+def summarise(x: np.ndarray, unit: str, diagnostics: dict[str, float] | None = None) -> dict:
+    """``{"unit", "mean", "sd", "q05", "q50", "q95"}`` of draws ``x`` (NaN-free part).
+
+    With ``diagnostics`` (the sampler's ``{"r_hat", "ess_bulk"}`` of this quantity, computed
+    once by the posterior stage), ``r_hat`` [1] and ``ess_bulk`` [draws] are appended (NaN when
+    absent); they are not recomputed here.
+    """
     x = np.asarray(x, dtype=float)
     x = x[np.isfinite(x)]
     if x.size == 0:
-        return {"unit": unit, "mean": None, "sd": None, "q05": None, "q50": None, "q95": None}
-    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
-    sd = float(x.std(ddof=1)) if x.size > 1 else 0.0
-    return {"unit": unit, "mean": float(x.mean()), "sd": sd,
-            "q05": float(q05), "q50": float(q50), "q95": float(q95)}
+        out = {"unit": unit, "mean": None, "sd": None, "q05": None, "q50": None, "q95": None}
+    else:
+        q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+        sd = float(x.std(ddof=1)) if x.size > 1 else 0.0
+        out = {"unit": unit, "mean": float(x.mean()), "sd": sd,
+               "q05": float(q05), "q50": float(q50), "q95": float(q95)}
+    if diagnostics is not None:
+        nan = float("nan")
+        out["r_hat"] = float(diagnostics.get("r_hat", nan))
+        out["ess_bulk"] = float(diagnostics.get("ess_bulk", nan))
+    return out

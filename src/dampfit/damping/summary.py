@@ -75,9 +75,7 @@ def _model_checks(a: "DampingAssessment") -> dict[str, Any]:
 def _model_entry(a: "DampingAssessment", name: str) -> dict[str, Any]:
     mf, post = a.fits[name], a.posteriors[name]
     q = a.quantities.get(name, {})
-    names = (["theta:ln_p0"] + ([f"theta:{models.SHAPE[name]}"] if name != "viscous" else [])
-             + ["theta:ln_omega"]
-             + [f"theta:phase_P{j + 2}_rad" for j in range(models.n_phase(name, mf.theta))])
+    names = [f"theta:{n}" for n in models.get(name, mf.theta).names]
     return {
         "parameters": {k: quantities.summarise(v, quantities.UNITS.get(k, ""))
                        for k, v in q.items()},

@@ -64,7 +64,7 @@ from scipy import integrate, signal
 
 from dampfit.errors import InputError
 from dampfit.signal.filters import bandpass, bandpass_sos
-from dampfit.physics import from_decay, zeta_from_log_decrement
+from dampfit.physics import check_mass, quantities, zeta_from_log_decrement
 
 __all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
 
@@ -242,7 +242,7 @@ def log_decrement(
     f_d = n / (t_pk[n] - t_pk[0])
     zeta = float(zeta_from_log_decrement(delta))  # eq. 13
     p = delta * f_d  # δ = p·T_d (eq. 11)
-    phys = from_decay(p, 2.0 * np.pi * f_d, mass)
+    phys = quantities(p, 2.0 * np.pi * f_d, mass)
 
     slope, intercept = np.polyfit(t_pk, np.log(a_pk), 1)
     # expected spread: scatter σ_a of the smaller half of the peak heights about their
@@ -258,7 +258,7 @@ def log_decrement(
     support = _support(n, n_window, delta * n, sd_ln_ratio, "ln(a_0/a_n)", low)
     p_reg = -float(slope)
     f_reg = n_avail / (t_pk[-1] - t_pk[0])
-    phys_reg = from_decay(p_reg, 2.0 * np.pi * f_reg)
+    phys_reg = quantities(p_reg, 2.0 * np.pi * f_reg)
     details = {
         "accel_filtered": y,
         "peak_index": idx,
@@ -350,7 +350,7 @@ def envelope_pipeline(
             f"scatter ({sigma_env:.2g} m): the fit reaches the noise floor"]
            if fit_env[-1] < MIN_PEAK_SNR * sigma_env else [])
     support = _support(span * f_d, (t[-1] - t[0]) * f_d, p * span, sd_p * span, "p·T", low)
-    phys = from_decay(p, 2.0 * np.pi * f_d, mass)
+    phys = quantities(p, 2.0 * np.pi * f_d, mass)
     details = {
         "accel_filtered": a_f,
         "velocity": v,
@@ -493,10 +493,7 @@ def _validate(
         lo, hi = (float(b) for b in band)
     except (TypeError, ValueError):
         raise InputError(f"band must be a pair (low, high) in Hz, got {band!r}") from None
-    if mass is not None:
-        m = float(mass)
-        if not (math.isfinite(m) and m > 0.0):
-            raise InputError(f"mass must be positive, got {mass!r} kg")
+    check_mass(mass)
     return t, a, fs, (lo, hi)
 
 

@@ -39,7 +39,7 @@ from dampfit.estimators import baselines
 from dampfit.signal import filters
 from dampfit.signal import prepare as preprocess
 from dampfit.errors import InputError
-from dampfit.physics import from_decay
+from dampfit import physics
 from dampfit.signal.prepare import Prepared
 from dampfit.io.recording import Recording
 
@@ -92,15 +92,15 @@ def _failed(name: str, message: str, runtime: float = 0.0) -> Estimate:
 
 def _result(name, p, f_d, mass, *, p_int=None, zeta_int=None, ok=True, message="") -> Estimate:
     """Estimate from p [1/s] and the damped frequency f_d [Hz]; ``p_int`` a 90 % interval of p."""
-    d = from_decay(p, 2 * np.pi * f_d)
+    d = physics.quantities(p, 2 * np.pi * f_d, mass)
     p, f_n, zeta = float(p), float(d["f_n"]), float(d["zeta"])
     if ok and not (math.isfinite(p) and math.isfinite(f_n) and p > 0):
         ok, message = False, f"no decay found (p = {p:.3g} 1/s)"
     c = c_lo = c_hi = None
     if mass is not None:
-        c = 2.0 * mass * p
+        c = float(d["c"])
         if p_int is not None:
-            c_lo, c_hi = (2.0 * mass * float(x) for x in p_int)
+            c_lo, c_hi = (float(physics.damping_coefficient(mass, float(x))) for x in p_int)
     z_lo, z_hi = (None, None) if zeta_int is None else (float(zeta_int[0]), float(zeta_int[1]))
     return Estimate(name, p, f_n, zeta, c, c_lo, c_hi, z_lo, z_hi, bool(ok), message, 0.0)
 
@@ -182,7 +182,7 @@ def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)
     cov = ls.cov[:2, :2] * nm.psd_ratio
     p, wd = ls.p, ls.omega_d
-    zeta = p / math.hypot(p, wd)
+    zeta = float(physics.quantities(p, wd)["zeta"])
     sd_lnp = math.sqrt(cov[0, 0]) if np.isfinite(cov[0, 0]) else float("nan")
     sd_lnz = (1 - zeta**2) * math.sqrt(max(cov[0, 0] - 2 * cov[0, 1] + cov[1, 1], 0.0))
     ok, msg = ls.converged, ("" if ls.converged else ls.message)
@@ -357,14 +357,7 @@ def run(names: Iterable[str] | str, recording: Recording, mass: float | None = N
         raise InputError(
             f"unknown estimator(s) {', '.join(map(repr, unknown))}; valid: {', '.join(ESTIMATORS)}"
         )
-    if mass is not None:
-        try:
-            m = float(mass)
-        except (TypeError, ValueError):
-            m = float("nan")
-        if not (math.isfinite(m) and m > 0):
-            raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
-        mass = m
+    mass = physics.check_mass(mass)[0]
     prep = preprocess.prepare(recording)
     out = []
     for name in names:

@@ -1,4 +1,5 @@
-"""``dampfit export DIR --format lsdyna|opensees|calculix``: an FEM deck of the identified system.
+"""An FEM deck of the identified system (``dampfit export DIR --format lsdyna|opensees|calculix``,
+:mod:`dampfit.cli.export`).
 
 The system (m, k, c, u0 at a posterior quantile; see :mod:`dampfit.fem.sdof`) is written as
 
@@ -22,20 +23,19 @@ the link is replaced, never its target) is replaced only with ``--force``.
 
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 from typing import Any
 
 from dampfit._files import atomic_write_text, check_output_file
-from dampfit.cli import float_arg
 from dampfit.errors import InputError
 from dampfit.fem import sdof as sdof_mod
 from dampfit.fem import timestep
 from dampfit.fem import units as units_mod
 from dampfit.fem.sanitize import shown
+from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "add_arguments", "build", "command", "output_interval"]
+__all__ = ["FORMATS", "build", "export", "output_interval"]
 
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
@@ -80,10 +80,11 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
     return None if fs is None else sdof_mod.number(fs, "input.sample_rate_hz", path, positive=True)
 
 
-def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5,
+def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
           gravity: bool = False, duration: float | None = None,
           name: str | None = None) -> tuple[str, dict[str, Any]]:
-    """Text of the ``fmt`` deck for result ``folder`` and a plain-data description of it.
+    """Text of the ``fmt`` deck for result ``folder`` (or an analysis :func:`dampfit.load` read
+    from one) and a plain-data description of it.
 
     ``duration`` [s] (default: the analysed window); ``name`` is the script's file name
     (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
@@ -120,45 +121,25 @@ def build(folder: str | Path, fmt: str, units: str = "SI", quantile: float = 0.5
     return text, info
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``dampfit export``."""
-    parser.add_argument("folder", metavar="DIR", help="dampfit result folder (with summary.json)")
-    parser.add_argument("--format", required=True, choices=list(FORMATS),
-                        help="lsdyna (.k), opensees (OpenSeesPy .py) or calculix (.inp)")
-    parser.add_argument("--units", default="SI", choices=list(units_mod.UNIT_SYSTEMS),
-                        help="SI (m, s, kg, N), mm-ms-kg (mm, ms, kg, kN) or mm-s-t (mm, s, t, N)")
-    parser.add_argument("--quantile", type=float_arg, default=0.5, metavar="Q",
-                        help="posterior quantile of k, c, u0 (0.05/0.5/0.95 from summary.json, "
-                             "others from posterior.nc); default 0.5")
-    parser.add_argument("--gravity", action=argparse.BooleanOptionalAction, default=False,
-                        help="hang the mass under gravity, released from static equilibrium + u0")
-    parser.add_argument("--duration", type=float_arg, metavar="S",
-                        help="simulated time [s] (default: the analysed window)")
-    parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
-    parser.add_argument("--force", action="store_true", help="replace an existing output file")
+def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
+           units: str = "SI", quantile: float = 0.5, gravity: bool = False,
+           duration: float | None = None, force: bool = False) -> tuple[Path, dict[str, Any]]:
+    """Write the ``fmt`` deck of ``result`` (a result folder, or an analysis :func:`dampfit.load`
+    read from one) to ``out`` (default: ``FOLDER/sdof_FORMAT.EXT``); return (path, description).
 
-
-def command(args: argparse.Namespace) -> int:
-    """Run ``dampfit export``; return the exit code."""
-    fmt = args.format
+    Before anything is written: an existing ``out`` (a dangling link too) is replaced only with
+    ``force`` (a link is then replaced itself, never its target); a directory, a special file
+    or a name too long never. A given ``out`` is checked first, the default one inside the
+    folder once the folder is read. The file is written atomically.
+    """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
-    out = Path(args.out) if args.out else Path(args.folder) / FORMATS[fmt][1]
-    # before anything is written: an existing entry (a dangling link too) only with --force,
-    # a link is then replaced itself; a directory, a special file or a name too long never.
-    # An --out of the user's is checked first; the default one inside DIR once DIR is read.
-    if args.out:
-        check_output_file(out, args.force)
-    text, info = build(args.folder, fmt, args.units, args.quantile, args.gravity,
-                       args.duration, name=out.name)
-    if not args.out:
-        check_output_file(out, args.force)
-    atomic_write_text(out, text)
-    s, u = info["sdof"], units_mod.get(info["units"])
-    print(f"wrote {out} ({FORMATS[fmt][0]}, units {u.name}, posterior quantile {info['quantile']:g}"
-          f"{', gravity' if info['gravity'] else ''})")
-    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, c = {s.c:.6g} N s/m, u0 = {s.u0:.6g} m "
-          f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
-    print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
-          f"output every {info['output_dt']:.4g} s")
-    return 0
+    folder = folder_of(result)
+    path = Path(out) if out else folder / FORMATS[fmt][1]
+    if out:
+        check_output_file(path, force)
+    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name)
+    if not out:
+        check_output_file(path, force)
+    atomic_write_text(path, text)
+    return path, info

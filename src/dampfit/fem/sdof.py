@@ -7,7 +7,7 @@ spring already carries the weight at equilibrium: it is stretched by the static 
 and oscillates about ``−s``; without gravity ``s = 0``. The dynamics of u are the same either
 way (the system is linear).
 
-Values come from ``DIR/summary.json`` at a posterior quantile q: q = 0.05, 0.5, 0.95 are
+Values come from ``DIR/summary.json`` (read by :func:`dampfit.result.schema.read_summary`) at a posterior quantile q: q = 0.05, 0.5, 0.95 are
 read from the summary's ``q05``/``q50``/``q95``; any other q ∈ (0, 1) from the draws in
 ``DIR/posterior.nc`` (arviz/xarray ``quantile`` over chain and draw, linear interpolation).
 The quantiles are *marginal* (c at q and k at q are not one joint draw). The mass is the
@@ -20,34 +20,27 @@ u0 by ζ²/2 (≤ 5e-5 for ζ ≤ 0.01).
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
 import numbers
-import os
-import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import read_bounded
 from dampfit.errors import InputError
 from dampfit.fem.sanitize import shown
 from dampfit.fem.units import STANDARD_GRAVITY
+from dampfit.result.schema import MAX_MAGNITUDE as MAX_MAGNITUDE
+from dampfit.result.schema import MAX_SUMMARY_BYTES as MAX_SUMMARY_BYTES
+from dampfit.result.schema import MIN_POSITIVE as MIN_POSITIVE
+from dampfit.result.schema import brief as _brief
+from dampfit.result.schema import number as number
+from dampfit.result.schema import read_summary as read_checked
 
 __all__ = ["MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "Sdof", "load", "number",
            "read_summary", "summary_quantile"]
 
 #: Quantiles the summary stores, by key.
 _SUMMARY_QUANTILES = {0.05: "q05", 0.5: "q50", 0.95: "q95"}
-#: Largest summary.json read [bytes]; a real one is a few kB.
-MAX_SUMMARY_BYTES = 50 * 2**20
-#: Largest magnitude of any number read from a summary (SI units): beyond it a value is a
-#: typo or an edit, not a measured spring–damper (and decks in mm or ms would overflow fields).
-MAX_MAGNITUDE = 1e15
-#: Smallest value of a quantity that must be positive (mass [kg], k [N/m]): below it unit
-#: conversion (e.g. k × 1e-6 in mm-ms-kg) approaches underflow.
-MIN_POSITIVE = 1e-15
 
 
 @dataclass(frozen=True)
@@ -118,124 +111,12 @@ class Sdof:
 
 
 def read_summary(folder: str | Path) -> tuple[Path, dict[str, Any]]:
-    """``(folder, summary)`` of a dampfit result folder; :class:`InputError` if unusable.
-
-    summary.json must be a regular file (a FIFO or device is refused before it is opened, so
-    nothing blocks) of at most :data:`MAX_SUMMARY_BYTES`, hold one JSON object with a
-    ``parameters`` object, and its sections ``mass``, ``input``, ``window`` must be objects
-    (or absent). Numbers are checked where they are used (:func:`number`).
-    """
-    folder, summary, _ = _read(folder)
-    return folder, summary
-
-
-def _read(folder: str | Path) -> tuple[Path, dict[str, Any], str]:
-    """``(folder, summary, SHA-256 of the bytes read)``; see :func:`read_summary`."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"{shown(folder)} is not a directory; give a dampfit result folder "
-                         "(the --out of 'dampfit analyze')")
-    path = folder / "summary.json"
-    data = _read_regular(path, MAX_SUMMARY_BYTES, missing=(
-        f"{shown(path)} not found; run 'dampfit analyze FILE --mass KG --out {shown(folder)}' first"))
-    try:
-        summary = json.loads(data.decode("utf-8-sig"))
-    except UnicodeDecodeError:
-        raise InputError(f"{shown(path)} is not UTF-8 text; is it a dampfit summary.json?") from None
-    except RecursionError:
-        raise InputError(f"{shown(path)} is nested too deeply to be a dampfit summary.json") from None
-    except ValueError as exc:  # json.JSONDecodeError, or an integer with too many digits
-        raise InputError(f"{shown(path)} is not readable JSON ({shown(exc, 120)}); "
-                         "re-run 'dampfit analyze'") from None
-    if not isinstance(summary, dict):
-        raise InputError(f"{shown(path)} holds a JSON {_kind(summary)}, not an object; "
-                         "is it a dampfit summary.json?")
-    if not isinstance(summary.get("parameters"), dict):
-        raise InputError(f"{shown(path)} has no 'parameters'; is it a dampfit summary.json?")
-    for section in ("mass", "input", "window"):
-        if summary.get(section) is not None and not isinstance(summary[section], dict):
-            raise InputError(f"{shown(path)}: '{section}' must be an object, "
-                             f"got {_brief(summary[section])}")
-    version = summary.get("dampfit_version")
-    if version is not None and not isinstance(version, str):
-        raise InputError(f"{shown(path)}: 'dampfit_version' must be a string, got {_brief(version)}")
-    return folder, summary, hashlib.sha256(data).hexdigest()
-
-
-def _read_regular(path: Path, limit: int, missing: str) -> bytes:
-    """Bytes of the regular file ``path`` (symbolic links followed), at most ``limit`` bytes.
-
-    A directory, FIFO, socket or device is refused from its ``stat`` and again after a
-    non-blocking ``open`` (so a file swapped in between cannot make the read block).
-    """
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise InputError(missing) from None
-    except OSError as exc:
-        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    _check_regular(path, st, limit)
-    try:
-        data = read_bounded(path, limit, lambda st: _check_regular(path, st, limit))
-    except OSError as exc:
-        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    if len(data) > limit:
-        raise InputError(f"{shown(path)} is larger than {limit // 2**20} MB; a dampfit summary.json "
-                         "is a few kB — is it the right file?")
-    return data
-
-
-def _check_regular(path: Path, st: os.stat_result, limit: int) -> None:
-    if stat.S_ISDIR(st.st_mode):
-        raise InputError(f"{shown(path)} is a directory, not a file; give a dampfit result folder")
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{shown(path)} is not a regular file (a FIFO, socket or device); "
-                         "give a dampfit result folder")
-    if st.st_size > limit:
-        raise InputError(f"{shown(path)} is {st.st_size / 2**20:.0f} MB, larger than "
-                         f"{limit // 2**20} MB; a dampfit summary.json is a few kB — is it the right file?")
-
-
-def _kind(value: Any) -> str:
-    return {dict: "object", list: "array", str: "string", bool: "boolean"}.get(
-        type(value), "null" if value is None else "number")
-
-
-def _brief(value: Any) -> str:
-    """A JSON value as the user wrote it, shortened: ``true``, ``"0.2"``, ``an array``…"""
-    if isinstance(value, (dict, list)):
-        return f"an {_kind(value)}"
-    try:
-        text = json.dumps(value, ensure_ascii=True)
-    except (TypeError, ValueError):
-        text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def number(value: Any, field: str, where: str | Path, *, positive: bool = False,
-           nonnegative: bool = False, maximum: float = MAX_MAGNITUDE) -> float:
-    """``value`` of ``field`` in file ``where`` as a float, or :class:`InputError` naming both.
-
-    It must be a real number (not a boolean, string, array, object or null), finite, of
-    magnitude at most ``maximum``, and ``> 0`` (``positive``, then also at least
-    :data:`MIN_POSITIVE`) or ``≥ 0`` (``nonnegative``) if asked.
-    """
-    head = f"{shown(where)}: {field}"
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise InputError(f"{head} must be a number, got {_brief(value)}")
-    try:
-        x = float(value)
-    except OverflowError:
-        x = math.inf
-    if not math.isfinite(x):
-        raise InputError(f"{head} must be finite, got {_brief(value) if isinstance(value, int) else x}")
-    if positive and not x >= MIN_POSITIVE:
-        raise InputError(f"{head} must be positive (at least {MIN_POSITIVE:g}), got {x!r}")
-    if nonnegative and x < 0:
-        raise InputError(f"{head} must not be negative, got {x!r}")
-    if abs(x) > maximum:
-        raise InputError(f"{head} = {x:g} is beyond {maximum:g}: not a plausible value")
-    return x
+    """``(folder, summary)`` of a dampfit result folder (or of an analysis
+    :func:`dampfit.load` read from one), read and checked by the one reader of result folders,
+    :func:`dampfit.result.schema.read_summary`; :class:`InputError` if unusable. Numbers are
+    checked where they are used (:func:`number`)."""
+    s = read_checked(folder)
+    return s.folder, s.data
 
 
 #: What each parameter the decks use must be.
@@ -282,10 +163,10 @@ def _posterior_quantile(folder: Path, name: str, q: float) -> float:
     if not path.is_file():
         raise InputError(f"quantile {q:g} needs the posterior draws in {shown(path)}, which is "
                          "missing; use --quantile 0.05, 0.5 or 0.95 (stored in summary.json)")
-    import arviz as az  # lazy: heavy
+    from dampfit.result.folder import read_posterior
 
+    post = read_posterior(folder).posterior
     try:
-        post = az.from_netcdf(str(path)).posterior
         if name not in post:
             raise InputError(f"{shown(path)} has no draws of {name!r}; re-run 'dampfit analyze --mass KG'")
         return float(post[name].quantile(q, dim=("chain", "draw")).values)
@@ -303,8 +184,9 @@ def load(folder: str | Path, quantile: float = 0.5, gravity: bool = False) -> Sd
     """
     if not (math.isfinite(quantile) and 0.0 < quantile < 1.0):
         raise InputError(f"--quantile must be strictly between 0 and 1, got {quantile!r}")
-    folder, summary, digest = _read(folder)
-    path = folder / "summary.json"
+    checked = read_checked(folder)
+    folder, summary, digest = checked.folder, checked.data, checked.sha256
+    path = checked.path
     mass = _mass(summary, path)
     values = {name: summary_quantile(summary, name, quantile, folder) for name in ("k", "c", "u0")}
     critical = 2.0 * math.sqrt(values["k"] * mass)

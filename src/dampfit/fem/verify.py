@@ -1,4 +1,5 @@
-"""``dampfit verify DIR``: run the identified system in OpenSeesPy and compare with the measurement.
+"""Run the identified system in OpenSeesPy and compare with the measurement (``dampfit verify DIR``,
+:mod:`dampfit.cli.verify`; :func:`verify`).
 
 What it does (the seed paper's Figs 21–26 and 24, made quantitative):
 
@@ -31,97 +32,41 @@ memory stays bounded by the file). OpenSees runs in a child process
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from dampfit._files import atomic_write_text, check_output_file, publish
-from dampfit.cli import float_arg
+from dampfit._files import atomic_write, atomic_write_text, check_output_file
 from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response as compare
 from dampfit.fem import sdof as sdof_mod
 from dampfit.fem.sanitize import shown
+from dampfit.result.folder import SIGNAL_KEYS as SIGNAL_KEYS
+from dampfit.result.folder import load_signals as load_signals
+from dampfit.result.schema import folder_of
 
-__all__ = ["SIGNAL_KEYS", "add_arguments", "command", "figure_format", "load_signals", "plot", "run"]
+__all__ = ["SIGNAL_KEYS", "figure_format", "load_signals", "plot", "run", "table", "verify"]
 
-#: Arrays and scalars ``signals.npz`` must hold.
-SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
 #: Periods left out at each end for the "interior" error measures (filter settling).
 EDGE_PERIODS = 3.0
 #: Largest allowed Newmark period error [1].
 MAX_PERIOD_ERROR = 1e-4
 
 
-def load_signals(folder: str | Path) -> dict[str, Any]:
-    """Arrays of ``folder/signals.npz`` as float64 NumPy arrays/floats; :class:`InputError` if unusable."""
-    path = Path(folder) / "signals.npz"
-    if not path.is_file():
-        raise InputError(f"{shown(path)} not found; re-run 'dampfit analyze' (it writes signals.npz)")
-    _check_npz(path)
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in SIGNAL_KEYS if k not in data.files]
-            if missing:
-                raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
-            sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
-    except InputError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
-        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
-    t = sig["t"]
-    n = t.size
-    if t.ndim != 1 or n < 16 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise InputError(f"{shown(path)}: 't' must be at least 16 finite, increasing times")
-    for key in ("accel", "accel_model", "displacement", "displacement_model"):
-        if sig[key].shape != (n,):
-            raise InputError(f"{shown(path)}: '{key}' has shape {sig[key].shape}, expected ({n},)")
-    if not (np.all(np.isfinite(sig["accel"])) and np.all(np.isfinite(sig["accel_model"]))):
-        raise InputError(f"{shown(path)}: 'accel' and 'accel_model' must be finite")
-    for key in ("p", "omega_d", "t0"):
-        sig[key] = float(sig[key])
-    if not (math.isfinite(sig["p"]) and sig["p"] >= 0 and math.isfinite(sig["omega_d"])
-            and sig["omega_d"] > 0 and math.isfinite(sig["t0"])):
-        raise InputError(f"{shown(path)}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
-    return sig
-
-
-def _check_npz(path: Path) -> None:
-    """Refuse a zip bomb or an array header declaring more bytes than the file holds before
-    ``np.load`` allocates anything (the checks :mod:`dampfit.io.readers` applies to recordings), so the
-    memory used is bounded by the data present."""
-    import zipfile
-
-    from dampfit.io.readers import _check_npy_header, _check_zip
-
-    try:
-        with zipfile.ZipFile(path) as zf:
-            _check_zip(zf)
-            for info in zf.infolist():
-                if info.filename.endswith(".npy"):
-                    with zf.open(info) as fp:
-                        _check_npy_header(fp, info.file_size, f"array {info.filename[:-4]!r}")
-    except InputError as exc:
-        raise InputError(f"{shown(path)}: {exc}") from None
-    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError,
-            RuntimeError, ValueError) as exc:
-        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
-
-
-def run(folder: str | Path, dt: float | None = None) -> dict[str, Any]:
-    """Verification of result ``folder``: plain-data ``report`` plus the arrays for :func:`plot`.
+def run(folder: str | Path | Any, dt: float | None = None) -> dict[str, Any]:
+    """Verification of result ``folder`` (or an analysis :func:`dampfit.load` read from one):
+    plain-data ``report`` plus the arrays for :func:`plot`.
 
     ``dt`` [s] overrides the automatic step (it must keep the period error below 1e-4).
     """
     from dampfit.fem import opensees
 
-    folder, summary = sdof_mod.read_summary(folder)
+    folder, summary = sdof_mod.read_summary(folder_of(folder))
     ident = sdof_mod.load(folder, 0.5)
     p_id = sdof_mod.summary_quantile(summary, "p", 0.5, folder)  # checked before any work
     sig = load_signals(folder)
@@ -223,21 +168,8 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
                    f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}", fontsize=10)
     path = Path(path)
     fmt = figure_format(path)
-    try:
-        if not path.parent.is_dir():
-            raise InputError(f"cannot write {shown(path)}: directory {shown(path.parent)} does not exist")
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name[:40]}.", suffix=f".{fmt}")
-        os.close(fd)
-    except OSError as exc:
-        raise InputError(f"cannot write {shown(path)}: {exc.strerror or exc}") from None
-    try:
-        fig.savefig(tmp, dpi=110, format=fmt)
-        publish(tmp)
-        os.replace(tmp, path)  # a link at ``path`` is replaced itself, not its target
-    except OSError as exc:
-        raise InputError(f"cannot write {shown(path)}: {exc.strerror or exc}") from None
-    finally:
-        Path(tmp).unlink(missing_ok=True)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format=fmt), suffix=f".{fmt}",
+                 shown=shown)
     return path
 
 
@@ -260,7 +192,8 @@ def _fmt(x: float | None, spec: str = ".3g") -> str:
     return "n/a" if x is None else format(x, spec)
 
 
-def _table(rep: dict[str, Any]) -> str:
+def table(rep: dict[str, Any]) -> str:
+    """The short table ``dampfit verify`` prints of a verification ``rep``."""
     e, s, d = rep["engine"], rep["system"], rep["decay_rate"]
     lines = [
         f"dampfit verify — {rep['folder']}",
@@ -286,37 +219,31 @@ def _table(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``dampfit verify``."""
-    parser.add_argument("folder", metavar="DIR", help="dampfit result folder (summary.json, signals.npz)")
-    parser.add_argument("--dt", type=float_arg, metavar="S",
-                        help="time step [s] (default: from the period and the window)")
-    parser.add_argument("--out", metavar="FIG",
-                        help="figure file, .png/.pdf/.svg/… (default: DIR/verify.png)")
-    parser.add_argument("--force", action="store_true",
-                        help="replace an existing --out file (a link is replaced, not its target)")
-
-
-def command(args: argparse.Namespace) -> int:
-    """Run ``dampfit verify``; return the exit code.
+def verify(result: str | Path | Any, dt: float | None = None, out: str | Path | None = None,
+           force: bool = False) -> dict[str, Any]:
+    """Verify ``result`` (a result folder, or an analysis :func:`dampfit.load` read from one):
+    write ``FOLDER/verification.json`` and the figure ``out`` (default ``FOLDER/verify.png``),
+    and refresh a report dampfit wrote in the folder.
 
     First of all OpenSeesPy must be usable (:func:`dampfit.fem.opensees.unavailable`): if not,
-    one error line says why and how to fix it, before any file is read or written.
+    one error line says why and how to fix it, before any file is read or written. Everything
+    that can refuse is checked before anything is written. Returns ``{"report": the
+    verification, "json": path, "figure": path, "report_refresh": True | False | why not,
+    "report_error": message or None}`` (``report_refresh`` True: report.html/.md rewritten).
     """
     from dampfit.fem import opensees
 
     reason = opensees.unavailable()
     if reason is not None:
         raise InputError(reason)
-    folder = Path(args.folder)
-    # everything that can refuse is checked before anything is written
-    if args.out:
-        fig = check_output_file(args.out, getattr(args, "force", False))
+    folder = folder_of(result)
+    if out:
+        fig = check_output_file(out, force)
     else:
         fig = folder / "verify.png"  # verify's own file in the result folder: refreshed
     figure_format(fig)
     refresh = _report_refresh(folder)
-    result = run(folder, args.dt)  # reads and checks every input; nothing written yet
+    result = run(folder, dt)  # reads and checks every input; nothing written yet
     for own in {fig, folder / "verification.json"}:  # verify's own files: never a folder
         if own.is_dir() and not own.is_symlink():
             raise InputError(f"refusing to overwrite {shown(own)}: it is a directory")
@@ -325,20 +252,16 @@ def command(args: argparse.Namespace) -> int:
     text = json.dumps(rep, indent=2, allow_nan=False) + "\n"
     plot(result, fig)
     atomic_write_text(folder / "verification.json", text)
-    print(_table(rep))
-    print(f"\n  written {folder / 'verification.json'}, {fig}")
+    error = None
     if refresh is True:  # keep an existing report complete
         from dampfit.output.report import write_report
 
         try:
             write_report(folder)
-        except InputError as exc:  # the verification itself is written: say so, exit 0
-            print(f"  report not updated: {' '.join(str(exc).split())}")
-        else:
-            print(f"  report updated: {folder / 'report.html'}")
-    elif refresh:
-        print(f"  report not updated: {refresh}")
-    return 0
+        except InputError as exc:  # the verification itself is written
+            refresh, error = False, " ".join(str(exc).split())
+    return {"report": rep, "json": folder / "verification.json", "figure": fig,
+            "report_refresh": refresh, "report_error": error}
 
 
 def _report_refresh(folder: Path) -> bool | str:

@@ -22,17 +22,18 @@ process", IEEE Trans. Signal Processing 43(4), 878–885, 1995.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 
+from dampfit import physics
 from dampfit.errors import InputError
 
 __all__ = ["yao_pandit_var_p", "fisher", "bound", "from_noise_density", "UNITS"]
 
 #: Unit of every quantity :func:`bound` reports.
-UNITS = {"p": "1/s", "omega_d": "rad/s", "zeta": "1", "f_n": "Hz", "u0": "m",
-         "c": "N s/m", "k": "N/m"}
+UNITS = {name: physics.UNITS[name] for name in ("p", "omega_d", "zeta", "f_n", "u0", "c", "k")}
 
 
 def from_noise_density(density: float, fs: float) -> float:
@@ -128,18 +129,16 @@ def fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree: int | None = 0)
     ``None`` = no nuisance terms, the pure model of Yao & Pandit). Units of F are those of
     1/(φ_i·φ_j); shape (4 + d + 1,)*2.
     """
-    import jax
-    import jax.numpy as jnp
-
     from dampfit.model import viscous as model
 
     t, s, (p, wd, a, b), degree = _check_design(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
-    with jax.enable_x64(True):
-        tau = jnp.asarray(t)
-        jac = jax.jacfwd(lambda x: model.acceleration(tau, x[0], x[1], x[2], x[3]))(
-            jnp.array([p, wd, a, b], dtype=jnp.float64)
-        )
-        jac = np.asarray(jac)
+    # ∂y/∂φ of (M1) y = e^{−pτ}(A cos ω_dτ + B sin ω_dτ), in closed form:
+    # ∂y/∂p = −τ·y, ∂y/∂ω_d = τ·e^{−pτ}(B cos ω_dτ − A sin ω_dτ), ∂y/∂A = e^{−pτ}cos ω_dτ,
+    # ∂y/∂B = e^{−pτ}sin ω_dτ
+    e = np.exp(-p * t)
+    cos, sin = e * np.cos(wd * t), e * np.sin(wd * t)
+    y = a * cos + b * sin
+    jac = np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1)
     if degree is not None:
         jac = np.concatenate([jac, model.drift_basis(t, degree)], axis=1)
     jw = jac / s[:, None]
@@ -161,22 +160,23 @@ def _inverse(f: np.ndarray) -> np.ndarray:
     return inv / np.outer(d, d)
 
 
-def _derived():
-    """Derived quantities g(p, ω_d, A, B, m) as jax functions."""
+#: Quantities with a CRLB; c and k only with a mass.
+_DERIVED = ("p", "omega_d", "zeta", "f_n", "u0", "c", "k")
+
+
+@functools.lru_cache(maxsize=1)
+def _derived_jacobian():
+    """One jitted function (x = (p, ω_d, A, B), m) → (g, ∂g/∂x, ∂g/∂m) for every quantity g of
+    :data:`_DERIVED`, from :func:`dampfit.physics.quantities` (which takes JAX arrays):
+    traced and compiled once per process (and cached on disk with the compilation cache)."""
+    import jax
     import jax.numpy as jnp
 
-    def wn2(x):
-        return x[0] ** 2 + x[1] ** 2
+    def g(x, m):
+        q = physics.quantities(x[0], x[1], m, accel_amplitude=jnp.sqrt(x[2] ** 2 + x[3] ** 2))
+        return jnp.stack([q[name] for name in _DERIVED])
 
-    return {
-        "p": lambda x, m: x[0],
-        "omega_d": lambda x, m: x[1],
-        "zeta": lambda x, m: x[0] / jnp.sqrt(wn2(x)),
-        "f_n": lambda x, m: jnp.sqrt(wn2(x)) / (2.0 * jnp.pi),
-        "u0": lambda x, m: jnp.sqrt(x[2] ** 2 + x[3] ** 2) / wn2(x),
-        "c": lambda x, m: 2.0 * m * x[0],
-        "k": lambda x, m: m * wn2(x),
-    }
+    return jax.jit(lambda x, m: (g(x, m), *jax.jacfwd(g, argnums=(0, 1))(x, m)))
 
 
 def bound(
@@ -194,40 +194,32 @@ def bound(
     """CRLB standard deviations of p, ω_d, ζ, f_n, u₀ and, with ``mass`` [kg], c and k.
 
     Arguments as for :func:`fisher`; ``mass_sd`` [kg] ≥ 0 the standard uncertainty of the
-    mass. Returns a plain dict: for each quantity ``{"value": g(φ), "sd": √(∇gᵀF⁻¹∇g)}``;
+    mass (both checked by :func:`dampfit.physics.check_mass`: at most half the mass). Values
+    and gradients come from :func:`dampfit.physics.quantities`. Returns a plain dict: for each quantity ``{"value": g(φ), "sd": √(∇gᵀF⁻¹∇g)}``;
     ``c`` and ``k`` (only with mass) also carry ``"sd_with_mass"`` =
     √(sd² + (∂g/∂m)²·mass_sd²) (equal to ``sd`` when mass_sd = 0). ``"units"`` maps each
     quantity to its unit; ``"n_samples"``, ``"drift_degree"``, ``"mass"`` and ``"mass_sd"``
     record the design.
     """
     import jax
-    import jax.numpy as jnp
 
-    if mass is not None:
-        mass = float(mass)
-        if not (math.isfinite(mass) and mass > 0):
-            raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
-    mass_sd = float(mass_sd)
-    if not (math.isfinite(mass_sd) and mass_sd >= 0):
-        raise InputError(f"mass_sd must be ≥ 0 kg, got {mass_sd!r}")
-    if mass is None and mass_sd > 0:
-        raise InputError("mass_sd was given without mass")
+    mass, mass_sd = physics.check_mass(mass, mass_sd)
     f = fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
     cov = _inverse(f)[:4, :4]
     out: dict = {}
     with jax.enable_x64(True):
-        x = jnp.array([p, omega_d, a_cos, a_sin], dtype=jnp.float64)
-        m = jnp.float64(mass if mass is not None else 1.0)
-        for name, g in _derived().items():
-            if name in ("c", "k") and mass is None:
-                continue
-            gx, gm = jax.grad(g, argnums=(0, 1))(x, m)
-            gx, gm = np.asarray(gx), float(gm)
-            var = float(gx @ cov @ gx)
-            entry = {"value": float(g(x, m)), "sd": math.sqrt(max(var, 0.0))}
-            if name in ("c", "k"):
-                entry["sd_with_mass"] = math.sqrt(max(var, 0.0) + (gm * mass_sd) ** 2)
-            out[name] = entry
+        x = np.array([p, omega_d, a_cos, a_sin], dtype=np.float64)
+        m = np.float64(mass if mass is not None else 1.0)
+        values, grad_x, grad_m = (np.asarray(v) for v in _derived_jacobian()(x, m))
+    for i, name in enumerate(_DERIVED):
+        if name in ("c", "k") and mass is None:
+            continue
+        gx, gm = grad_x[i], float(grad_m[i])
+        var = float(gx @ cov @ gx)
+        entry = {"value": float(values[i]), "sd": math.sqrt(max(var, 0.0))}
+        if name in ("c", "k"):
+            entry["sd_with_mass"] = math.sqrt(max(var, 0.0) + (gm * mass_sd) ** 2)
+        out[name] = entry
     out["units"] = {k: v for k, v in UNITS.items() if k in out}
     out["n_samples"] = int(np.size(times))
     out["drift_degree"] = drift_degree

@@ -5,10 +5,10 @@ the acceleration is ``y = X(θ)·(A, B) + Q·d + noise`` with the law's two osci
 (:func:`dampfit.model.laws.columns`), the orthonormal drift basis Q of
 :func:`dampfit.model.viscous.drift_basis`, and Gaussian noise of unknown σ. The linear coefficients
 (A, B, d) are solved exactly at every θ (variable projection, drift projected out once — the
-Schur complement of :func:`dampfit.model.viscous.profile`), so Levenberg–Marquardt sees only the
+Schur complement of :func:`dampfit.model.profile.profile`), so Levenberg–Marquardt sees only the
 nonlinear parameters θ (two to six: the law's, ln ω and the frequency-drift terms). With flat
-priors on (A, B, d) and a Jeffreys prior on σ, the marginal log likelihood is (as
-:func:`dampfit.model.viscous.log_marginal_likelihood`)
+priors on (A, B, d) and a Jeffreys prior on σ, the marginal log likelihood is (P3 of
+:mod:`dampfit.model.profile`)
 
     ℓ(θ) = −½·ln det(X⊥ᵀX⊥) − ½·(n − q)·ln RSS(θ),                                     (L1)
 
@@ -30,28 +30,33 @@ the shape parameter s — friction or drag fraction, or exponent α — uniform 
   The frequency-drift coefficients c_j (K4 of :mod:`~dampfit.model.laws`) get a flat
   prior common to every law, so ln Z is defined up to a constant that cancels in comparisons.
 
-A handful of nonlinear parameters on a few thousand samples needs no compiled kernel: this
-module runs on NumPy (the models' ``xp=numpy`` path) with scipy's MINPACK Levenberg–Marquardt
-and central-difference Jacobians, so a fit costs milliseconds and nothing is compiled.
+The profile is the one of :mod:`dampfit.model.profile` (P2, P3) with the law's columns, run as
+a jitted JAX kernel (float64) on the padded samples (the shape buckets of
+:func:`dampfit.signal.prepare.padded_length`) and on fixed blocks of :data:`BATCH` θ rows, θ
+padded with zero phase terms (identical columns): each law compiles once per sample bucket and
+process (≈ 0.5–1 s), and every later recording of the same bucket reuses the compiled code. The
+optimiser is scipy's MINPACK Levenberg–Marquardt; its central-difference Jacobian comes from
+the same kernel call as the residual (:class:`_Residual`).
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, replace
 
+import jax
 import numpy as np
 from scipy import optimize
 
 from dampfit.inference.least_squares import amplitude_gain
-from dampfit.signal.prepare import FitData
 from dampfit.model import laws as models
+from dampfit.model import profile as _profile
+from dampfit.model.laws import P_RANGE
+from dampfit.signal.prepare import MAX_DRIFT_DEGREE, FitData, padded_length
 
 __all__ = ["Data", "ModelFit", "ShapeGrid", "fit_model", "laplace", "log_prior", "loglik_batch",
-           "loglik_jax",
-           "profile", "information", "jacobian"]
+           "profile", "information", "jacobian", "P_RANGE"]
 
-#: Width of the log-uniform prior on p₀: [10⁻⁶·ω, ω].
-P_RANGE = 1e-6
 #: Central-difference step in θ [1] (ln-rates, fraction or exponent, ln ω).
 STEP = 1e-6
 
@@ -77,79 +82,99 @@ class Data:
         """Number of linear coefficients (A, B and the drift terms)."""
         return int(self.drift.shape[1] + 2)
 
+    @functools.cached_property
+    def samples(self) -> _profile.Samples:
+        """The samples padded to the shape bucket of :func:`dampfit.signal.prepare.padded_length`
+        (JAX float64 arrays, built once)."""
+        with jax.enable_x64(True):
+            return _profile.Samples.from_arrays(
+                self.tau, self.y, self.drift, pad_to=padded_length(self.n),
+                drift_columns=max(MAX_DRIFT_DEGREE + 1, self.drift.shape[1]))
+
+
+#: θ rows per kernel call: smaller batches are padded, larger ones run in chunks, and θ is
+#: padded with zero phase terms to J = MAX_PHASE (exactly the same columns), so each law
+#: compiles once per padded sample bucket — a few seconds per process in all.
+BATCH = 8
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def _profile_kernel(law, thetas, samples):
+    def one(th):
+        pr = _profile.profile(law, th, samples.tau, samples.y, samples.drift, samples.mask)
+        return (pr.beta, pr.rss, pr.logdet, _profile.conditional_covariance(pr),
+                samples.y - pr.residual)
+
+    return jax.vmap(one)(thetas)
+
+
+def _run_kernel(model: str, theta, data: Data):
+    """The kernel on θ (..., k) in chunks of :data:`BATCH`: NumPy outputs with rows (b, …)."""
+    law = models.get(model)
+    theta = np.asarray(theta, dtype=float)
+    rows = theta.reshape(-1, theta.shape[-1])
+    b, k = rows.shape
+    full = np.zeros((max(-(-b // BATCH), 1) * BATCH, law.omega_index + 1 + models.MAX_PHASE))
+    full[:b, :k], full[b:, :k] = rows, (rows[-1] if b else 0.0)
+    outs = []
+    with jax.enable_x64(True):
+        for i in range(0, full.shape[0], BATCH):
+            outs.append([np.asarray(x) for x in
+                         _profile_kernel(law, full[i:i + BATCH], data.samples)])
+    return [np.concatenate(col)[:b] for col in zip(*outs)], theta.shape[:-1]
+
 
 def profile(model: str, theta, data: Data):
-    """Variable projection at θ (shape (..., k)): β, RSS, ln det X⊥ᵀX⊥, M⁻¹ and the fit.
+    """Variable projection (P2 of :mod:`dampfit.model.profile`) at θ (shape (..., k)).
 
-    X⊥ᵀX⊥ = M is 2×2 and solved in closed form; M⁻¹ gives the conditional covariance
-    s²·M⁻¹ of (A, B). Returns ``(beta (..., q), rss (...), logdet (...), minv (..., 2, 2),
-    fitted (..., n))``.
+    Returns NumPy ``(beta (..., q), rss (...), logdet (...), minv (..., 2, 2),
+    fitted (..., n))``: β = (A, B, drift…), the RSS [(m/s²)²], ln det X⊥ᵀX⊥, M⁻¹ = (X⊥ᵀX⊥)⁻¹
+    (the conditional covariance of (A, B) is s²·M⁻¹) and the fitted values [m/s²].
     """
-    theta = np.asarray(theta, dtype=float)
-    batch = theta.shape[:-1]
-    th = theta.reshape(-1, theta.shape[-1])
-    q_, y, n = data.drift, data.y, data.n
-    xo = models.columns(model, th, data.tau, xp=np)  # (b, n, 2)
-    # drift projection as one BLAS product over all columns of the batch
-    flat = np.moveaxis(xo, 1, 0).reshape(n, -1)
-    xp = np.moveaxis((flat - q_ @ (q_.T @ flat)).reshape(n, -1, 2), 0, 1)
-    yp = y - q_ @ (q_.T @ y)
-    a = np.einsum("bn,bn->b", xp[..., 0], xp[..., 0])
-    b = np.einsum("bn,bn->b", xp[..., 0], xp[..., 1])
-    c = np.einsum("bn,bn->b", xp[..., 1], xp[..., 1])
-    det = a * c - b * b
-    g0, g1 = xp[..., 0] @ yp, xp[..., 1] @ yp
-    beta_osc = np.stack([c * g0 - b * g1, a * g1 - b * g0], axis=-1) / det[:, None]
-    osc = xo[..., 0] * beta_osc[:, :1] + xo[..., 1] * beta_osc[:, 1:]
-    beta_drift = (y - osc) @ q_
-    fitted = osc + beta_drift @ q_.T
-    resid = y - fitted
-    rss = np.einsum("bn,bn->b", resid, resid)
-    minv = np.stack([np.stack([c, -b], -1), np.stack([-b, a], -1)], -2) / det[:, None, None]
-    beta = np.concatenate([beta_osc, beta_drift], axis=-1)
-    return (beta.reshape(batch + beta.shape[-1:]), rss.reshape(batch), np.log(det).reshape(batch),
-            minv.reshape(batch + (2, 2)), fitted.reshape(batch + (n,)))
+    (beta, rss, logdet, minv, fitted), batch = _run_kernel(model, theta, data)
+    n, q = data.n, data.q
+    return (beta[:, :q].reshape(batch + (q,)), rss.reshape(batch), logdet.reshape(batch),
+            minv.reshape(batch + (2, 2)), fitted[:, :n].reshape(batch + (n,)))
 
 
 def loglik_batch(model: str, thetas, data: Data) -> np.ndarray:
-    """Untempered ℓ(θ) of (L1) for θ of shape (..., k); NaN-safe (−inf where undefined)."""
+    """Untempered ℓ(θ) of (L1) for θ of shape (..., k), NumPy; −inf where undefined (the
+    emcee sampler of :mod:`dampfit.inference.law_sampler` evaluates it ~10⁴ times)."""
+    (_, rss, logdet, _, _), batch = _run_kernel(model, thetas, data)
     with np.errstate(all="ignore"):
-        _, rss, logdet, _, _ = profile(model, thetas, data)
         ll = -0.5 * logdet - 0.5 * (data.n - data.q) * np.log(rss)
-    return np.where(np.isfinite(ll), ll, -np.inf)
+    return np.where(np.isfinite(ll), ll, -np.inf).reshape(batch)
 
 
-def loglik_jax(model: str, data: Data):
-    """A compiled, vectorised ℓ(θ) of (L1) (JAX, float64): thetas (b, k) NumPy → (b,) NumPy.
+class _Residual:
+    """Projected residual y − fitted(θ(x)) [m/s²] and its central-difference Jacobian from one
+    evaluation of [x, x + h·e_i, x − h·e_i] (2k + 1 rows: one or two :data:`BATCH` blocks);
+    the Jacobian is kept for MINPACK's ``jac(x)``, which follows ``fun(x)`` at every accepted
+    step, so each Levenberg–Marquardt iteration costs one kernel evaluation.
+    ``to_theta`` maps the optimised x (..., k') to θ."""
 
-    Same algebra as :func:`profile`; worth its compilation (seconds) where the likelihood is
-    evaluated thousands of times on one data set — the emcee sampler.
-    """
-    import jax
-    import jax.numpy as jnp
+    def __init__(self, model: str, data: Data, to_theta=None):
+        self.model, self.data = model, data
+        self.to_theta = to_theta or (lambda x: x)
+        self.key, self.jacobian = None, None
 
-    with jax.enable_x64(True):
-        tau, y, q_ = (jnp.asarray(x) for x in (data.tau, data.y, data.drift))
-    n, q = data.n, data.q
+    def _eval(self, x):
+        x = np.asarray(x, dtype=float)
+        d = STEP * np.eye(x.size)
+        pts = self.to_theta(np.concatenate([x[None], x + d, x - d]))
+        with np.errstate(all="ignore"):
+            r = self.data.y - profile(self.model, pts, self.data)[4]
+        self.key = x.tobytes()
+        self.jacobian = ((r[1:x.size + 1] - r[x.size + 1:]) / (2 * STEP)).T
+        return r[0]
 
-    def one(th):
-        xo = models.columns(model, th, tau)
-        xp = xo - q_ @ (q_.T @ xo)
-        yp = y - q_ @ (q_.T @ y)
-        a, b, c = xp[:, 0] @ xp[:, 0], xp[:, 0] @ xp[:, 1], xp[:, 1] @ xp[:, 1]
-        det = a * c - b * b
-        g0, g1 = xp[:, 0] @ yp, xp[:, 1] @ yp
-        rss = yp @ yp - (c * g0 * g0 - 2 * b * g0 * g1 + a * g1 * g1) / det
-        ll = -0.5 * jnp.log(det) - 0.5 * (n - q) * jnp.log(rss)
-        return jnp.where(jnp.isfinite(ll) & (det > 0) & (rss > 0), ll, -jnp.inf)
+    def fun(self, x):
+        return self._eval(x)
 
-    batched = jax.jit(jax.vmap(one))
-
-    def fn(thetas):
-        with jax.enable_x64(True):
-            return np.asarray(batched(jnp.asarray(thetas, dtype=jnp.float64)))
-
-    return fn
+    def jac(self, x):
+        if np.asarray(x, dtype=float).tobytes() != self.key:
+            self._eval(x)
+        return self.jacobian
 
 
 @dataclass(frozen=True)
@@ -197,11 +222,12 @@ class ModelFit:
 
 def _start_grid(model: str, p_visc: float, w: float, span: float, phase0) -> np.ndarray:
     ph = list(phase0)
-    if model == "viscous":  # ω over ±3 Fourier bins of the window, as dampfit.inference.least_squares does
+    law = models.get(model)
+    if law.shape_prior is None:  # ω over ±3 Fourier bins of the window, as least_squares does
         ws = w + 2 * np.pi / span * np.linspace(-3, 3, 25)
         return np.array([[np.log(p_visc * x), np.log(ww)] + ph
                          for x in (0.3, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0) for ww in ws if ww > 0])
-    lo, hi = models.PRIOR_SHAPE[model]
+    lo, hi = law.shape_prior
     shapes = np.linspace(lo - 0.1 * (hi - lo), hi, 14)
     rates = p_visc * np.array([0.5, 0.7, 1.0, 1.4, 2.0, 3.0])
     return np.array([[np.log(r), s, np.log(w)] + ph for r in rates for s in shapes])
@@ -229,12 +255,9 @@ def fit_model(model: str, fd: FitData, data: Data, p_visc: float, omega: float, 
         rss = profile(model, grid, data)[1]
     theta0 = grid[int(np.nanargmin(np.where(np.isfinite(rss), rss, np.inf)))]
 
-    def resid(th):
-        with np.errstate(all="ignore"):
-            return data.y - profile(model, th, data)[4]
-
+    res = _Residual(model, data)
     try:
-        sol = optimize.least_squares(resid, theta0, jac=lambda th: jacobian(resid, th),
+        sol = optimize.least_squares(res.fun, theta0, jac=res.jac,
                                      method="lm", xtol=1e-12, ftol=1e-12, max_nfev=max_nfev)
         theta, ok, message = sol.x, bool(sol.success), str(sol.message)
     except (ValueError, np.linalg.LinAlgError) as exc:  # non-finite residuals at the start
@@ -257,17 +280,9 @@ def fit_model(model: str, fd: FitData, data: Data, p_visc: float, omega: float, 
 
 
 def log_prior(model: str, theta, band: tuple[float, float]) -> np.ndarray:
-    """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz]."""
-    th = np.asarray(theta, dtype=float)
-    lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
-    lnw, lnp = th[..., models.omega_index(model)], th[..., 0]
-    inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(P_RANGE))
-    lp = -np.log(lw_hi - lw_lo) - np.log(-np.log(P_RANGE)) + np.zeros_like(lnw)
-    if model != "viscous":
-        lo, hi = models.PRIOR_SHAPE[model]
-        inside &= (th[..., 1] >= lo) & (th[..., 1] <= hi)
-        lp = lp - np.log(hi - lo)
-    return np.where(inside, lp, -np.inf)
+    """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz]
+    (:meth:`dampfit.model.laws.Law.log_prior`)."""
+    return models.log_prior(model, theta, band)
 
 
 def information(model: str, theta, beta, rss: float, data: Data, idx=None) -> np.ndarray:
@@ -320,11 +335,8 @@ def _with_shape(phi: np.ndarray, s: float) -> np.ndarray:
 
 
 def _fit_at_shape(mf: ModelFit, data: Data, s: float, phi0: np.ndarray):
-    def resid(phi):
-        with np.errstate(all="ignore"):
-            return data.y - profile(mf.model, _with_shape(phi, s), data)[4]
-
-    sol = optimize.least_squares(resid, phi0, jac=lambda ph: jacobian(resid, ph), method="lm",
+    res = _Residual(mf.model, data, lambda phi: _with_shape(phi, s))
+    sol = optimize.least_squares(res.fun, phi0, jac=res.jac, method="lm",
                                  xtol=1e-10, ftol=1e-12, max_nfev=100)
     th = _with_shape(sol.x, s)
     beta, rss, logdet, _, _ = profile(mf.model, th, data)
@@ -333,7 +345,7 @@ def _fit_at_shape(mf: ModelFit, data: Data, s: float, phi0: np.ndarray):
 
 def shape_grid(mf: ModelFit, data: Data, temper: float, band, sd: float) -> ShapeGrid:
     """Evaluate the integrand of (L3) around the optimum ``mf.theta`` (``sd`` ≈ σ of s)."""
-    lo, hi = models.PRIOR_SHAPE[mf.model]
+    lo, hi = models.get(mf.model).shape_prior
     centre = float(np.clip(mf.theta[1], lo, hi))
     sd = float(np.clip(sd, 1e-4 * (hi - lo), hi - lo)) if np.isfinite(sd) else 0.1 * (hi - lo)
     nodes = np.concatenate([np.linspace(lo, hi, 9), centre + sd * np.linspace(-6, 6, 19)])
@@ -372,7 +384,7 @@ def laplace(mf: ModelFit, data: Data, temper: float, band: tuple[float, float]) 
         ev = np.linalg.eigvalsh(h)
         if np.all(np.isfinite(h)) and ev.min() > 0:
             cov = np.linalg.inv(h)
-        if mf.model == "viscous":
+        if models.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
             if np.all(np.isfinite(cov)):
                 lp = float(log_prior("viscous", mf.theta, band))
                 ln_z = (temper * mf.loglik + lp + 0.5 * k * np.log(2 * np.pi)
@@ -381,7 +393,7 @@ def laplace(mf: ModelFit, data: Data, temper: float, band: tuple[float, float]) 
             grid = shape_grid(mf, data, temper, band, float(np.sqrt(cov[1, 1])))
             ok = np.isfinite(grid.log_density)
             if ok.sum() >= 3:
-                lo, hi = models.PRIOR_SHAPE[mf.model]
+                lo, hi = models.get(mf.model).shape_prior
                 x, y = grid.s[ok], grid.log_density[ok]
                 top = float(y.max())
                 dens = np.exp(y - top)
@@ -397,7 +409,8 @@ def _constrain(mf: ModelFit, data: Data) -> ModelFit:
     The best node of the evidence grid (a boundary, since ℓ is unimodal in s there) replaces θ̂,
     with β, residuals, a₀ and the covariance recomputed; ln Z and the grid are unchanged.
     """
-    lo, hi = models.PRIOR_SHAPE[mf.model]
+    law = models.get(mf.model)
+    lo, hi = law.shape_prior
     g = mf.grid
     if lo <= mf.theta[1] <= hi or not np.any(np.isfinite(g.loglik)):
         return mf
@@ -413,7 +426,7 @@ def _constrain(mf: ModelFit, data: Data) -> ModelFit:
     return replace(
         mf, theta=theta, beta=beta, rss=float(rss), loglik=float(g.loglik[i]), fitted=fitted,
         residuals=data.y - fitted, a0=float(np.hypot(beta[0], beta[1]) / (w * w * mf.gain)),
-        cov=cov, message=f"optimum on the prior boundary {models.SHAPE[mf.model]} = {g.s[i]:g}",
+        cov=cov, message=f"optimum on the prior boundary {law.shape_name} = {g.s[i]:g}",
     )
 
 

@@ -144,12 +144,13 @@ def conditioning(mf: dfit.ModelFit) -> str | None:
     ev = np.linalg.eigvalsh(0.5 * (cov + cov.T))
     if ev.min() <= 0:
         return "Laplace covariance not positive definite"
-    if mf.model != "viscous":
-        lo, hi = models.PRIOR_SHAPE[mf.model]
+    law = models.get(mf.model)
+    if law.shape_prior is not None:
+        lo, hi = law.shape_prior
         s = float(mf.theta[1])
         tol = BOUND_TOLERANCE * (hi - lo)
         if s <= lo + tol or s >= hi - tol:
-            return (f"{models.SHAPE[mf.model]} = {s:g} is on its prior bound [{lo:g}, {hi:g}]: "
+            return (f"{law.shape_name} = {s:g} is on its prior bound [{lo:g}, {hi:g}]: "
                     f"the {mf.model} law degenerates there")
     d = np.sqrt(np.diag(cov))
     cond = float(np.linalg.cond(cov / np.outer(d, d)))
@@ -185,7 +186,7 @@ def sample_laplace(mf: dfit.ModelFit, data: dfit.Data, n_draws: int = 2000, *,
     an ill-conditioned law (:func:`conditioning`) is flagged in ``ill_conditioned``."""
     rng = np.random.default_rng(seed)
     th_hat, cov = mf.theta, mf.cov
-    if mf.model == "viscous":
+    if models.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
         if cov is None or not np.all(np.isfinite(cov)):
             return ModelPosterior(mf.model, np.empty((0, mf.k)), np.empty(0), "laplace", False,
                                   warnings=("viscous: no Laplace approximation (fit failed)",))
@@ -256,11 +257,10 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
     deadline = None if budget.max_seconds is None else t_start + budget.max_seconds
     steps_allowed = int(min(max_steps, budget.max_steps))
 
-    loglik = dfit.loglik_jax(model, data)  # compiled once, evaluated ~10⁴ times
-
-    def log_prob(thetas):
+    def log_prob(thetas):  # the jitted profile of dampfit.model.profile, ~10⁴ evaluations
         lp = dfit.log_prior(model, thetas, band)
-        return np.where(np.isfinite(lp), temper * loglik(thetas) + lp, -np.inf)
+        return np.where(np.isfinite(lp), temper * dfit.loglik_batch(model, thetas, data) + lp,
+                        -np.inf)
 
     # start: a ball drawn from the Laplace approximation (inside the prior support)
     start = sample_laplace(mf, data, n_draws=N_WALKERS, seed=seed).theta

@@ -1,5 +1,7 @@
 r"""Least-squares fit of the decay model (:mod:`dampfit.model.viscous`) with optimistix.
 
+The profile is the one of :mod:`dampfit.model.profile` (eq. P2) with the viscous (M1) columns.
+
 Variable projection: for the two nonlinear parameters θ = (ln p, ln ω_d) the linear
 coefficients β = (A, B, drift…) are the exact linear least-squares solution, so the
 Levenberg–Marquardt solver (``optimistix.LevenbergMarquardt``) minimises the projected
@@ -23,7 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from dampfit.model import viscous as model
+from dampfit.model import profile
+from dampfit.model.viscous import M1 as _M1
 from dampfit.signal.filters import filtfilt_gain
 from dampfit.signal.prepare import FitData
 
@@ -95,28 +98,27 @@ def amplitude_gain(fd: FitData, p: float, omega_d: float) -> complex:
 
 # Module-level jitted kernels on padded inputs (FitData.padded): they compile once per shape
 # bucket and are reused by every later fit of that bucket (a study compiles a handful of times).
+# All go through the one profile of dampfit.model.profile with the (M1) columns.
 @jax.jit
 def _projected_residual(theta, args):
     tau, y, drift, mask = args
-    beta, _, _, _ = model.profile(theta, tau, y, drift, mask)
-    return y - _full_model(jnp.concatenate([theta, beta]), tau, drift, mask)
+    return profile.profile(_M1, theta, tau, y, drift, mask).residual
 
 
 @jax.jit
 def _grid_rss(thetas, tau, y, drift, mask):
-    return jax.vmap(lambda th: model.profile(th, tau, y, drift, mask)[1])(thetas)
+    return jax.vmap(lambda th: profile.profile(_M1, th, tau, y, drift, mask).rss)(thetas)
 
 
 @jax.jit
 def _full_model(phi, tau, drift, mask):
-    x = model.design_matrix(phi[:2], tau, drift)
-    x = x.at[:, :2].multiply(mask[:, None])
-    return x @ phi[2:]
+    return profile.predict(_M1, phi, tau, drift, mask)
 
 
 @jax.jit
 def _profile(theta, tau, y, drift, mask):
-    return model.profile(theta, tau, y, drift, mask)[:2]
+    pr = profile.profile(_M1, theta, tau, y, drift, mask)
+    return pr.beta, pr.rss
 
 
 _jacobian = jax.jit(jax.jacfwd(_full_model))

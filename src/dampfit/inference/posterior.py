@@ -5,7 +5,7 @@ Model and priors
 * Likelihood: the decay model (:mod:`dampfit.model.viscous`) with Gaussian noise of unknown σ; the
   linear coefficients (acceleration quadratures A, B and the drift terms) have flat priors
   and σ a Jeffreys prior 1/σ, all marginalised analytically
-  (:func:`dampfit.model.viscous.log_marginal_likelihood`), tempered by 1/r (:mod:`dampfit.inference.noise`),
+  (:func:`dampfit.model.profile.log_marginal`), tempered by 1/r (:mod:`dampfit.inference.noise`),
   where r is floored at its white-noise value r_white on the fit path: misfit or coloured
   noise can only widen the intervals, never make the likelihood sharper than white noise of
   the same residual variance would.
@@ -42,7 +42,9 @@ import jax.numpy as jnp
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from dampfit.model import viscous as model
+from dampfit import physics
+from dampfit.model import profile
+from dampfit.model.viscous import M1
 from dampfit.inference.least_squares import LeastSquaresResult
 from dampfit.signal.prepare import FitData
 
@@ -98,6 +100,9 @@ class PosteriorResult:
     max_r_hat: float
     min_ess_bulk: float
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    #: name → {"r_hat": rank-normalised R-hat [1], "ess_bulk": bulk ESS [draws]} of every
+    #: quantity in ``idata.posterior``, computed once here (arviz; walkers as chains).
+    diagnostics: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 # Module-level jitted kernel on padded inputs (FitData.padded): compiled once per shape bucket,
@@ -105,13 +110,15 @@ class PosteriorResult:
 @jax.jit
 def _batched_log_prob(thetas, tau, y, drift, mask, n, q, temper, bounds):
     """(log posterior, conditional moments of (A, B)) for a batch of θ; see
-    :func:`dampfit.model.viscous.marginal_and_amplitudes`."""
+    :func:`dampfit.model.profile.marginal_and_amplitudes` (the viscous (M1) columns)."""
     lw_lo, lw_hi = bounds[0], bounds[1]
 
     def one(theta):
         lnp, lnw = theta[0], theta[1]
         inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(1e-6))
-        ll, moments = model.marginal_and_amplitudes(theta, tau, y, drift, temper, mask, n, q)
+        samples = profile.Samples(tau, y, drift, mask, n, q - 2)
+        ll, ab, cov = profile.marginal_and_amplitudes(M1, theta, samples, temper)
+        moments = jnp.stack([ab[0], ab[1], cov[0, 0], cov[0, 1], cov[1, 1]])
         return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf), moments
 
     return jax.vmap(one)(thetas)
@@ -214,16 +221,29 @@ def sample(
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     moments = sampler.get_blobs(discard=burn, thin=thin)  # (draw, walker, 5)
     idata = _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng)
-    az = _arviz()
-    summ = az.summary(idata, var_names=[v for v in PARAMETERS if v in idata.posterior],
-                      kind="diagnostics", round_to="none")
-    max_rhat = float(summ["r_hat"].max())
-    min_ess = float(summ["ess_bulk"].min())
+    diag = quantity_diagnostics(idata)
+    reported = [diag[v] for v in PARAMETERS if v in diag]
+    max_rhat = max((d["r_hat"] for d in reported if np.isfinite(d["r_hat"])), default=np.nan)
+    min_ess = min((d["ess_bulk"] for d in reported if np.isfinite(d["ess_bulk"])),
+                  default=np.nan)
     return PosteriorResult(
         idata=idata, converged=converged, n_steps=steps, burn_in=burn, thin=thin,
         autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
-        max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns),
+        max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns), diagnostics=diag,
     )
+
+
+def quantity_diagnostics(idata: "az.InferenceData") -> dict[str, dict[str, float]]:
+    """Rank-normalised R-hat [1] and bulk ESS [draws] of every quantity in the posterior
+    (arviz, walkers as chains): ``{name: {"r_hat": …, "ess_bulk": …}}``. A constant quantity
+    (the mass without an uncertainty) has R-hat NaN."""
+    az = _arviz()
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")  # constant draws: R-hat is NaN, with a warning
+        rhat = az.rhat(idata.posterior)
+        ess = az.ess(idata.posterior, method="bulk")
+    return {str(v): {"r_hat": float(rhat[v]), "ess_bulk": float(ess[v])}
+            for v in idata.posterior.data_vars}
 
 
 #: Least spread [1] of the walkers' start ball in θ = (ln p, ln ω_d): 1e-9 relative, far
@@ -345,16 +365,14 @@ def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.Inferen
     flat = chain.reshape(-1, 2)
     p, wd = np.exp(flat[:, 0]), np.exp(flat[:, 1])
     ab = conditional_amplitudes(np.asarray(moments).reshape(-1, len(BLOB_FIELDS)), rng)
-    wn2 = wd**2 + p**2
-    u0 = np.hypot(ab[:, 0], ab[:, 1]) / (wn2 * abs(ls.gain))
-    post = {
-        "p": p, "omega_d": wd, "zeta": p / np.sqrt(wn2), "f_n": np.sqrt(wn2) / (2 * np.pi),
-        "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "Q": 0.5 * np.sqrt(wn2) / p,
-        "u0": u0,
-    }
     m = mass_draws(mass, mass_sd, p.size, rng)
+    # physical quantities of every draw (dampfit.physics); u₀ from the acceleration amplitude
+    # with the decimation filter's gain removed (eq. M2)
+    q = physics.quantities(p, wd, m, accel_amplitude=np.hypot(ab[:, 0], ab[:, 1]) / abs(ls.gain))
+    names = ("p", "omega_d", "zeta", "f_n", "f_d", "delta", "Q", "u0")
+    post = {name: q[name] for name in names}
     if m is not None:
-        post.update({"mass": m, "c": 2 * m * p, "k": m * wn2, "c_crit": 2 * m * np.sqrt(wn2)})
+        post.update({"mass": m, "c": q["c"], "k": q["k"], "c_crit": q["c_crit"]})
 
     def shape(v):  # emcee: (draw, walker) → arviz: (chain, draw)
         return v.reshape(n_draw, n_walk).T

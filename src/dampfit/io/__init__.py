@@ -1,7 +1,17 @@
 """Reading recordings: every supported file format becomes one validated :class:`Recording`.
 
-* :mod:`~dampfit.io.readers` — format detection, bounded reads, table readers (CSV/TSV/text,
-  phyphox, Sensor Logger, xlsx/xls, ZIP exports, npy/npz) and column/unit identification;
+* :mod:`~dampfit.io.readers` — :func:`read` and :func:`detect_format`: options, dispatch on the
+  file's content, and the final table → :class:`Recording` step;
+* :mod:`~dampfit.io.bounded` — limits on hostile input (sizes in bytes), file-kind checks,
+  bounded byte reading and text decoding;
+* :mod:`~dampfit.io.text` — delimited text tables (CSV/TSV/semicolon/whitespace, decimal comma):
+  dialect sniffing and parsing;
+* :mod:`~dampfit.io.containers` — phyphox/Sensor Logger ZIP exports, xlsx/xls workbooks,
+  npy/npz arrays, with zip-bomb and array-header checks before unpacking;
+* :mod:`~dampfit.io.columns` — column roles and the phyphox/Sensor Logger/generic layouts;
+* :mod:`~dampfit.io.units` — time [s] and acceleration [m/s²] units: from the header, the
+  format or inferred from the values, and the conversion;
+* :mod:`~dampfit.io.writers` — the phyphox-style CSV writer and the truth JSON writer;
 * :mod:`~dampfit.io.matlab` — MATLAB .mat files (v4/v5 via SciPy, v7.3 via h5py);
 * :mod:`~dampfit.io.recording` — the :class:`Recording` type (time [s], acceleration [m/s²])
   and its validation: monotone time, gap splitting, unit notes.

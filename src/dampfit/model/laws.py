@@ -71,36 +71,38 @@ J ≤ :data:`MAX_PHASE` extra phase coefficients c_j [rad] after ln ω,
 (Legendre P_j; P_0 and P_1 are the phase and ω already), and h uses the instantaneous
 frequency Ω = dψ/dτ: ü = Re[−Ω²·Z·e·(1 + 2iρ/Ω − R'ρ/Ω² − iψ''/Ω²)·e^{iψ}].
 
-All functions are pure and shape-static; the law is a static Python string. :func:`envelope`
-and :func:`columns` run on ``jax.numpy`` (jit/vmap/grad) or on NumPy (``xp=numpy``), where
-the fits of :mod:`dampfit.inference.law_fit` call them: a handful of nonlinear parameters on a few
-thousand samples needs no compiled kernel (and XLA compiles these graphs in seconds, which a
-per-recording fit of four laws cannot afford).
+Each law is one small frozen dataclass (:class:`Viscous`, :class:`Coulomb`, :class:`Quadratic`,
+:class:`Power`, all :class:`Law`) holding its parameter names, units and priors, the envelope
+(K3), the columns, the local rate (K2) and the physical coefficients; :data:`LAWS` maps the names
+above to instances, and the string functions below (:func:`envelope`, :func:`columns`, …) are thin
+wrappers that dispatch through it. Laws are hashable, so jitted functions take them as static
+arguments. The methods are pure and shape-static and run on ``jax.numpy`` (jit/vmap/grad) or on
+NumPy (``xp=numpy``); θ may carry leading batch axes. The likelihood built on the columns (one
+variable-projection profile for every law, sums of laws and several recordings) is in
+:mod:`dampfit.model.profile`.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
+from typing import ClassVar
 
 import jax.numpy as jnp
 import numpy as np
 from scipy.special import gammaln
 
 __all__ = [
-    "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "lam", "envelope", "phase", "columns",
-    "local_rate", "c_equivalent", "physical", "omega_index", "n_phase",
+    "Law", "Viscous", "ViscousM1", "Coulomb", "Quadratic", "Power", "LAWS", "get",
+    "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "P_RANGE", "lam", "envelope", "phase",
+    "columns", "local_rate", "c_equivalent", "physical", "omega_index", "n_phase", "log_prior",
 ]
 
-#: Damping laws, viscous first (the null model).
-MODELS = ("viscous", "coulomb", "quadratic", "power")
-#: Name of the law's shape parameter θ[1] (viscous has none).
-SHAPE = {"coulomb": "friction_fraction", "quadratic": "drag_fraction", "power": "alpha"}
-#: Uniform prior support of the shape parameter: f ∈ [0, 1]; α ∈ [0, 3] (friction 0 …
-#: viscous 1 … drag 2, with room above).
-PRIOR_SHAPE = {"coulomb": (0.0, 1.0), "quadratic": (0.0, 1.0), "power": (0.0, 3.0)}
 #: Envelope level treated as "stopped" [1]; local decay rates are also capped at ω
 #: (ζ_local ≤ 1), beyond which averaging has no meaning.
 _SMALL = 1e-9
+#: Width of the log-uniform prior on p₀: [10⁻⁶·ω, ω].
+P_RANGE = 1e-6
 
 
 def lam(alpha):
@@ -111,23 +113,6 @@ def lam(alpha):
 
 def _safe(x, xp, small=1e-8):
     return xp.where(xp.abs(x) < small, small, x)
-
-
-def omega_index(model: str) -> int:
-    """Position of ln ω in θ (the law's own parameters come first, phase terms after)."""
-    return 1 if model == "viscous" else 2
-
-
-def n_phase(model: str, theta) -> int:
-    """Number J of frequency-drift phase coefficients carried by θ (K4)."""
-    return int(np.shape(theta)[-1]) - omega_index(model) - 1
-
-
-def _rates(model: str, theta, xp):
-    """(p₀ or p [1/s], shape parameter, ω [rad/s]) from θ, each with a trailing axis for τ."""
-    iw = omega_index(model)
-    p0, w = xp.exp(theta[..., 0])[..., None], xp.exp(theta[..., iw])[..., None]
-    return p0, (None if model == "viscous" else theta[..., 1][..., None]), w
 
 
 # Legendre P_j (j = 2, 3, 4) and their first and second derivatives in x
@@ -141,35 +126,206 @@ _LEG = (
 MAX_PHASE = len(_LEG)
 
 
-def phase(model: str, theta, tau, xp=jnp):
-    """Phase ψ [rad], instantaneous frequency Ω = ψ' [rad/s] and ψ'' [rad/s²] of (K4)."""
-    iw = omega_index(model)
-    w = xp.exp(theta[..., iw])[..., None]
-    psi, dpsi, ddpsi = w * tau, w + 0.0 * tau, 0.0 * tau
-    j_max = n_phase(model, theta)
-    if j_max:
-        span = tau[-1] - tau[0]
-        x, dx = 2.0 * (tau - tau[0]) / span - 1.0, 2.0 / span
-        for j in range(j_max):
-            c = theta[..., iw + 1 + j][..., None]
-            f, d1, d2 = _LEG[j]
-            psi = psi + c * f(x)
-            dpsi = dpsi + c * d1(x) * dx
-            ddpsi = ddpsi + c * d2(x) * dx * dx
-    return psi, dpsi, ddpsi
+@dataclass(frozen=True)
+class Law:
+    r"""One damping law: θ = (the law's own parameters, ln ω, c₂ … c_{J+1}).
 
+    Subclasses set the class attributes ``name``, ``own`` (names of the parameters before ln ω),
+    ``own_units`` and ``shape_prior`` (uniform support of θ[1], None for viscous) and implement
+    :meth:`envelope`, :meth:`local_rate` and :meth:`_coefficients`. ``n_phase`` = J (K4) fixes
+    :attr:`n_params` and :attr:`names` (what compositions split θ by); the array methods
+    themselves read J from the length of θ, so one law object serves every J.
 
-def envelope(model: str, theta, tau, xp=jnp):
-    """Envelope shape e = a/a₀ [1], rate R = ρ·e [1/s] and R' = dR/de [1/s] at ``tau`` [s] (K3).
-
-    ``theta`` has shape (..., k); the outputs have shape (..., n) for ``tau`` of shape (n,).
-    ``xp`` is the array module: ``jax.numpy`` (default; jit/vmap/grad-safe) or ``numpy``.
+    Methods take θ of shape (..., k) and times ``tau`` [s] of shape (n,); ``xp`` is the array
+    module (``jax.numpy`` by default, or ``numpy``).
     """
-    p0, s, w = _rates(model, theta, xp)
-    if model == "viscous":
+
+    n_phase: int = 0
+
+    name: ClassVar[str] = ""
+    own: ClassVar[tuple[str, ...]] = ()
+    own_units: ClassVar[tuple[str, ...]] = ()
+    shape_prior: ClassVar[tuple[float, float] | None] = None
+    #: Linear amplitudes per law: the two quadratures (A, B) of the oscillation columns.
+    n_columns: ClassVar[int] = 2
+
+    # ------------------------------------------------------------------ parameters
+    @property
+    def omega_index(self) -> int:
+        """Position of ln ω in θ (the law's own parameters come first, phase terms after)."""
+        return len(self.own)
+
+    @property
+    def n_params(self) -> int:
+        """k = own parameters + ln ω + J phase terms."""
+        return self.omega_index + 1 + self.n_phase
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Names of θ's entries (as in ``summary.json``: ``ln_p0``, the shape, ``ln_omega``,
+        ``phase_P2_rad`` …)."""
+        return self.own + ("ln_omega",) + tuple(f"phase_P{j + 2}_rad" for j in range(self.n_phase))
+
+    @property
+    def units(self) -> tuple[str, ...]:
+        """Units of θ's entries (ln of a rate: ln(1/s); ln ω: ln(rad/s); phase terms: rad)."""
+        return self.own_units + ("ln(rad/s)",) + ("rad",) * self.n_phase
+
+    @property
+    def shape_name(self) -> str | None:
+        """Name of the shape parameter θ[1] (None for viscous)."""
+        return self.own[1] if len(self.own) > 1 else None
+
+    def with_phase(self, n_phase: int) -> "Law":
+        """The same law with J = ``n_phase`` frequency-drift terms."""
+        return replace(self, n_phase=int(n_phase))
+
+    def phase_count(self, theta) -> int:
+        """Number J of frequency-drift phase coefficients carried by θ (K4)."""
+        return int(np.shape(theta)[-1]) - self.omega_index - 1
+
+    def log_prior(self, theta, band: tuple[float, float], xp=np):
+        """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz].
+
+        ln p₀ log-uniform on [ln 10⁻⁶·ω, ln ω], ln ω uniform over the pass band, the shape
+        parameter uniform on :attr:`shape_prior`; phase terms flat (a constant common to every
+        law, so it cancels in comparisons).
+        """
+        th = theta if xp is not np else np.asarray(theta, dtype=float)
+        lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
+        lnw, lnp = th[..., self.omega_index], th[..., 0]
+        inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(P_RANGE))
+        lp = -np.log(lw_hi - lw_lo) - np.log(-np.log(P_RANGE)) + xp.zeros_like(lnw)
+        if self.shape_prior is not None:
+            lo, hi = self.shape_prior
+            inside = inside & (th[..., 1] >= lo) & (th[..., 1] <= hi)
+            lp = lp - np.log(hi - lo)
+        return xp.where(inside, lp, -xp.inf)
+
+    # ------------------------------------------------------------------ model
+    def rates(self, theta, xp=jnp):
+        """(p₀ or p [1/s], shape parameter, ω [rad/s]) from θ, each with a trailing axis for τ."""
+        p0 = xp.exp(theta[..., 0])[..., None]
+        w = xp.exp(theta[..., self.omega_index])[..., None]
+        s = theta[..., 1][..., None] if self.shape_prior is not None else None
+        return p0, s, w
+
+    def envelope(self, theta, tau, xp=jnp):
+        """Envelope shape e = a/a₀ [1], rate R = ρ·e [1/s] and R' = dR/de [1/s] (K3)."""
+        raise NotImplementedError
+
+    def phase(self, theta, tau, xp=jnp):
+        """Phase ψ [rad], instantaneous frequency Ω = ψ' [rad/s] and ψ'' [rad/s²] of (K4)."""
+        iw = self.omega_index
+        w = xp.exp(theta[..., iw])[..., None]
+        psi, dpsi, ddpsi = w * tau, w + 0.0 * tau, 0.0 * tau
+        j_max = self.phase_count(theta)
+        if j_max:
+            span = tau[-1] - tau[0]
+            x, dx = 2.0 * (tau - tau[0]) / span - 1.0, 2.0 / span
+            for j in range(j_max):
+                c = theta[..., iw + 1 + j][..., None]
+                f, d1, d2 = _LEG[j]
+                psi = psi + c * f(x)
+                dpsi = dpsi + c * d1(x) * dx
+                ddpsi = ddpsi + c * d2(x) * dx * dx
+        return psi, dpsi, ddpsi
+
+    def columns(self, theta, tau, xp=jnp):
+        """Acceleration columns [Re, Im] of (Ω/ω)²·h(τ)·e^{iψ}, shape (..., n, 2) [1] (module
+        docstring); the linear quadratures (A, B) on them have |(A, B)| = ω²·a₀ [m/s²]."""
+        _, _, w = self.rates(theta, xp)
+        e, r, dr = self.envelope(theta, tau, xp)
+        psi, big_w, ddpsi = self.phase(theta, tau, xp)
+        rho = xp.clip(r / xp.maximum(e, _SMALL), -big_w, big_w)  # local rate, |ζ_local| ≤ 1
+        scale = e * (big_w / w) ** 2
+        re_h = scale * (1.0 - dr * rho / (big_w * big_w))
+        im_h = scale * (2.0 * rho / big_w - ddpsi / (big_w * big_w))
+        c, s = xp.cos(psi), xp.sin(psi)
+        return xp.stack([re_h * c - im_h * s, re_h * s + im_h * c], axis=-1)
+
+    # ------------------------------------------------------------------ physics (NumPy)
+    def local_rate(self, theta, ratio):
+        """Local decay rate ρ [1/s] at the amplitude ``ratio`` = a/a₀ [1] (K2); NumPy,
+        broadcasts."""
+        raise NotImplementedError
+
+    def c_equivalent(self, theta, a0, amplitude, mass):
+        """Energy-equivalent viscous c_eq = 2·m·ρ(a) [N·s/m] at displacement ``amplitude`` [m];
+        ``a0`` [m] the amplitude at the window start, ``mass`` [kg] (Jacobsen 1930)."""
+        ratio = np.asarray(amplitude) / np.asarray(a0)
+        return 2.0 * np.asarray(mass) * self.local_rate(theta, ratio)
+
+    def _coefficients(self, p0, s, w, a0) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def physical(self, theta, a0, mass=None) -> dict[str, np.ndarray]:
+        """The law's coefficients from θ and the start amplitude ``a0`` [m]; NumPy, broadcasts.
+
+        Per unit mass (always): ``p_viscous`` = c/(2m) [1/s]; coulomb ``mu_c`` = F_c/m [m/s²];
+        quadratic ``beta`` = c₂/m [1/m]; power ``gamma`` = c_α/m [(m/s)^{1−α}/s] and ``alpha``
+        [1]. With ``mass`` [kg] also ``c`` [N·s/m], ``F_c`` [N], ``c2`` [N·s²/m²], ``c_alpha``
+        [N·(s/m)^α]. ω [rad/s] = exp(θ[ln ω]). Inverts (K2)–(K3).
+        """
+        th = np.asarray(theta, dtype=float)
+        p0, w = np.exp(th[..., 0]), np.exp(th[..., self.omega_index])
+        s = th[..., 1] if self.shape_prior is not None else None
+        out = self._coefficients(p0, s, w, np.asarray(a0, dtype=float))
+        if mass is not None:
+            m = np.asarray(mass, dtype=float)
+            if "p_viscous" in out:
+                out["c"] = 2.0 * m * out["p_viscous"]
+            for src, dst in (("mu_c", "F_c"), ("beta", "c2"), ("gamma", "c_alpha")):
+                if src in out:
+                    out[dst] = m * out[src]
+        return out
+
+
+@dataclass(frozen=True)
+class Viscous(Law):
+    """f_d = c·u̇: θ = (ln p, ln ω, phase…), e = exp(−pτ), p = c/(2m) [1/s]."""
+
+    name: ClassVar[str] = "viscous"
+    own: ClassVar[tuple[str, ...]] = ("ln_p0",)
+    own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)",)
+
+    def envelope(self, theta, tau, xp=jnp):
+        p0, _, _ = self.rates(theta, xp)
         e = xp.exp(-p0 * tau)
         return e, p0 * e, p0 * xp.ones_like(e)
-    if model == "coulomb":
+
+    def local_rate(self, theta, ratio):
+        th = np.asarray(theta, dtype=float)
+        return np.exp(th[..., 0]) * np.ones_like(np.asarray(ratio, dtype=float))
+
+    def _coefficients(self, p0, s, w, a0):
+        return {"p_viscous": p0}
+
+
+@dataclass(frozen=True)
+class ViscousM1(Viscous):
+    """The viscous law with the columns of eq. (M1) of :mod:`dampfit.model.viscous`:
+    ``[e^{−pτ}cos ψ, e^{−pτ}sin ψ]``, θ = (ln p, ln ω_d), so the linear coefficients are the
+    acceleration quadratures (A, B) [m/s²] themselves (the pipeline's least squares and
+    posterior). It spans the same space as :class:`Viscous` (a constant complex factor apart)."""
+
+    def columns(self, theta, tau, xp=jnp):
+        e = self.envelope(theta, tau, xp)[0]
+        psi = self.phase(theta, tau, xp)[0]
+        return xp.stack([e * xp.cos(psi), e * xp.sin(psi)], axis=-1)
+
+
+@dataclass(frozen=True)
+class Coulomb(Law):
+    """f_d = c·u̇ + F_c·sgn(u̇): θ = (ln p₀, f, ln ω, phase…), f the friction fraction."""
+
+    name: ClassVar[str] = "coulomb"
+    own: ClassVar[tuple[str, ...]] = ("ln_p0", "friction_fraction")
+    own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
+    shape_prior: ClassVar[tuple[float, float]] = (0.0, 1.0)
+
+    def envelope(self, theta, tau, xp=jnp):
+        p0, s, _ = self.rates(theta, xp)
         pv, pc = (1 - s) * p0, s * p0
         x = pv * tau
         xs = _safe(x, xp)
@@ -177,7 +333,27 @@ def envelope(model: str, theta, tau, xp=jnp):
         e = xp.maximum(xp.exp(-x) - pc * tau * ex, 0.0)
         moving = e > 0
         return e, xp.where(moving, pv * e + pc, 0.0), xp.where(moving, pv, 0.0)
-    if model == "quadratic":
+
+    def local_rate(self, theta, ratio):
+        th = np.asarray(theta, dtype=float)
+        p0, s = np.exp(th[..., 0]), th[..., 1]
+        return (1 - s) * p0 + s * p0 / np.asarray(ratio, dtype=float)
+
+    def _coefficients(self, p0, s, w, a0):
+        return {"p_viscous": (1 - s) * p0, "mu_c": 0.5 * math.pi * w * a0 * s * p0}
+
+
+@dataclass(frozen=True)
+class Quadratic(Law):
+    """f_d = c·u̇ + c₂·u̇|u̇|: θ = (ln p₀, f, ln ω, phase…), f the drag fraction."""
+
+    name: ClassVar[str] = "quadratic"
+    own: ClassVar[tuple[str, ...]] = ("ln_p0", "drag_fraction")
+    own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
+    shape_prior: ClassVar[tuple[float, float]] = (0.0, 1.0)
+
+    def envelope(self, theta, tau, xp=jnp):
+        p0, s, _ = self.rates(theta, xp)
         pv, pq = (1 - s) * p0, s * p0
         x = pv * tau
         xs = _safe(x, xp)
@@ -185,7 +361,28 @@ def envelope(model: str, theta, tau, xp=jnp):
         z = xp.maximum(xp.exp(x) + pq * tau * fx, 1e-6)  # 1/e; > 0 unless p_q < 0
         e = 1.0 / z
         return e, pv * e + pq * e * e, pv + 2 * pq * e
-    if model == "power":
+
+    def local_rate(self, theta, ratio):
+        th = np.asarray(theta, dtype=float)
+        p0, s = np.exp(th[..., 0]), th[..., 1]
+        return (1 - s) * p0 + s * p0 * np.asarray(ratio, dtype=float)
+
+    def _coefficients(self, p0, s, w, a0):
+        return {"p_viscous": (1 - s) * p0, "beta": 3.0 * math.pi * s * p0 / (4.0 * w * a0)}
+
+
+@dataclass(frozen=True)
+class Power(Law):
+    """f_d = c_α·|u̇|^α·sgn(u̇): θ = (ln p₀, α, ln ω, phase…); α ∈ [0, 3] (friction 0 …
+    viscous 1 … drag 2, with room above)."""
+
+    name: ClassVar[str] = "power"
+    own: ClassVar[tuple[str, ...]] = ("ln_p0", "alpha")
+    own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
+    shape_prior: ClassVar[tuple[float, float]] = (0.0, 3.0)
+
+    def envelope(self, theta, tau, xp=jnp):
+        p0, s, _ = self.rates(theta, xp)
         d = 1.0 - s  # 1 − α
         x = p0 * tau
         arg = 1.0 - d * x
@@ -197,20 +394,66 @@ def envelope(model: str, theta, tau, xp=jnp):
         rho = p0 * xp.exp(-d * log_e)  # ρ = p₀·e^{α−1}, capped by the caller as e → 0
         moving = e > 0
         return e, xp.where(moving, rho * e, 0.0), xp.where(moving, s * rho, 0.0)
-    raise ValueError(f"unknown damping model {model!r}")
+
+    def local_rate(self, theta, ratio):
+        th = np.asarray(theta, dtype=float)
+        p0, s = np.exp(th[..., 0]), th[..., 1]
+        return p0 * np.asarray(ratio, dtype=float) ** (s - 1.0)
+
+    def _coefficients(self, p0, s, w, a0):
+        return {"alpha": s, "gamma": 2.0 * math.pi * p0 * (w * a0) ** (1.0 - s) / lam(s)}
+
+
+#: The four damping laws by name, viscous first (the null model).
+LAWS: dict[str, Law] = {law.name: law for law in (Viscous(), Coulomb(), Quadratic(), Power())}
+#: Their names, viscous first.
+MODELS = tuple(LAWS)
+#: Name of each law's shape parameter θ[1] (viscous has none).
+SHAPE = {m: law.shape_name for m, law in LAWS.items() if law.shape_name}
+#: Uniform prior support of the shape parameter: f ∈ [0, 1]; α ∈ [0, 3].
+PRIOR_SHAPE = {m: law.shape_prior for m, law in LAWS.items() if law.shape_prior}
+
+
+def get(model: "str | Law", theta=None) -> Law:
+    """The law called ``model`` (a law passes through); with ``theta`` its J matches θ."""
+    if isinstance(model, Law):
+        law = model
+    else:
+        try:
+            law = LAWS[model]
+        except (KeyError, TypeError):
+            raise ValueError(f"unknown damping model {model!r}") from None
+    return law if theta is None else law.with_phase(law.phase_count(theta))
+
+
+# ------------------------------------------------------------ string API (dispatch by name)
+def omega_index(model: str) -> int:
+    """Position of ln ω in θ (the law's own parameters come first, phase terms after)."""
+    return get(model).omega_index
+
+
+def n_phase(model: str, theta) -> int:
+    """Number J of frequency-drift phase coefficients carried by θ (K4)."""
+    return get(model).phase_count(theta)
+
+
+def phase(model: str, theta, tau, xp=jnp):
+    """Phase ψ [rad], Ω = ψ' [rad/s], ψ'' [rad/s²] of (K4); see :meth:`Law.phase`."""
+    return get(model).phase(theta, tau, xp)
+
+
+def envelope(model: str, theta, tau, xp=jnp):
+    """Envelope shape e = a/a₀ [1], rate R = ρ·e [1/s] and R' = dR/de [1/s] at ``tau`` [s] (K3).
+
+    ``theta`` has shape (..., k); the outputs have shape (..., n) for ``tau`` of shape (n,).
+    ``xp`` is the array module: ``jax.numpy`` (default; jit/vmap/grad-safe) or ``numpy``.
+    """
+    return get(model).envelope(theta, tau, xp)
 
 
 def columns(model: str, theta, tau, xp=jnp):
     """Acceleration columns [Re, Im] of (Ω/ω)²·h(τ)·e^{iψ}, shape (..., n, 2) [1] (docstring)."""
-    _, _, w = _rates(model, theta, xp)
-    e, r, dr = envelope(model, theta, tau, xp)
-    psi, big_w, ddpsi = phase(model, theta, tau, xp)
-    rho = xp.clip(r / xp.maximum(e, _SMALL), -big_w, big_w)  # local rate, |ζ_local| ≤ 1
-    scale = e * (big_w / w) ** 2
-    re_h = scale * (1.0 - dr * rho / (big_w * big_w))
-    im_h = scale * (2.0 * rho / big_w - ddpsi / (big_w * big_w))
-    c, s = xp.cos(psi), xp.sin(psi)
-    return xp.stack([re_h * c - im_h * s, re_h * s + im_h * c], axis=-1)
+    return get(model).columns(theta, tau, xp)
 
 
 def local_rate(model: str, theta, ratio):
@@ -218,19 +461,7 @@ def local_rate(model: str, theta, ratio):
 
     ``theta`` may be an array of shape (..., k) of draws.
     """
-    th = np.asarray(theta, dtype=float)
-    ratio = np.asarray(ratio, dtype=float)
-    p0 = np.exp(th[..., 0])
-    if model == "viscous":
-        return p0 * np.ones_like(ratio)
-    s = th[..., 1]
-    if model == "coulomb":
-        return (1 - s) * p0 + s * p0 / ratio
-    if model == "quadratic":
-        return (1 - s) * p0 + s * p0 * ratio
-    if model == "power":
-        return p0 * ratio ** (s - 1.0)
-    raise ValueError(f"unknown damping model {model!r}")
+    return get(model).local_rate(theta, ratio)
 
 
 def c_equivalent(model: str, theta, a0, amplitude, mass):
@@ -238,41 +469,14 @@ def c_equivalent(model: str, theta, a0, amplitude, mass):
 
     ``a0`` [m] is the displacement amplitude at the window start, ``mass`` [kg] (Jacobsen 1930).
     """
-    return 2.0 * np.asarray(mass) * local_rate(model, theta, np.asarray(amplitude) / np.asarray(a0))
+    return get(model).c_equivalent(theta, a0, amplitude, mass)
 
 
 def physical(model: str, theta, a0, mass=None) -> dict[str, np.ndarray]:
-    """The law's coefficients from θ and the start amplitude ``a0`` [m]; NumPy, broadcasts.
+    """The law's coefficients from θ and ``a0`` [m]; see :meth:`Law.physical`."""
+    return get(model).physical(theta, a0, mass)
 
-    Per unit mass (always): ``p_viscous`` = c/(2m) [1/s]; coulomb ``mu_c`` = F_c/m [m/s²];
-    quadratic ``beta`` = c₂/m [1/m]; power ``gamma`` = c_α/m [(m/s)^{1−α}/s] and ``alpha`` [1].
-    With ``mass`` [kg] also ``c`` [N·s/m], ``F_c`` [N], ``c2`` [N·s²/m²], ``c_alpha``
-    [N·(s/m)^α]. ω [rad/s] = exp(θ[ln ω]). Inverts (K2)–(K3).
-    """
-    th = np.asarray(theta, dtype=float)
-    a0 = np.asarray(a0, dtype=float)
-    p0, w = np.exp(th[..., 0]), np.exp(th[..., omega_index(model)])
-    out: dict[str, np.ndarray] = {}
-    if model == "viscous":
-        out["p_viscous"] = p0
-    elif model in ("coulomb", "quadratic"):
-        f = th[..., 1]
-        out["p_viscous"] = (1 - f) * p0
-        if model == "coulomb":
-            out["mu_c"] = 0.5 * math.pi * w * a0 * f * p0
-        else:
-            out["beta"] = 3.0 * math.pi * f * p0 / (4.0 * w * a0)
-    elif model == "power":
-        alpha = th[..., 1]
-        out["alpha"] = alpha
-        out["gamma"] = 2.0 * math.pi * p0 * (w * a0) ** (1.0 - alpha) / lam(alpha)
-    else:
-        raise ValueError(f"unknown damping model {model!r}")
-    if mass is not None:
-        m = np.asarray(mass, dtype=float)
-        if "p_viscous" in out:
-            out["c"] = 2.0 * m * out["p_viscous"]
-        for src, dst in (("mu_c", "F_c"), ("beta", "c2"), ("gamma", "c_alpha")):
-            if src in out:
-                out[dst] = m * out[src]
-    return out
+
+def log_prior(model: str, theta, band: tuple[float, float], xp=np):
+    """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz]."""
+    return get(model).log_prior(theta, band, xp)

@@ -23,6 +23,10 @@ enter as a Legendre polynomial basis ``P_0..P_d(2τ/T − 1)`` (orthonormalised 
 times) whose coefficients are also linear. With ``d ≪ f·T`` the basis is nearly orthogonal
 to the oscillation.
 
+The profile and marginal likelihood are those of :mod:`dampfit.model.profile` (one algebra
+for every law) with the (M1) columns, :data:`M1` = :class:`dampfit.model.laws.ViscousM1`; the
+functions here keep the viscous call signatures.
+
 Every function here is pure and shape-static, so callers jit/vmap them once; nothing here
 touches global JAX configuration (callers enable float64 where they enter, see
 :func:`dampfit.inference.least_squares.least_squares`).
@@ -31,10 +35,13 @@ touches global JAX configuration (callers enable float64 where they enter, see
 from __future__ import annotations
 
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 import numpy as np
 
+from dampfit.model import profile as _profile
+from dampfit.model.laws import ViscousM1
+
 __all__ = [
+    "M1",
     "oscillation_columns",
     "acceleration",
     "velocity",
@@ -96,12 +103,13 @@ def drift_basis(tau: np.ndarray, degree: int, at: np.ndarray | None = None) -> n
     return np.linalg.solve(r.T, vander(np.asarray(at, dtype=float)).T).T
 
 
+#: The viscous law with the (M1) columns; the pipeline's least squares and posterior use it.
+M1 = ViscousM1()
+
+
 def oscillation_columns(theta, tau):
     """``[e^{−pτ}cos ω_dτ, e^{−pτ}sin ω_dτ]`` for θ = (ln p, ln ω_d), shape (n, 2)."""
-    p, omega_d = jnp.exp(theta[0]), jnp.exp(theta[1])
-    env = jnp.exp(-p * tau)
-    ph = omega_d * tau
-    return jnp.stack([env * jnp.cos(ph), env * jnp.sin(ph)], axis=1)
+    return M1.columns(theta, tau)
 
 
 def design_matrix(theta, tau, drift):
@@ -110,49 +118,26 @@ def design_matrix(theta, tau, drift):
 
 
 def profile(theta, tau, y, drift, mask=None):
-    r"""Linear least squares of ``y`` [m/s²] on the design matrix at fixed θ.
+    r"""Linear least squares of ``y`` [m/s²] on the design matrix at fixed θ = (ln p, ln ω_d).
 
-    With the orthonormal drift basis Q (:func:`drift_basis`) the drift is projected out
-    once: X⊥ = (I − QQᵀ)·X_osc, y⊥ = (I − QQᵀ)·y. Then (Schur complement, exact)
-
-        β_osc = (X⊥ᵀX⊥)⁻¹X⊥ᵀy⊥,   RSS = ‖y⊥ − X⊥β_osc‖²,   det XᵀX = det(X⊥ᵀX⊥)·det(QᵀQ),
-
-    and det QᵀQ = 1. The 2×2 system is formed from Gram products (QᵀX, Qᵀy, XᵀX, Xᵀy):
-    O(n·d) per evaluation instead of O(n·d²), and the same likelihood. Returns ``(beta, rss, logdet, (chol, scale))``: all coefficients
-    (A, B, drift in Q coordinates), the RSS [(m/s²)²], ``log det XᵀX``, and the Cholesky
-    factor of the column-scaled 2×2 ``X⊥ᵀX⊥`` with its column scales (the conditional
-    covariance of (A, B) is ``s²·diag(1/scale)·(LLᵀ)⁻¹·diag(1/scale)``).
-
-    ``mask`` [1] (optional, 0 or 1 per sample) switches samples off: padded rows (see
-    :class:`dampfit.signal.prepare.Padded`) carry y = 0 and zero drift rows, and the mask zeroes
-    their oscillation columns, so they contribute nothing.
+    :func:`dampfit.model.profile.profile` with the (M1) columns: the drift is projected out
+    (Schur complement, det QᵀQ = 1) and the 2×2 system solved from Gram products. Returns
+    ``(beta, rss, logdet, (chol, scale))``: all coefficients (A, B, drift in Q coordinates),
+    the RSS [(m/s²)²], ``log det XᵀX``, and the Cholesky factor of the column-scaled 2×2
+    ``X⊥ᵀX⊥`` with its column scales (the conditional covariance of (A, B) is
+    ``s²·diag(1/scale)·(LLᵀ)⁻¹·diag(1/scale)``). ``mask`` [1] switches padded rows off
+    (:class:`dampfit.signal.prepare.Padded`).
     """
-    xo = oscillation_columns(theta, tau)
-    if mask is not None:
-        xo = xo * mask[:, None]
-    # Gram form of the projection: X⊥ᵀX⊥ = XᵀX − (QᵀX)ᵀ(QᵀX) and X⊥ᵀy⊥ = Xᵀy − (QᵀX)ᵀ(Qᵀy)
-    # (the drift columns are orthonormal); the RSS from the explicit residual, not from
-    # ‖y⊥‖² − βᵀX⊥ᵀy⊥, which would lose digits when the fit is nearly exact
-    qx = drift.T @ xo
-    qy = drift.T @ y
-    gram = xo.T @ xo - qx.T @ qx
-    rhs = xo.T @ y - qx.T @ qy
-    scale = jnp.sqrt(jnp.diag(gram))
-    chol = jnp.linalg.cholesky(gram / jnp.outer(scale, scale))
-    beta_s = jsl.cho_solve((chol, True), rhs / scale)
-    logdet = 2.0 * jnp.sum(jnp.log(jnp.diag(chol))) + 2.0 * jnp.sum(jnp.log(scale))
-    beta_osc = beta_s / scale
-    beta_drift = qy - qx @ beta_osc
-    resid = y - xo @ beta_osc - drift @ beta_drift
-    rss = jnp.sum(resid * resid)
-    return jnp.concatenate([beta_osc, beta_drift]), rss, logdet, (chol, scale)
+    pr = _profile.profile(M1, theta, tau, y, drift, mask)
+    return pr.beta, pr.rss, pr.logdet, (pr.chol, pr.scale)
 
 
 def log_marginal_likelihood(theta, tau, y, drift, temper, mask=None, n=None, q=None):
     r"""Log likelihood of θ with the linear coefficients and the noise level marginalised.
 
     With Gaussian noise of unknown σ, flat priors on the q linear coefficients and a
-    Jeffreys prior 1/σ, integrating them out gives (up to a constant)
+    Jeffreys prior 1/σ, integrating them out gives (up to a constant; eq. P3 of
+    :mod:`dampfit.model.profile`)
 
         ln L(θ) = −½·ln det(XᵀX) − ½·(n − q)·ln RSS(θ).
 
@@ -176,10 +161,9 @@ def marginal_and_amplitudes(theta, tau, y, drift, temper, mask=None, n=None, q=N
     Returns ``(ln L, moments)`` with moments = [Â, B̂, Σ_AA, Σ_AB, Σ_BB] — what the sampler
     stores per draw, so that the amplitudes need no second pass over the data.
     """
-    beta, rss, logdet, (chol, scale) = profile(theta, tau, y, drift, mask)
     n = y.shape[0] if n is None else n
     q = drift.shape[1] + 2 if q is None else q
-    ll = temper * (-0.5 * logdet - 0.5 * (n - q) * jnp.log(rss))
-    ginv = jsl.cho_solve((chol, True), jnp.eye(2)) / jnp.outer(scale, scale)
-    cov = (rss / (n - q) / temper) * ginv
+    mask = jnp.ones_like(y) if mask is None else mask
+    samples = _profile.Samples(tau, y, drift, mask, n, q - 2)
+    ll, beta, cov = _profile.marginal_and_amplitudes(M1, theta, samples, temper)
     return ll, jnp.stack([beta[0], beta[1], cov[0, 0], cov[0, 1], cov[1, 1]])

@@ -30,6 +30,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from dampfit import physics
+from dampfit._files import atomic_write
+
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
@@ -54,17 +57,12 @@ MAX_SCATTER_POINTS = 4_000
 #: Cycles shown in each zoom panel of the fit figure.
 ZOOM_CYCLES = 5.0
 
+#: Symbol and unit (:data:`dampfit.physics.UNITS`, "N s/m" drawn as "N·s/m") of each quantity.
 _LABELS = {
-    "c": ("c", "N·s/m"),
-    "k": ("k", "N/m"),
-    "u0": ("u₀", "m"),
-    "zeta": ("ζ", "1"),
-    "f_n": ("f_n", "Hz"),
-    "p": ("p", "1/s"),
-    "f_d": ("f_d", "Hz"),
-    "delta": ("δ", "1"),
-    "mass": ("m", "kg"),
-    "omega_d": ("ω_d", "rad/s"),
+    name: (sym, physics.UNITS[name].replace(" ", "·"))
+    for name, sym in (("c", "c"), ("k", "k"), ("u0", "u₀"), ("zeta", "ζ"), ("f_n", "f_n"),
+                      ("p", "p"), ("f_d", "f_d"), ("delta", "δ"), ("mass", "m"),
+                      ("omega_d", "ω_d"))
 }
 _AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown")
 
@@ -74,6 +72,11 @@ def _new_figure(width: float, height: float) -> "Figure":
     from matplotlib.figure import Figure
 
     return Figure(figsize=(width, height), layout="constrained")
+
+
+def _unit(name: str) -> str:
+    """Unit of ``name`` as drawn (:data:`_LABELS`)."""
+    return _LABELS[name][1]
 
 
 def _label(name: str) -> str:
@@ -132,32 +135,22 @@ def _fmt_interval(q05: float, q50: float, q95: float) -> str:
 
 
 def _ls_values(an: "Analysis") -> dict[str, float]:
-    """Least-squares physical values (c, k only with a mass)."""
-    ls = an.least_squares
-    p, wd = ls.p, ls.omega_d
-    wn = float(np.hypot(p, wd))
-    out = {"p": p, "omega_d": wd, "zeta": p / wn, "f_n": wn / (2 * np.pi),
-           "f_d": wd / (2 * np.pi), "delta": 2 * np.pi * p / wd, "u0": float(ls.u0())}
+    """Least-squares physical values (:func:`dampfit.pipeline.ls_quantities`, i.e.
+    :func:`dampfit.physics.quantities`; c, k and the mass only with a mass)."""
+    from dampfit.pipeline import ls_quantities
+
+    out = {name: float(v) for name, v in ls_quantities(an.least_squares, an.mass).items()}
     if an.mass is not None:
-        out.update({"c": 2 * an.mass * p, "k": an.mass * wn**2, "mass": an.mass})
+        out["mass"] = float(an.mass)
     return out
 
 
 def _model_curve(an: "Analysis", n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The least-squares model on a fine grid over the fitted span: (t [s], a [m/s²])."""
-    import jax
-    import jax.numpy as jnp
+    """The least-squares model on a fine grid over the fitted span: (t [s], a [m/s²])
+    (:func:`dampfit.pipeline.fitted_curve`)."""
+    from dampfit.pipeline import fitted_curve
 
-    from dampfit.model import viscous as model
-
-    fd, ls = an.fit_data, an.least_squares
-    # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
-    tau = np.linspace(fd.tau[0], fd.tau[-1], int(n))
-    drift = model.drift_basis(fd.tau, fd.drift_degree, at=tau)
-    with jax.enable_x64(True):
-        x = model.design_matrix(jnp.asarray(ls.theta), jnp.asarray(tau), jnp.asarray(drift))
-        y = np.asarray(x @ jnp.asarray(ls.beta))
-    return fd.t0 + tau, y
+    return fitted_curve(an.fit_data, an.least_squares, n)
 
 
 def _variables(an: "Analysis") -> list[str]:
@@ -439,10 +432,11 @@ def fit_figure(an: "Analysis") -> "Figure":
     _legend_above(ax_all, 2)
     ax_all.tick_params(labelbottom=False)
 
-    head = f"c = {_fmt(vals['c'])} N·s/m, " if "c" in vals else ""
+    head = f"c = {_fmt(vals['c'])} {_unit('c')}, " if "c" in vals else ""
     status = "" if ls.converged else "  (NOT converged)"
     fig.suptitle(f"Least-squares fit: {head}ζ = {_fmt(vals['zeta'])}, "
-                 f"f_n = {_fmt(vals['f_n'], 6)} Hz, u₀ = {_fmt(vals['u0'])} m{status}")
+                 f"f_n = {_fmt(vals['f_n'], 6)} {_unit('f_n')}, "
+                 f"u₀ = {_fmt(vals['u0'])} {_unit('u0')}{status}")
     return fig
 
 
@@ -492,9 +486,9 @@ def displacement_figure(an: "Analysis") -> "Figure | None":
 
     ld = an.baselines.get("log_decrement")
     if ld is not None and "peak_times" in ld.details:
-        wn2 = (2 * np.pi * vals["f_n"]) ** 2
         pk_t = np.asarray(ld.details["peak_times"], float)
-        pk_a = np.asarray(ld.details["peak_amplitudes"], float) / wn2
+        pk_a = physics.quantities(vals["p"], vals["omega_d"], accel_amplitude=np.asarray(
+            ld.details["peak_amplitudes"], float))["u0"]  # displacement = acceleration / ω_n²
         ax_log.plot(pk_t, pk_a, "o", ms=3, mfc="none", color="tab:green",
                     label=f"log-decrement peaks ÷ ω_n² (p = {ld.p:.4g} 1/s)")
 
@@ -519,7 +513,7 @@ def displacement_figure(an: "Analysis") -> "Figure | None":
     if new:
         ax_log.legend(*zip(*new), loc="lower right", bbox_to_anchor=(1.0, 1.0), ncols=2,
                       fontsize=8, frameon=False, borderaxespad=0.2)
-    head = (f"c = {_fmt(base.c)} (envelope) vs {_fmt(vals.get('c'))} (LS) N·s/m"
+    head = (f"c = {_fmt(base.c)} (envelope) vs {_fmt(vals.get('c'))} (LS) {_unit('c')}"
             if base.c is not None else
             f"ζ = {_fmt(base.zeta)} (envelope) vs {_fmt(vals['zeta'])} (LS)")
     fig.suptitle(f"Displacement from the paper's envelope pipeline and decay envelopes — {head}")
@@ -705,31 +699,41 @@ FIGURES: dict[str, Callable[["Analysis"], Any]] = {
 }
 
 
-def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110) -> dict[str, Path]:
-    """Write every figure of :data:`FIGURES` as ``<name>.png`` into ``outdir``.
-
-    Returns ``{name: path}`` of the files written. A figure that does not apply (the
-    displacement figure without the envelope-pipeline baseline) is skipped, and an older
-    file of that name in ``outdir`` is removed.
-    """
+def render(an: Any, names, outdir: str | os.PathLike, dpi: int = 110) -> dict[str, Path | None]:
+    """Draw the figures ``names`` of :data:`FIGURES` and write each as ``<name>.png`` into
+    ``outdir`` (atomically). Returns ``{name: path}``; ``None`` for a figure that does not apply
+    (the displacement figure without the envelope-pipeline baseline), whose older file in
+    ``outdir`` is removed."""
     outdir = Path(outdir)
-    outdir.mkdir(parents=True, exist_ok=True)
-    written: dict[str, Path] = {}
-    for name, make in FIGURES.items():
-        fig = make(an)
+    written: dict[str, Path | None] = {}
+    for name in names:
+        fig = FIGURES[name](an)
         path = outdir / f"{name}.png"
         if fig is None:
             path.unlink(missing_ok=True)  # never leave a stale figure of an earlier run
+            written[name] = None
             continue
-        tmp = path.with_name(path.name + ".part")
         try:
-            fig.savefig(tmp, dpi=dpi, format="png")
-            os.replace(tmp, path)
+            atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), suffix=".png")
         finally:
             fig.clear()
-            if tmp.exists():
-                tmp.unlink()
         written[name] = path
+    return written
+
+
+def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110,
+                 skip=()) -> dict[str, Path]:
+    """Write every figure of :data:`FIGURES` (but ``skip``) and the amplitude figure as
+    ``<name>.png`` into ``outdir``.
+
+    Returns ``{name: path}`` of the files written. A figure that does not apply (the
+    displacement figure without the envelope-pipeline baseline; the amplitude figure without a
+    damping assessment) is skipped, and an older file of that name in ``outdir`` is removed.
+    """
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    done = render(an, [name for name in FIGURES if name not in skip], outdir, dpi)
+    written = {name: path for name, path in done.items() if path is not None}
     path = outdir / "amplitude.png"
     if getattr(an, "damping", None) is not None:  # ζ(A) and f(A) of dampfit.damping
         fig = amplitude_figure(_amplitude_curve(an), path, dpi=dpi, f_d_hz=_ls_values(an)["f_d"],
@@ -827,9 +831,10 @@ def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi:
     fd = np.array([w.get("f_d_hz", np.nan) for w in wins], dtype=float)
     if mass and np.isfinite(fd).any():
         w = float(2 * np.pi * np.nanmedian(fd))
-        sec = ax.secondary_yaxis("right", functions=(lambda zz: 2 * mass * w * zz,
-                                                     lambda cc: cc / (2 * mass * w)))
-        sec.set_ylabel("c_eq [N·s/m]")
+        c_per_zeta = float(physics.damping_coefficient(mass, w))  # c = 2·m·ω·ζ [N·s/m]
+        sec = ax.secondary_yaxis("right", functions=(lambda zz: c_per_zeta * zz,
+                                                     lambda cc: cc / c_per_zeta))
+        sec.set_ylabel(f"c_eq [{_unit('c')}]")
     slope = curve.get("slope")
     title = "ζ(A)"
     if slope:
@@ -876,12 +881,5 @@ def amplitude_figure(curve: dict, path: str | os.PathLike | None = None, *, dpi:
         ax_f.legend(fontsize=8, loc="best")
     fig.suptitle("Amplitude dependence: damping ζ(A) and frequency f(A)")
     if path is not None:
-        path = Path(path)
-        tmp = path.with_name(path.name + ".part")
-        try:
-            fig.savefig(tmp, dpi=dpi, format="png")
-            os.replace(tmp, path)
-        finally:
-            if tmp.exists():
-                tmp.unlink()
+        atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), suffix=".png")
     return fig

@@ -1,8 +1,9 @@
 """The damping report of a result folder: ``report.html`` (self-contained) and ``report.md``.
 
-``dampfit report DIR`` (or :func:`write_report`) reads ``DIR/summary.json`` — plus the optional
-``DIR/verification.json`` and the PNG figures already in ``DIR`` — and renders them; nothing is
-recomputed, so the report states exactly the numbers of ``summary.json``. This module imports
+``dampfit report DIR`` (:mod:`dampfit.cli.report`) or :func:`write_report` reads
+``DIR/summary.json`` (through the one reader of result folders,
+:func:`dampfit.result.schema.read_summary`) — plus the optional ``DIR/verification.json`` and
+the PNG figures already in ``DIR`` — and renders them; nothing is recomputed, so the report states exactly the numbers of ``summary.json``. This module imports
 only the standard library: no JAX, no matplotlib.
 
 * ``report.html`` embeds every figure as a base64 ``data:`` URI with inline CSS and a
@@ -49,13 +50,14 @@ from dampfit.output.document import GENERATOR as GENERATOR
 from dampfit.output.document import PNG_MAGIC as PNG_MAGIC
 from dampfit.output.document import render_html as render_html
 from dampfit.output.document import render_markdown as render_markdown
-from dampfit._files import atomic_write_text
+from dampfit._files import DEMO_MARKER, atomic_write_text
 from dampfit.errors import InputError
+from dampfit.result.schema import folder_of, read_summary
 from dampfit.output.text import _own_spread
 from dampfit.output.text import interval as _honest
 
 __all__ = ["write_report", "load", "build", "render_html", "render_markdown", "GENERATOR",
-           "PNG_MAGIC", "add_arguments", "command"]
+           "PNG_MAGIC"]
 
 
 MAIN = ("c", "k", "u0", "zeta", "f_n")
@@ -269,53 +271,15 @@ def _generic(obj: Any, depth: int = 0) -> list[Block]:
 
 
 # ----------------------------------------------------------------------------- input
-#: Deepest nesting of lists and objects a summary.json may have (dampfit writes ≤ 6).
-MAX_DEPTH = 32
+def load(directory: str | os.PathLike | Any) -> dict[str, Any]:
+    """Read ``DIR/summary.json`` (required; by the one reader of result folders,
+    :func:`dampfit.result.schema.read_summary`) and ``DIR/verification.json`` (optional).
 
-
-def _plain(obj: Any, depth: int = 0) -> Any:
-    """``obj`` (parsed JSON) made safe to render: integers beyond float range or precision as
-    floats (inf beyond range), strings as valid UTF-8 (lone surrogates replaced); ValueError
-    past :data:`MAX_DEPTH` levels of nesting."""
-    if depth > MAX_DEPTH:
-        raise ValueError(f"nested deeper than {MAX_DEPTH} levels")
-    if isinstance(obj, dict):
-        return {_plain(k, depth + 1): _plain(v, depth + 1) for k, v in obj.items()}
-    if isinstance(obj, list):
-        return [_plain(v, depth + 1) for v in obj]
-    if isinstance(obj, int) and not isinstance(obj, bool) and abs(obj) > 2**53:
-        try:
-            return float(obj)
-        except OverflowError:
-            return math.inf if obj > 0 else -math.inf
-    if isinstance(obj, str):
-        return obj.encode("utf-8", "replace").decode("utf-8")
-    return obj
-
-
-def load(directory: str | os.PathLike) -> dict[str, Any]:
-    """Read ``DIR/summary.json`` (required) and ``DIR/verification.json`` (optional).
-
-    Returns ``{"summary": dict, "verification": dict | None, "verification_error": str | None}``.
+    ``directory`` may also be an analysis :func:`dampfit.load` read from a folder. Returns
+    ``{"summary": dict, "verification": dict | None, "verification_error": str | None}``.
     """
-    d = Path(directory)
-    if not d.is_dir():
-        raise InputError(f"{d} is not a directory; give the result folder of 'dampfit analyze'")
-    path = d / "summary.json"
-    if not path.is_file():
-        raise InputError(f"{d} has no summary.json; run 'dampfit analyze FILE --out {d}' first")
-    from dampfit.fem.sdof import MAX_SUMMARY_BYTES, _read_regular
-
-    data = _read_regular(path, MAX_SUMMARY_BYTES, missing=f"{d} has no summary.json")
-    try:
-        summary = _plain(json.loads(data.decode("utf-8")))
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"cannot read {path}: {exc}; re-run the analysis") from None
-    except (RecursionError, ValueError) as exc:  # too deep, or an integer of 5000 digits
-        raise InputError(f"cannot read {path}: not a dampfit summary ({type(exc).__name__}: "
-                         f"{str(exc)[:80]}); re-run the analysis") from None
-    if not isinstance(summary, dict):
-        raise InputError(f"{path} is not a dampfit summary (expected a JSON object)")
+    checked = read_summary(directory)
+    summary, d = checked.data, checked.folder
     ver, err = summary.get("verification"), None
     vpath = d / "verification.json"
     if vpath.is_file():
@@ -326,10 +290,8 @@ def load(directory: str | os.PathLike) -> dict[str, Any]:
     return {"summary": summary, "verification": ver, "verification_error": err}
 
 
-# ----------------------------------------------------------------------------- commands
+# ----------------------------------------------------------------------------- reproduce
 def _is_demo(s: dict, directory: Path) -> bool:
-    from dampfit.cli import DEMO_MARKER
-
     path = _get(s, "input", "path")
     return (directory / DEMO_MARKER).is_file() and isinstance(path, str) \
         and Path(path).name == DEMO_MARKER.replace(".truth.json", ".csv")
@@ -573,8 +535,6 @@ def _methods(s: dict, directory: Path) -> list[Block]:
 def _truth(s: dict, directory: Path) -> dict | None:
     if not _is_demo(s, directory):
         return None
-    from dampfit.cli import DEMO_MARKER
-
     try:
         truth = json.loads((directory / DEMO_MARKER).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
@@ -1029,15 +989,16 @@ def _ours(path: Path, marker: str) -> bool:
         return False
 
 
-def write_report(directory: str | os.PathLike, *, force: bool = False) -> dict[str, Path]:
-    """Write ``report.html`` and ``report.md`` into the result folder ``directory``.
+def write_report(directory: str | os.PathLike | Any, *, force: bool = False) -> dict[str, Path]:
+    """Write ``report.html`` and ``report.md`` into the result folder ``directory`` (or the
+    folder an analysis :func:`dampfit.load` read was loaded from).
 
     Reads ``summary.json`` (required), ``verification.json`` and the PNG figures found there.
     A report that dampfit wrote earlier is replaced; any other file of those names only with
     ``force``. Each file is written atomically. Returns ``{"html": path, "md": path}``.
     Call it on the final folder: the commands printed in the report name it.
     """
-    d = Path(directory)
+    d = folder_of(directory)
     data = load(d)
     title, blocks = build(data, d.resolve())
     texts = {"html": render_html(title, blocks, d), "md": render_markdown(title, blocks, d)}
@@ -1052,19 +1013,3 @@ def write_report(directory: str | os.PathLike, *, force: bool = False) -> dict[s
     except OSError as exc:
         raise InputError(f"cannot write the report into {d}: {exc.strerror or exc}") from None
     return paths
-
-
-def add_arguments(parser) -> None:
-    """Arguments of ``dampfit report``."""
-    parser.add_argument("dir", metavar="DIR",
-                        help="result folder with summary.json (from 'dampfit analyze' or 'demo')")
-    parser.add_argument("--force", action="store_true",
-                        help="replace report.html/report.md even if dampfit did not write them "
-                             "(a report dampfit wrote is always regenerated)")
-
-
-def command(args) -> int:
-    """``dampfit report DIR [--force]``: write the report; exit code 0."""
-    paths = write_report(args.dir, force=args.force)
-    print(f"wrote {paths['html']} and {paths['md']}")
-    return 0

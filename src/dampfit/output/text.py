@@ -17,12 +17,13 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from dampfit.physics import UNITS
+
 __all__ = ["text", "interval"]
 
-_LABELS = {
-    "c": "c      [N s/m]", "k": "k      [N/m]", "u0": "u0     [m]", "zeta": "zeta   [1]",
-    "f_n": "f_n    [Hz]", "p": "p      [1/s]", "delta": "delta  [1]",
-}
+#: Row label of each posterior quantity: name and unit (:data:`dampfit.physics.UNITS`).
+_LABELS = {name: f"{name:6s} [{UNITS[name]}]"
+           for name in ("c", "k", "u0", "zeta", "f_n", "p", "delta")}
 
 
 def _g(x: Any, digits: int = 5) -> str:
@@ -154,7 +155,7 @@ def _backbone_lines(s: dict) -> list[str]:
     visc = (((s.get("damping_models") or {}).get("models") or {}).get("viscous") or {})
     params = visc.get("parameters") or {}
     parts = [f"{name} = {_with_interval(params[name])}{unit}"
-             for name, unit in (("zeta", ""), ("c", " N s/m")) if isinstance(params.get(name), dict)
+             for name, unit in (("zeta", ""), ("c", " " + UNITS["c"])) if isinstance(params.get(name), dict)
              and params[name].get("q50") is not None]
     if parts:
         out.append("  drift followed  " + ", ".join(parts) + " (viscous decay with the frequency "
@@ -226,7 +227,7 @@ def text(s: dict[str, Any]) -> str:
             where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
                      f"amplitude){_law_state(s, ceq['model'])}")
             if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
-                line += f"\n  c_equivalent    {_with_interval(ceq['c'])} N s/m {where}"
+                line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
                 where = ""
             if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
                 line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()

@@ -20,12 +20,14 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
 5. **Clipping and impact spikes** — samples at a saturated level and isolated spikes
    (> 8 robust σ above a running median) are masked, never fitted.
 6. **Spectrum and dominant frequency** — peak of the power summed over axes (Tukey-windowed
-   periodogram, flat over 90 % of the record) refined by parabolic interpolation.
-7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` (capped below Nyquist), overridable.
+   periodogram, flat over 90 % of the record) refined by parabolic interpolation
+   (:mod:`dampfit.signal.spectrum`).
+7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` [Hz] (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
    the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
    or rises again (a catch), before an impact spike 10× the oscillation, or before an abrupt
-   envelope drop (a catch, rattle or contact: :func:`envelope_drops`), overridable; a
+   envelope drop (a catch, rattle or contact: :func:`~dampfit.signal.window.envelope_drops`),
+   overridable (:mod:`dampfit.signal.window`); a
    user's window that contains such a drop is kept, with a warning.
 9. **Fit samples** — if the rate is far above what the band needs, a zero-phase low-pass at the
    band's upper edge and decimation to ≈2.5× that edge (near-white samples); otherwise the raw
@@ -44,25 +46,19 @@ from dampfit.signal import filters
 from dampfit.model import viscous as model
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary, time_segments
+from dampfit.signal.spectrum import auto_band, dominant_frequency
+from dampfit.signal.window import (
+    DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
+)
 
-__all__ = ["Prepared", "FitData", "prepare", "fit_data", "dominant_frequency", "auto_band"]
+__all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_length"]
 
 #: Fraction of exactly repeated samples above which repeats are treated as stale reads.
 STALE_FRACTION = 0.10
 #: Robust z-score above which a sample deviating from its running median is a spike.
 SPIKE_SIGMA = 8.0
-#: Band edges relative to the dominant frequency for the automatic band.
-BAND_FACTOR = 1.5
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
-#: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
-IMPACT_RATIO = 10.0
-#: Abrupt envelope drops (catch, rattle, contact; :func:`envelope_drops`): the span [periods]
-#: over which a drop is measured, the running-median span of the decay trend [periods], the
-#: excess loss factor that ends the window, and the envelope-to-noise-floor ratio needed.
-DROP_PERIODS, DROP_TREND_PERIODS, DROP_FACTOR, DROP_MIN_SNR = 2.0, 15.0, 2.0, 20.0
-#: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
-RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
 #: maximum; resolves bias drift up to ≈ f₀/8 while staying orthogonal to the oscillation.
 DRIFT_CYCLES_PER_DEGREE, MAX_DRIFT_DEGREE = 4.0, 24
@@ -249,60 +245,6 @@ def _continuous_part(
     return t[i:j], a[i:j], [note], [warning]
 
 
-def _parabolic_peak(y: np.ndarray, i: int) -> float:
-    """Sub-bin offset of a peak at ``i`` from a parabola through its neighbours."""
-    if i <= 0 or i >= len(y) - 1:
-        return 0.0
-    a, b, c = y[i - 1], y[i], y[i + 1]
-    den = a - 2 * b + c
-    return 0.0 if den == 0 else float(0.5 * (a - c) / den)
-
-
-def dominant_frequency(
-    y: np.ndarray, fs: float, fmin: float, fmax: float
-) -> tuple[float, np.ndarray, np.ndarray]:
-    """Dominant frequency [Hz] of uniformly sampled ``y`` (n,) or (n, axes) in [fmin, fmax] [Hz].
-
-    Returns ``(f0, freqs, amplitude)``: the Tukey(0.1)-windowed, 4× zero-padded periodogram peak
-    refined by parabolic interpolation of the log power, and the single-sided amplitude
-    spectrum [m/s²] of the unpadded signal for display.
-    """
-    n = len(y)
-    win = signal.windows.tukey(n, 0.1)  # flat over 90 %: a decay near an end keeps its weight
-    nfft = int(2 ** np.ceil(np.log2(4 * n)))
-    yy = (y - y.mean(axis=0)).reshape(n, -1)
-    # power summed over axes (one axis: its own power)
-    spec = np.sqrt(np.sum(np.abs(np.fft.rfft(yy * win[:, None], nfft, axis=0)) ** 2, axis=1))
-    f = np.fft.rfftfreq(nfft, 1.0 / fs)
-    sel = np.flatnonzero((f >= fmin) & (f <= fmax))
-    if sel.size < 3:
-        raise InputError(f"no frequency range to search between {fmin:.3g} and {fmax:.3g} Hz")
-    i = sel[np.argmax(spec[sel])]
-    if i in (sel[0], sel[-1]):
-        # a maximum at the edge of the searched range is leakage, not a resolved oscillation
-        raise InputError(
-            f"no resolvable oscillation between {fmin:.3g} and {fmax:.3g} Hz: the spectrum peaks "
-            f"at the edge of that range (recording {n / fs:.3g} s long; too short, or give --band)"
-        )
-    logp = np.log(spec**2 + 1e-300)
-    f0 = f[i] + _parabolic_peak(logp, i) * (f[1] - f[0])
-    freqs = np.fft.rfftfreq(n, 1.0 / fs)
-    amp = 2.0 * np.sqrt(np.sum(np.abs(np.fft.rfft(yy, axis=0)) ** 2, axis=1)) / n
-    return float(f0), freqs, amp
-
-
-def auto_band(f0: float, fs: float) -> tuple[float, float]:
-    """Default pass band [Hz]: ``[f₀/1.5, 1.5·f₀]``, upper edge capped at 0.45·fs."""
-    hi = min(BAND_FACTOR * f0, 0.45 * fs)
-    lo = f0 / BAND_FACTOR
-    if hi <= f0 * 1.02:
-        raise InputError(
-            f"the dominant frequency {f0:.4g} Hz is too close to the Nyquist frequency "
-            f"{fs / 2:.4g} Hz of this recording; record at a higher sample rate"
-        )
-    return float(lo), float(hi)
-
-
 def _clipped(a: np.ndarray) -> np.ndarray:
     """True for samples stuck at the extreme value of their axis (saturation)."""
     out = np.zeros(a.shape[0], dtype=bool)
@@ -357,157 +299,6 @@ def _principal_direction(yb: np.ndarray) -> np.ndarray:
     w, v = np.linalg.eigh(cov)
     d = v[:, -1]
     return d if d[np.argmax(np.abs(d))] > 0 else -d
-
-
-def _noise_density(y: np.ndarray, fs: float, f0: float, band: tuple[float, float]) -> float:
-    """White-noise density [(m/s²)/√Hz] near the band, from the median Welch PSD off the peak."""
-    nper = int(min(len(y), max(256, 8 * fs / band[0])))
-    f, pxx = signal.welch(y, fs=fs, nperseg=nper)
-    lo, hi = band
-    off_peak = np.abs(f - f0) > 0.25 * f0
-    near = off_peak & (f >= lo / 2) & (f <= min(4 * hi, 0.9 * fs / 2))
-    if near.sum() < 5:
-        near = off_peak & (f > 0)
-    return float(np.sqrt(np.median(pxx[near]))) if near.any() else 0.0
-
-
-def _noise_floor(env: np.ndarray, y: np.ndarray, fs: float, f0: float, band) -> float:
-    """Mean envelope [m/s²] of the in-band noise alone.
-
-    Two estimates, the smaller wins: (a) spectral — white density off the peak times the band
-    width (a Rayleigh envelope has mean 1.25·σ); it is accurate for long records but overstated
-    when a short, strongly damped line leaks into every bin; (b) temporal — the 10th
-    percentile of the envelope, scaled to the Rayleigh mean (×2.7); it is accurate when part of
-    the record is quiet (before release, after the decay) and overstated otherwise.
-    """
-    spectral = RAYLEIGH_MEAN * _noise_density(y, fs, f0, band) * np.sqrt(band[1] - band[0])
-    edge = min(len(env) // 10, int(fs / f0))
-    inner = env[edge : len(env) - edge] if len(env) > 2 * edge + 10 else env
-    temporal = RAYLEIGH_MEAN / RAYLEIGH_P10 * float(np.percentile(inner, 10))
-    return float(min(spectral, temporal)) if temporal > 0 else float(spectral)
-
-
-def _impacts(t, y, usable, hits, f0) -> tuple[np.ndarray, np.ndarray]:
-    """Times [s] of spike samples and their size relative to the usable signal before them.
-
-    The reference is the largest usable |y| [m/s²] between 1.5 and 0.25 periods before the
-    spike: the oscillation's own amplitude, unaffected by masking or filtering.
-    """
-    times = t[hits]
-    ratios = np.empty(times.size)
-    tu, au = t[usable], np.abs(y[usable])
-    for j, (tc, a) in enumerate(zip(times, np.abs(y[hits]))):
-        lo, hi = np.searchsorted(tu, [tc - 1.5 / f0, tc - 0.25 / f0])
-        ref = au[lo:hi].max() if hi > lo else 0.0
-        ratios[j] = a / ref if ref > 0 else np.inf
-    return times, ratios
-
-
-def _running_median(x: np.ndarray, width: int) -> np.ndarray:
-    """Centred running median over ``width`` samples, computed on a thinned copy (fast)."""
-    step = max(1, width // 20)
-    thin = x[::step]
-    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode="nearest")
-    return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
-
-
-def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
-                   i0: int, i1: int) -> list[tuple[float, float]]:
-    """Abrupt envelope drops between grid indices ``i0`` and ``i1``: [(time [s], factor [1])].
-
-    A free decay loses amplitude smoothly: over ``DROP_PERIODS`` periods the log envelope
-    falls by 2π·ζ·``DROP_PERIODS`` (viscous) or by a slowly varying amount (any other smooth
-    law). A catch, rattle or contact takes energy out within a cycle. The drop over
-    ``DROP_PERIODS`` periods, d(t) = ln ē(t + D/2) − ln ē(t − D/2) (ē: the Hilbert envelope
-    averaged over one period), is compared with its running median over ``DROP_TREND_PERIODS``
-    periods (the decay trend, whatever the law); an excess loss of more than ``DROP_FACTOR``
-    (a factor, not a difference) where the envelope stands ≥ ``DROP_MIN_SNR`` × the noise
-    floor before the drop (and ≥ 3× after it, so that the trend is measured on the decay,
-    not on the noise floor) is reported, at the time of the steepest excess.
-    """
-    fs = 1.0 / (grid[1] - grid[0])
-    per = max(1, int(round(fs / f0)))
-    half = max(1, int(round(DROP_PERIODS * per / 2)))
-    lo, hi = max(i0, half), min(i1, len(env) - half - 1)
-    if hi - lo < 4 * per:
-        return []
-    sm = np.log(np.maximum(ndimage.uniform_filter1d(env, per), 1e-300))
-    idx = np.arange(lo, hi)
-    # measured where the envelope stands clear of the noise on both sides: the flat floor
-    # after a decay must not enter the trend (it would make the decay itself look abrupt)
-    clear = (sm[idx - half] > np.log(DROP_MIN_SNR * floor)) & (sm[idx + half] > np.log(3.0 * floor))
-    idx = idx[clear]
-    if idx.size < 4 * per:
-        return []
-    d = sm[idx + half] - sm[idx - half]
-    trend = _running_median(d, int(DROP_TREND_PERIODS * per))
-    excess = trend - d  # > 0: more loss than the trend
-    hits = excess > np.log(DROP_FACTOR)
-    out = []
-    j = 0
-    while j < idx.size:
-        if hits[j]:
-            k = j
-            while k < idx.size and hits[k]:
-                k += 1
-            m = j + int(np.argmax(excess[j:k]))
-            out.append((float(grid[idx[m]]), float(np.exp(excess[m]))))
-            j = k + 2 * half
-        else:
-            j += 1
-    return out
-
-
-def _detect_window(
-    grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
-) -> tuple[float, float, list[str]]:
-    """Free-decay window [s] from the smoothed envelope; see the module docstring, step 8.
-
-    ``events`` = (times [s], size ratios [1]) of masked impact spikes (:func:`_impacts`). A
-    spike ends the free decay (a catch, or a knock that resets the oscillator) if it is more
-    than ``IMPACT_RATIO`` times the oscillation just before it. (Whether the oscillation "dies"
-    after a spike is no test: a heavily damped decay dies by itself within a few periods.)
-    """
-    fs = 1.0 / (grid[1] - grid[0])
-    per = max(1, int(round(fs / f0)))
-    sm = ndimage.uniform_filter1d(env, per)
-    edge = min(per, len(sm) // 10)
-    inner = sm[edge : len(sm) - edge] if len(sm) > 2 * edge + 1 else sm
-    i_pk = int(np.argmax(inner)) + (edge if len(sm) > 2 * edge + 1 else 0)
-    notes = []
-    # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck),
-    # judged on a median over five periods so that short dropouts (gaps) do not end it
-    robust = _running_median(env, 5 * per)
-    run_min = np.minimum.accumulate(robust[i_pk:])
-    low = np.flatnonzero(robust[i_pk:] < 3.0 * floor)
-    rise = np.flatnonzero((robust[i_pk:] > 1.5 * run_min) & (robust[i_pk:] > 5.0 * floor))
-    i_end = len(sm) - 1 - edge
-    if low.size:
-        i_end = min(i_end, i_pk + int(low[0]))
-        notes.append("window ends where the decay reaches 3x the noise floor")
-    if rise.size:
-        i_rise = i_pk + int(rise[0]) - per
-        if i_rise < i_end:
-            i_end = i_rise
-            notes.append("window ends before the envelope rises again (catch or new excitation)")
-    drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
-    if drops:
-        tc, factor = drops[0]
-        i_end = max(int(np.searchsorted(grid, tc)) - per, i_pk)
-        notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
-                     f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
-                     "catch, rattle or contact)")
-    ev_t, ev_a = events
-    after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
-    for tc, ratio in zip(ev_t[after], ev_a[after]):
-        i = int(np.searchsorted(grid, tc))
-        if i >= i_end:
-            break
-        if ratio > IMPACT_RATIO:
-            i_end = max(i - per // 2, i_pk)
-            notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
-            break
-    return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
 
 
 # ----------------------------------------------------------------------------- public
@@ -602,7 +393,7 @@ def prepare(
     bp = filters.bandpass(yg, fs, bnd)
     env = np.abs(signal.hilbert(bp))
 
-    floor = _noise_floor(env, signal.detrend(yg), fs, f0, bnd)
+    floor = noise_floor(env, signal.detrend(yg), fs, f0, bnd)
     nd = floor / (RAYLEIGH_MEAN * np.sqrt(bnd[1] - bnd[0]))
     peak_env = float(np.percentile(env, 99))
     if peak_env < 8.0 * floor or peak_env <= 0:
@@ -612,7 +403,7 @@ def prepare(
         )
 
     if window is None:
-        w0, w1, wnotes = _detect_window(grid, env, f0, floor, _impacts(t, y, usable, spikes & ~clipped, f0))
+        w0, w1, wnotes = detect_window(grid, env, f0, floor, impacts(t, y, usable, spikes & ~clipped, f0))
         notes.extend(wnotes)
         guard = max(0.5 / f0, 3.0 / bnd[1])
         w0 = min(w0 + guard, w1)

@@ -1,12 +1,12 @@
-"""``dampfit study CONFIG.toml``: a resumable simulation study comparing damping estimators.
+"""A resumable simulation study comparing damping estimators (``dampfit study CONFIG.toml``).
 
 Every scenario of a TOML grid (:mod:`dampfit.study.config`) is simulated ``replicates`` times;
 each recording goes through every estimator of :mod:`dampfit.estimators.registry` and is compared with
 the truth and with the Cramér–Rao lower bound (:mod:`dampfit.inference.crlb`). Runs execute on Dask
-``distributed`` (:mod:`dampfit.study.runner`: a local cluster, or ``--scheduler ADDRESS``),
+``distributed`` (:mod:`dampfit.study.runner`: a local cluster, or ``scheduler=ADDRESS``),
 are stored as they finish (:mod:`dampfit.study.store`) so an interrupted study resumes, and
 end in tidy tables, a ranking and figures (:mod:`dampfit.study.tables`,
-:mod:`dampfit.study.figures`).
+:mod:`dampfit.study.figures`). The command line is :mod:`dampfit.cli.study`.
 
 Python use::
 
@@ -15,16 +15,13 @@ Python use::
     result = run_study(cfg, "ranking.study", workers=2)
     result["ranking"]            # pandas DataFrame, best estimator first
 
-This module is imported when the CLI builds its parser, so it imports nothing heavy at the top.
+A study reads no result folders of ``dampfit analyze`` (it stores its own runs), so it does
+not use :mod:`dampfit.result`. Nothing heavy is imported here at the top.
 """
 
 from __future__ import annotations
 
-import argparse
-import os
-from pathlib import Path
-
-__all__ = ["add_arguments", "command", "load", "run_study"]
+__all__ = ["load", "run_study"]
 
 
 def load(path, available=None):
@@ -44,65 +41,3 @@ def run_study(cfg, out, **kw):
     from dampfit.study.runner import run_study as _run
 
     return _run(cfg, out, **kw)
-
-
-#: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
-MAX_WORKERS = 256
-
-
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
-    if v > MAX_WORKERS:
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_WORKERS}, got {v}")
-    return v
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options of ``dampfit study``."""
-    parser.description = (
-        "Simulate every scenario of CONFIG.toml's grid, run the chosen estimators on each "
-        "recording and compare them with the truth and the Cramér–Rao bound. Runs execute on "
-        "Dask (local worker processes, or an existing cluster with --scheduler; workers need the "
-        "same dampfit installed) and are stored as they finish: rerunning the same command "
-        "resumes an interrupted study. See examples/study_ranking.toml.")
-    parser.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
-    parser.add_argument("--out", metavar="DIR",
-                        help="study folder (default: CONFIG's name + '.study'); reused to resume")
-    parser.add_argument("--workers", type=_positive_int, metavar="N", default=None,
-                        help=f"local worker processes, 1 to {MAX_WORKERS} "
-                             "(default: the number of CPUs)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (ignores --workers)")
-    parser.add_argument("--force", action="store_true",
-                        help="discard stored runs in DIR (even of another configuration) and restart")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar or status lines")
-    parser.add_argument("--no-figures", action="store_true", help="skip ranking.png and coverage.png")
-
-
-def command(args) -> int:
-    """Run ``dampfit study``; return the exit code (0 done, 1 runs missing, 130 interrupted)."""
-    import sys
-
-    from dampfit.study.runner import StudyIncomplete
-    from dampfit.study.runner import run_study as _run
-
-    cfg = load(args.config)
-    out = Path(args.out) if args.out else Path(Path(args.config).stem + ".study")
-    workers = args.workers or os.cpu_count() or 1
-    try:
-        _run(cfg, out, workers=workers, scheduler=args.scheduler, force=args.force,
-             quiet=args.quiet, figures=not args.no_figures)
-    except StudyIncomplete as exc:
-        print(f"dampfit: {exc}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        print(f"dampfit: interrupted; finished runs are kept in {out}/runs.jsonl; run the same "
-              "command again to resume", file=sys.stderr)
-        return 130
-    return 0
-

@@ -242,7 +242,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
     seed = _integer(study, "seed", minimum=0, default=0)
     estimators = _estimators(study.get("estimators"), available)
     mass = study.get("mass")
-    from dampfit.cli import MAX_MASS  # the limit of 'analyze --mass' (lazy: cli imports late)
+    from dampfit.simulate import MAX_MASS  # the limit of 'analyze --mass'
 
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float))
                              or not math.isfinite(mass) or mass <= 0 or mass > MAX_MASS):

@@ -3,34 +3,19 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from dampfit._files import WriteError, _reason, publish
+from dampfit._files import atomic_write
 
 __all__ = ["save_figures"]
 
 
 def _save(fig, path: Path) -> None:
-    """Save atomically (temporary name in the same folder, then rename)."""
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".png")
-        os.close(fd)
-    except OSError as exc:
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
-    try:
-        fig.savefig(tmp, dpi=120, format="png")
-        publish(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Save atomically (:func:`dampfit._files.atomic_write`)."""
+    atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"), suffix=".png")
 
 
 def _wilson(k: np.ndarray, n: np.ndarray, z: float = 1.96) -> tuple[np.ndarray, np.ndarray]:

@@ -196,32 +196,13 @@ def write_outputs(cfg: StudyConfig, records: list[dict], out: Path, *, figures: 
 
 
 def _atomic_parquet(df, path: Path) -> None:
-    import os
-    import tempfile
+    from dampfit._files import atomic_write
 
-    from dampfit._files import publish
-
-    from dampfit._files import WriteError, _reason
-
-    try:
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-        os.close(fd)
-    except OSError as exc:
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
-    try:
-        frame = df.copy()
-        for col in frame.columns:  # mixed None/bool columns → pandas nullable booleans
-            if frame[col].dtype == object and frame[col].dropna().map(type).eq(bool).all():
-                frame[col] = frame[col].astype("boolean")
-        frame.to_parquet(tmp, index=False)
-        publish(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise WriteError(f"cannot write {path}: {_reason(exc)}") from exc
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    frame = df.copy()
+    for col in frame.columns:  # mixed None/bool columns → pandas nullable booleans
+        if frame[col].dtype == object and frame[col].dropna().map(type).eq(bool).all():
+            frame[col] = frame[col].astype("boolean")
+    atomic_write(path, lambda tmp: frame.to_parquet(tmp, index=False))
 
 
 _UNITS = {"c": "N s/m", "zeta": "1", "p": "1/s", "f_n": "Hz"}

@@ -1,0 +1,48 @@
+"""``dampfit export DIR --format lsdyna|opensees|calculix``: an FEM deck of the identified system
+(:func:`dampfit.fem.export.export`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from dampfit.cli.options import float_arg
+from dampfit.fem import units as units_mod
+from dampfit.fem.export import FORMATS
+
+__all__ = ["add_arguments", "command"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``dampfit export``."""
+    parser.add_argument("folder", metavar="DIR", help="dampfit result folder (with summary.json)")
+    parser.add_argument("--format", required=True, choices=list(FORMATS),
+                        help="lsdyna (.k), opensees (OpenSeesPy .py) or calculix (.inp)")
+    parser.add_argument("--units", default="SI", choices=list(units_mod.UNIT_SYSTEMS),
+                        help="SI (m, s, kg, N), mm-ms-kg (mm, ms, kg, kN) or mm-s-t (mm, s, t, N)")
+    parser.add_argument("--quantile", type=float_arg, default=0.5, metavar="Q",
+                        help="posterior quantile of k, c, u0 (0.05/0.5/0.95 from summary.json, "
+                             "others from posterior.nc); default 0.5")
+    parser.add_argument("--gravity", action=argparse.BooleanOptionalAction, default=False,
+                        help="hang the mass under gravity, released from static equilibrium + u0")
+    parser.add_argument("--duration", type=float_arg, metavar="S",
+                        help="simulated time [s] (default: the analysed window)")
+    parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
+    parser.add_argument("--force", action="store_true", help="replace an existing output file")
+
+
+def command(args: argparse.Namespace) -> int:
+    """Write the deck and print what it holds; exit code 0."""
+    from dampfit.fem.export import export
+
+    out, info = export(args.folder, args.format, args.out, units=args.units,
+                       quantile=args.quantile, gravity=args.gravity, duration=args.duration,
+                       force=args.force)
+    s, u = info["sdof"], units_mod.get(info["units"])
+    print(f"wrote {out} ({FORMATS[args.format][0]}, units {u.name}, posterior quantile "
+          f"{info['quantile']:g}{', gravity' if info['gravity'] else ''})")
+    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, c = {s.c:.6g} N s/m, u0 = {s.u0:.6g} m "
+          f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
+    print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
+          f"output every {info['output_dt']:.4g} s")
+    return 0

@@ -1,0 +1,70 @@
+"""``dampfit study CONFIG.toml``: a resumable simulation study comparing damping estimators
+(:func:`dampfit.study.run_study`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+from pathlib import Path
+
+__all__ = ["MAX_WORKERS", "add_arguments", "command"]
+
+#: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
+MAX_WORKERS = 256
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    if v > MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_WORKERS}, got {v}")
+    return v
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``dampfit study``."""
+    parser.description = (
+        "Simulate every scenario of CONFIG.toml's grid, run the chosen estimators on each "
+        "recording and compare them with the truth and the Cramér–Rao bound. Runs execute on "
+        "Dask (local worker processes, or an existing cluster with --scheduler; workers need the "
+        "same dampfit installed) and are stored as they finish: rerunning the same command "
+        "resumes an interrupted study. See examples/study_ranking.toml.")
+    parser.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
+    parser.add_argument("--out", metavar="DIR",
+                        help="study folder (default: CONFIG's name + '.study'); reused to resume")
+    parser.add_argument("--workers", type=_positive_int, metavar="N", default=None,
+                        help=f"local worker processes, 1 to {MAX_WORKERS} "
+                             "(default: the number of CPUs)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (ignores --workers)")
+    parser.add_argument("--force", action="store_true",
+                        help="discard stored runs in DIR (even of another configuration) and restart")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar or status lines")
+    parser.add_argument("--no-figures", action="store_true", help="skip ranking.png and coverage.png")
+
+
+def command(args) -> int:
+    """Run the study; exit code 0 done, 1 runs missing, 130 interrupted."""
+    import sys
+
+    from dampfit.study import load, run_study
+    from dampfit.study.runner import StudyIncomplete
+
+    cfg = load(args.config)
+    out = Path(args.out) if args.out else Path(Path(args.config).stem + ".study")
+    workers = args.workers or os.cpu_count() or 1
+    try:
+        run_study(cfg, out, workers=workers, scheduler=args.scheduler, force=args.force,
+                  quiet=args.quiet, figures=not args.no_figures)
+    except StudyIncomplete as exc:
+        print(f"dampfit: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"dampfit: interrupted; finished runs are kept in {out}/runs.jsonl; run the same "
+              "command again to resume", file=sys.stderr)
+        return 130
+    return 0

@@ -1,0 +1,38 @@
+"""``dampfit verify DIR``: run the identified system in OpenSeesPy and compare with the
+measurement (:func:`dampfit.fem.verify.verify`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from dampfit.cli.options import float_arg
+
+__all__ = ["add_arguments", "command"]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``dampfit verify``."""
+    parser.add_argument("folder", metavar="DIR", help="dampfit result folder (summary.json, signals.npz)")
+    parser.add_argument("--dt", type=float_arg, metavar="S",
+                        help="time step [s] (default: from the period and the window)")
+    parser.add_argument("--out", metavar="FIG",
+                        help="figure file, .png/.pdf/.svg/… (default: DIR/verify.png)")
+    parser.add_argument("--force", action="store_true",
+                        help="replace an existing --out file (a link is replaced, not its target)")
+
+
+def command(args: argparse.Namespace) -> int:
+    """Verify, print the table and what was written; exit code 0."""
+    from dampfit.fem.verify import table, verify
+
+    res = verify(args.folder, args.dt, args.out, getattr(args, "force", False))
+    print(table(res["report"]))
+    print(f"\n  written {res['json']}, {res['figure']}")
+    refresh = res["report_refresh"]
+    if res["report_error"]:  # the verification itself is written: say so, exit 0
+        print(f"  report not updated: {res['report_error']}")
+    elif refresh is True:
+        print(f"  report updated: {res['json'].parent / 'report.html'}")
+    elif refresh:
+        print(f"  report not updated: {refresh}")
+    return 0

@@ -1,0 +1,157 @@
+"""Bounded reading of an input file: limits on hostile input, file-kind checks, decoding.
+
+:func:`read_bytes` returns a file's bytes only if it is a regular file (symlinks resolved) of a
+supported type, not empty and at most :data:`MAX_INPUT_BYTES` long; FIFOs, devices, sockets and
+directories are refused before they are opened, so a ``/dev/zero`` link or a named pipe can
+neither block nor read forever. :func:`decode` turns the bytes of a text table into ``str``
+(UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1; ``\r\n`` and lone ``\r`` read as
+``\n``) after refusing binary junk, lines over :data:`MAX_LINE_BYTES` [bytes] and more than
+:data:`MAX_ROWS` lines.
+
+All limits on hostile input live here (sizes in bytes); the other readers look them up through
+this module at call time, so one ``monkeypatch.setattr(bounded, "MAX_…", …)`` lowers a limit
+everywhere.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+import numpy as np
+
+from dampfit._files import read_bounded
+from dampfit.errors import InputError
+
+__all__ = ["MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO", "RATIO_MIN_BYTES",
+           "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "read_bytes", "decode"]
+
+#: Largest input file [bytes] read at all (1 GiB: ~25 million rows of phone CSV).
+MAX_INPUT_BYTES = 1 << 30
+#: Largest total decompressed size [bytes] of the ZIP members read (ZIP, xlsx, npz) and of an
+#: array declared in an .npy header.
+MAX_UNPACKED_BYTES = 1 << 30
+#: Largest compression ratio (uncompressed / compressed) of a ZIP member over 1 MiB; text and
+#: float arrays compress ≤ 20:1, a zip bomb of zeros ≈ 1000:1.
+MAX_ZIP_RATIO = 200.0
+#: Smallest member [bytes] whose compression ratio is checked.
+RATIO_MIN_BYTES = 1 << 20
+#: Longest line [bytes] of a text table (a real row is < 1 KiB).
+MAX_LINE_BYTES = 64 * 1024
+#: Most columns of a text table.
+MAX_COLUMNS = 1000
+#: Most lines of a text table (11 hours at 500 Hz); bounds the parsed table's memory.
+MAX_ROWS = 20_000_000
+#: Bytes scanned at a time when looking for the longest line.
+_LINE_CHUNK = 1 << 24
+
+#: File extensions read as text tables ("" = no extension), and all extensions read.
+TEXT_EXTS = {".csv", ".txt", ".tsv", ".dat", ""}
+_SUPPORTED_EXTS = TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz", ".mat"}
+
+
+def _file_kind(mode: int) -> str | None:
+    """What a non-regular file is, e.g. ``"a named pipe (FIFO)"``; None for a regular file."""
+    for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return name
+    return None if stat.S_ISREG(mode) else "not a regular file"
+
+
+def read_bytes(path: Path) -> bytes:
+    """The file's bytes, after checking it exists, is a regular file (links resolved), has a
+    supported type, is not empty and not larger than :data:`MAX_INPUT_BYTES`.
+
+    The type is checked with ``stat`` before opening, and again on the open descriptor (opened
+    non-blocking, so a FIFO swapped in between cannot block), and at most
+    ``MAX_INPUT_BYTES + 1`` bytes are ever read.
+    """
+    try:
+        info = os.stat(path)  # follows symlinks: the target is what would be read
+    except FileNotFoundError:
+        raise InputError("file not found" + (" (broken link)" if path.is_symlink() else "")) from None
+    except OSError as exc:
+        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
+    kind = _file_kind(info.st_mode)
+    if kind == "a directory":
+        raise InputError("is a directory, not a recording file")
+    if kind is not None:
+        via = " (via a symbolic link)" if path.is_symlink() else ""
+        raise InputError(f"is {kind}{via}, not a regular file; only regular files are read")
+    ext = path.suffix.lower()
+    if ext not in _SUPPORTED_EXTS:
+        supported = " ".join(sorted(e for e in _SUPPORTED_EXTS if e))
+        raise InputError(f"unsupported file type {ext!r}; supported: {supported}")
+    if info.st_size > MAX_INPUT_BYTES:
+        raise InputError(f"is {info.st_size / 2**20:.0f} MiB, larger than the limit of "
+                         f"{MAX_INPUT_BYTES / 2**20:.0f} MiB; split or decimate the recording")
+    def still_regular(st: os.stat_result) -> None:  # replaced since the stat above?
+        if _file_kind(st.st_mode) is not None:
+            raise InputError("is not a regular file; only regular files are read")
+
+    try:
+        data = read_bounded(path, MAX_INPUT_BYTES, still_regular)
+    except OSError as exc:
+        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
+    if len(data) > MAX_INPUT_BYTES:
+        raise InputError(f"is larger than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MiB; "
+                         "split or decimate the recording")
+    if not data:
+        raise InputError("is empty (0 bytes)")
+    return data
+
+
+def _longest_line(data: bytes) -> int:
+    """Length [bytes] of the longest line (``\n`` or ``\r`` ends a line), scanned in chunks;
+    stops early once a line exceeds :data:`MAX_LINE_BYTES`."""
+    longest, run = 0, 0  # run: the open line carried over from the previous chunk
+    for start in range(0, len(data), _LINE_CHUNK):
+        chunk = np.frombuffer(data, np.uint8, count=min(_LINE_CHUNK, len(data) - start), offset=start)
+        ends = np.flatnonzero((chunk == 10) | (chunk == 13))
+        if ends.size == 0:
+            run += chunk.size
+        else:
+            inner = int(np.diff(ends).max()) - 1 if ends.size > 1 else 0
+            longest = max(longest, run + int(ends[0]), inner)
+            run = chunk.size - int(ends[-1]) - 1
+        longest = max(longest, run)
+        if longest > MAX_LINE_BYTES:
+            break
+    return longest
+
+
+def decode(data: bytes) -> str:
+    """Bytes → text (UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1) with ``\n`` line
+    endings; reject binary junk and lines longer than :data:`MAX_LINE_BYTES` before parsing."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        try:
+            data = data.decode("utf-16").encode("utf-8")
+        except UnicodeDecodeError:
+            raise InputError("is neither valid UTF-16 text (despite its byte-order mark) nor a table") from None
+    if b"\x00" in data[:65536]:
+        raise InputError("is binary, not a text table of time and acceleration")
+    longest = _longest_line(data)
+    if longest > MAX_LINE_BYTES:
+        what = "has no line breaks" if len(data) == longest else "has a line"
+        raise InputError(
+            f"{what} over {MAX_LINE_BYTES // 1024} KiB long ({len(data) / 2**20:.3g} MiB file); "
+            "a table of time and acceleration has one short row per sample"
+        )
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    head = text[:65536]
+    control = sum(1 for ch in head if (ch < " " and ch not in "\t\r\n") or "\x7f" <= ch <= "\x9f")
+    if control > 0.01 * len(head):
+        raise InputError("is binary, not a text table of time and acceleration")
+    if "\r" in text:  # Windows \r\n and old-Mac lone \r line endings
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    rows = text.count("\n")
+    if rows > MAX_ROWS:
+        raise InputError(f"has {rows} lines, more than the limit of {MAX_ROWS}; split or decimate "
+                         "the recording")
+    return text

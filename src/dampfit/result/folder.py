@@ -1,0 +1,251 @@
+"""A result folder read back: :func:`load` returns the :class:`dampfit.pipeline.Analysis` the
+folder was written from, with what the folder holds.
+
+What ``dampfit analyze`` / ``dampfit demo`` write (:mod:`dampfit.cli.staging`) and how it is read:
+
+* ``summary.json`` — :func:`dampfit.result.schema.read_summary` (the one validating reader),
+  eagerly: ``Analysis.summary()`` returns it as written, nothing is recomputed;
+* ``posterior.nc`` — :func:`read_posterior` (arviz ``from_netcdf``, loaded eagerly into memory
+  so no file stays open), on first use of ``Analysis.posterior``; at most
+  :data:`MAX_POSTERIOR_BYTES`;
+* ``signals.npz`` — :func:`load_signals` (the ZIP directory and array headers are checked
+  before anything is allocated, as :mod:`dampfit.io.readers` does for recordings), on first use
+  of ``Analysis.signals()``; at most :data:`MAX_SIGNALS_BYTES`.
+
+The live pipeline objects (recording, prepared signal, least-squares and sampler results,
+baselines, damping assessment) are not stored; using one raises a
+:class:`~dampfit.errors.DampfitError` that names the folder.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+from dampfit.errors import DampfitError, InputError
+from dampfit.fem.sanitize import shown
+from dampfit.result.schema import Summary, folder_of, read_summary
+
+__all__ = ["MAX_POSTERIOR_BYTES", "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "load", "load_signals",
+           "read_posterior"]
+
+#: Arrays and scalars ``signals.npz`` must hold.
+SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
+#: Largest posterior.nc read [bytes]: the longest chain ``--max-steps`` allows is ≈ 2 GB.
+MAX_POSTERIOR_BYTES = 4 * 2**30
+#: Largest signals.npz read [bytes]: the analysed window of a recording, a few MB.
+MAX_SIGNALS_BYTES = 2 * 2**30
+#: Fields of :class:`dampfit.pipeline.Analysis` that exist only in a live analysis.
+LIVE_FIELDS = ("recording", "prepared", "fit_data", "least_squares", "noise", "sampling",
+               "baselines", "damping")
+
+
+def load(folder: str | os.PathLike):
+    """The :class:`~dampfit.pipeline.Analysis` of result ``folder`` (see the module).
+
+    ``summary()`` is the folder's summary.json; ``posterior`` and ``signals()`` are read when
+    first used; ``folder`` is the folder. :class:`~dampfit.errors.InputError` (one line) if
+    ``folder`` is not a usable result folder.
+    """
+    from dampfit.pipeline import Analysis
+
+    s = read_summary(folder)
+    d = s.data
+    loaded = _Loaded(s)
+    mass = d.get("mass") if isinstance(d.get("mass"), dict) else {}
+    prov = d.get("provenance") if isinstance(d.get("provenance"), dict) else {}
+    diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
+    warns = diag.get("warnings")
+    live = {name: _Unavailable(name, s.folder) for name in LIVE_FIELDS}
+    return Analysis(
+        **live, crlb=d.get("crlb") if isinstance(d.get("crlb"), dict) else None,
+        mass=mass.get("value") if _real(mass.get("value")) else None,
+        mass_sd=mass.get("sd") if _real(mass.get("sd")) else 0.0,
+        seed=prov.get("seed") if isinstance(prov.get("seed"), int) else None,
+        options=prov.get("options") if isinstance(prov.get("options"), dict) else {},
+        warnings=[w for w in warns if isinstance(w, str)] if isinstance(warns, list) else [],
+        date=prov.get("date") if isinstance(prov.get("date"), str) else None,
+        folder=s.folder, _loaded=loaded)
+
+
+def _real(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+class _Loaded:
+    """What a loaded analysis holds: the summary, and posterior and signals read on first use."""
+
+    def __init__(self, summary: Summary):
+        self.source = summary
+        self.summary = summary.data
+        self._posterior = None
+        self._signals: dict[str, Any] | None = None
+
+    def posterior(self):
+        if self._posterior is None:
+            self._posterior = read_posterior(self.source.folder)
+        return self._posterior
+
+    def signals(self) -> dict[str, Any]:
+        import numpy as np
+
+        if self._signals is None:
+            self._signals = load_signals(self.source.folder, checked=False)
+        return {k: np.copy(v) for k, v in self._signals.items()}
+
+    def converged(self) -> bool:
+        diag = self.summary.get("diagnostics")
+        return isinstance(diag, dict) and diag.get("converged") is True
+
+    def live_only(self, what: str) -> DampfitError:
+        return _live_error(what, self.source.folder)
+
+
+def _live_error(what: str, folder: Path) -> DampfitError:
+    return DampfitError(f"{what} is not available: this result was loaded from {shown(folder)}, "
+                        "which stores summary.json, posterior.nc and signals.npz only; run "
+                        "dampfit.analyze() on the recording for the live pipeline objects")
+
+
+class _Unavailable:
+    """Stands for a live pipeline object of a loaded analysis: any use of it raises
+    :class:`~dampfit.errors.DampfitError` naming the result folder."""
+
+    __slots__ = ("_name", "_folder")
+
+    def __init__(self, name: str, folder: Path):
+        object.__setattr__(self, "_name", name)
+        object.__setattr__(self, "_folder", folder)
+
+    def __getattr__(self, attr: str):
+        if attr.startswith("__") and attr.endswith("__"):
+            raise AttributeError(attr)  # copy, pickle and friends probe dunders
+        raise _live_error(f"{self._name}.{attr}", self._folder)
+
+    def _fail(self, *args, **kw):
+        raise _live_error(self._name, self._folder)
+
+    __getitem__ = __iter__ = __len__ = __call__ = __contains__ = _fail
+
+    def __bool__(self) -> bool:
+        raise _live_error(self._name, self._folder)
+
+    def __repr__(self) -> str:
+        return f"<{self._name}: not stored in the result folder {self._folder}>"
+
+
+# ------------------------------------------------------------------------- posterior.nc
+def read_posterior(folder: str | os.PathLike | Any):
+    """The posterior of result ``folder`` as arviz ``InferenceData`` (read into memory).
+
+    :class:`InputError` if posterior.nc is missing, not a regular file, larger than
+    :data:`MAX_POSTERIOR_BYTES` or not a readable NetCDF file of arviz groups.
+    """
+    folder = folder_of(folder)
+    path = folder / "posterior.nc"
+    _check_size(path, MAX_POSTERIOR_BYTES,
+                f"{shown(path)} not found; re-run 'dampfit analyze' (it writes posterior.nc)",
+                "a posterior of the longest allowed chain is about 2 GB")
+    import warnings
+
+    import arviz as az  # lazy: heavy
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            with az.rc_context({"data.load": "eager"}):
+                idata = az.from_netcdf(str(path))
+    except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file for the user
+        raise InputError(f"{shown(path)} is not a readable posterior ({type(exc).__name__}); "
+                         "re-run 'dampfit analyze'") from None
+    if "posterior" not in idata.groups():
+        raise InputError(f"{shown(path)} holds no posterior group; re-run 'dampfit analyze'")
+    return idata
+
+
+def _check_size(path: Path, limit: int, missing: str, what: str) -> None:
+    """Refuse a missing, special or oversized file from its ``stat`` (nothing is read)."""
+    import stat
+
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(missing) from None
+    except OSError as exc:
+        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{shown(path)} is not a regular file (a directory, FIFO, socket or device)")
+    if st.st_size > limit:
+        raise InputError(f"{shown(path)} is {st.st_size / 2**20:.0f} MB, larger than "
+                         f"{limit // 2**20} MB; {what}")
+
+
+# ------------------------------------------------------------------------- signals.npz
+def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[str, Any]:
+    """Arrays of ``folder/signals.npz`` as float64 NumPy arrays/floats; :class:`InputError` if unusable.
+
+    The file must hold :data:`SIGNAL_KEYS`: ``t`` at least 16 finite increasing times [s],
+    ``accel``, ``accel_model`` [m/s²] finite, ``displacement``, ``displacement_model`` [m] of
+    the same length, scalars ``p`` ≥ 0 [1/s], ``omega_d`` > 0 [rad/s], ``t0`` [s] finite.
+    """
+    import numpy as np
+
+    path = folder_of(folder) / "signals.npz"
+    if not path.is_file():
+        raise InputError(f"{shown(path)} not found; re-run 'dampfit analyze' (it writes signals.npz)")
+    _check_size(path, MAX_SIGNALS_BYTES, f"{shown(path)} not found",
+                "signals.npz of an analysis is a few MB")
+    _check_npz(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            missing = [k for k in SIGNAL_KEYS if k not in data.files]
+            if missing:
+                raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
+            sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
+        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
+    t = sig["t"]
+    n = t.size
+    if t.ndim != 1 or n < 16 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise InputError(f"{shown(path)}: 't' must be at least 16 finite, increasing times")
+    for key in ("accel", "accel_model", "displacement", "displacement_model"):
+        if sig[key].shape != (n,):
+            raise InputError(f"{shown(path)}: '{key}' has shape {sig[key].shape}, expected ({n},)")
+    if not (np.all(np.isfinite(sig["accel"])) and np.all(np.isfinite(sig["accel_model"]))):
+        raise InputError(f"{shown(path)}: 'accel' and 'accel_model' must be finite")
+    for key in ("p", "omega_d", "t0"):
+        if sig[key].size != 1:
+            raise InputError(f"{shown(path)}: '{key}' must be one number, got shape {sig[key].shape}")
+        if checked:
+            sig[key] = float(sig[key])
+    if not (math.isfinite(sig["p"]) and sig["p"] >= 0 and math.isfinite(sig["omega_d"])
+            and sig["omega_d"] > 0 and math.isfinite(sig["t0"])):
+        raise InputError(f"{shown(path)}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
+    return sig
+
+
+def _check_npz(path: Path) -> None:
+    """Refuse a zip bomb or an array header declaring more bytes than the file holds before
+    ``np.load`` allocates anything (the checks :mod:`dampfit.io.readers` applies to
+    recordings), so the memory used is bounded by the data present."""
+    import zipfile
+
+    from dampfit.io.containers import check_npy_header, check_zip
+
+    try:
+        with zipfile.ZipFile(path) as zf:
+            check_zip(zf)
+            for info in zf.infolist():
+                if info.filename.endswith(".npy"):
+                    with zf.open(info) as fp:
+                        check_npy_header(fp, info.file_size, f"array {info.filename[:-4]!r}")
+    except InputError as exc:
+        raise InputError(f"{shown(path)}: {exc}") from None
+    except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError,
+            RuntimeError, ValueError) as exc:
+        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
+

@@ -1,0 +1,255 @@
+"""The one validating reader of a result folder's ``summary.json`` (and its checked numbers).
+
+Every reader of a result folder — :func:`dampfit.load`, ``dampfit report``, ``export`` and
+``verify`` — goes through :func:`read_summary`, so they accept and refuse the same folders with
+the same words. This module imports only the standard library.
+
+What a usable ``summary.json`` is:
+
+* a regular file (a FIFO or device is refused before it is opened, so nothing blocks) of at
+  most :data:`MAX_SUMMARY_BYTES`, UTF-8 (a byte-order mark is allowed);
+* one JSON object nested at most :data:`MAX_DEPTH` levels, with a ``parameters`` object;
+  sections ``mass``, ``input``, ``window`` are objects (or absent/null), ``dampfit_version`` a
+  string (or absent);
+* ``schema_version`` a non-negative integer of at most :data:`SCHEMA_VERSION`; a summary
+  without it was written by dampfit before the schema was versioned and is read as version 0
+  with the same checks. A newer version is refused with one line naming both versions.
+
+Integers beyond float precision are read as floats (±inf beyond range), strings with lone
+surrogates get U+FFFD: the result is plain, renderable data. Numbers are checked where they
+are used (:func:`number`: type, finite, range). A folder that is not usable — not a
+directory, no summary.json, or a summary.json that is not one of the above — is refused
+with one error text, ``DIR is not a dampfit result folder: WHY; run 'dampfit analyze …'``.
+The marker file ``.dampfit-result`` (:data:`dampfit._files.MARKER`) is not required: folders
+of older dampfit versions and hand-made folders with a valid summary.json are read too.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import numbers
+import os
+import stat
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from dampfit._files import MARKER, read_bounded
+from dampfit.errors import InputError
+from dampfit.fem.sanitize import shown
+
+__all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "SCHEMA_VERSION",
+           "Summary", "brief", "folder_of", "not_a_result", "number", "read_regular",
+           "read_summary"]
+
+#: Version of the summary.json layout :meth:`dampfit.pipeline.Analysis.summary` writes (its
+#: ``schema_version``). 0: written before the field existed (same layout as 1).
+SCHEMA_VERSION = 1
+#: Largest summary.json read [bytes]; a real one is a few kB.
+MAX_SUMMARY_BYTES = 50 * 2**20
+#: Deepest nesting of lists and objects a summary.json may have (dampfit writes ≤ 6).
+MAX_DEPTH = 32
+#: Largest magnitude of any number read from a summary (SI units): beyond it a value is a
+#: typo or an edit, not a measured spring–damper (and decks in mm or ms would overflow fields).
+MAX_MAGNITUDE = 1e15
+#: Smallest value of a quantity that must be positive (mass [kg], k [N/m]): below it unit
+#: conversion (e.g. k × 1e-6 in mm-ms-kg) approaches underflow.
+MIN_POSITIVE = 1e-15
+
+
+@dataclass(frozen=True)
+class Summary:
+    """A validated summary.json: ``data`` (plain JSON), its ``folder`` and ``path``, the
+    SHA-256 of the bytes read, the ``schema_version`` (0 if absent) and whether the folder
+    holds the ``.dampfit-result`` marker."""
+
+    folder: Path
+    path: Path
+    data: dict[str, Any]
+    sha256: str
+    schema_version: int
+    marked: bool
+
+
+def folder_of(result: Any) -> Path:
+    """The folder of ``result``: a path, or an analysis :func:`dampfit.load` read from a folder."""
+    folder = getattr(result, "folder", None) if not isinstance(result, (str, os.PathLike)) else result
+    if folder is None:
+        raise InputError("this analysis was not loaded from a result folder; write it with "
+                         "'dampfit analyze' (or its to_json/to_netcdf/to_signals) and "
+                         "dampfit.load() that folder")
+    return Path(folder)
+
+
+def not_a_result(folder: str | Path, why: str, again: bool = False) -> InputError:
+    """The one error of a folder that is not a usable result folder: ``why`` it is not."""
+    when = "again" if again else "first"
+    return InputError(f"{shown(folder)} is not a dampfit result folder: {why}; run 'dampfit "
+                      f"analyze FILE --mass KG --out {shown(folder)}' {when}")
+
+
+def read_summary(folder: str | os.PathLike | Any) -> Summary:
+    """The validated summary.json of result ``folder`` (see the module); :class:`InputError`
+    (one line) if the folder is not a usable result folder."""
+    folder = folder_of(folder)
+    if not folder.is_dir():
+        raise not_a_result(folder, "it is not a directory")
+    path = folder / "summary.json"
+    data = read_regular(path, MAX_SUMMARY_BYTES, missing=not_a_result(
+        folder, f"{shown(path)} not found, the folder has no summary.json"), folder=folder)
+    broken = f"cannot read {shown(path)}"
+    try:
+        summary = _plain(json.loads(data.decode("utf-8-sig")))
+    except UnicodeDecodeError:
+        raise not_a_result(folder, f"{broken}: not UTF-8 text", again=True) from None
+    except RecursionError:
+        raise not_a_result(folder, f"{broken}: nested too deeply", again=True) from None
+    except _TooDeep:
+        raise not_a_result(folder, f"{broken}: nested too deeply (more than {MAX_DEPTH} "
+                           "levels)", again=True) from None
+    except ValueError as exc:  # json.JSONDecodeError, or an integer with too many digits
+        raise not_a_result(folder, f"{broken}: not readable JSON ({shown(exc, 120)})",
+                           again=True) from None
+    if not isinstance(summary, dict):
+        raise not_a_result(folder, f"{shown(path)} holds a JSON {_kind(summary)}, not an "
+                           "object: not a dampfit summary", again=True)
+    if not isinstance(summary.get("parameters"), dict):
+        raise not_a_result(folder, f"{shown(path)} has no 'parameters' object: not a dampfit "
+                           "summary", again=True)
+    _check_fields(summary, path)
+    return Summary(folder=folder, path=path, data=summary,
+                   sha256=hashlib.sha256(data).hexdigest(),
+                   schema_version=_schema_version(summary, path),
+                   marked=os.path.isfile(folder / MARKER))
+
+
+def _check_fields(summary: dict[str, Any], path: Path) -> None:
+    """Field-level checks of the sections every reader relies on (one line naming the field)."""
+    for section in ("mass", "input", "window"):
+        if summary.get(section) is not None and not isinstance(summary[section], dict):
+            raise InputError(f"{shown(path)}: '{section}' must be an object, "
+                             f"got {brief(summary[section])}")
+    version = summary.get("dampfit_version")
+    if version is not None and not isinstance(version, str):
+        raise InputError(f"{shown(path)}: 'dampfit_version' must be a string, got {brief(version)}")
+
+
+def _schema_version(summary: dict[str, Any], path: Path) -> int:
+    """``schema_version`` of the summary: 0 if absent; refused if not an integer or newer."""
+    if "schema_version" not in summary:
+        return 0
+    v = summary["schema_version"]
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        raise InputError(f"{shown(path)}: 'schema_version' must be a non-negative integer, "
+                         f"got {brief(v)}")
+    if v > SCHEMA_VERSION:
+        writer = summary.get("dampfit_version") or "a newer dampfit"
+        raise InputError(f"{shown(path)} has result schema version {v} (written by dampfit "
+                         f"{shown(writer, 40)}); this dampfit reads versions up to "
+                         f"{SCHEMA_VERSION}: upgrade dampfit to read it")
+    return v
+
+
+def read_regular(path: Path, limit: int, missing: InputError | str, folder: Path | None = None,
+                 what: str = "a dampfit summary.json is a few kB") -> bytes:
+    """Bytes of the regular file ``path`` (symbolic links followed), at most ``limit`` bytes.
+
+    A directory, FIFO, socket or device is refused from its ``stat`` and again after a
+    non-blocking ``open`` (so a file swapped in between cannot make the read block). A
+    missing file raises ``missing``; with ``folder`` every refusal is :func:`not_a_result`.
+    """
+    def refuse(why: str) -> InputError:
+        return not_a_result(folder, why, again=True) if folder is not None else InputError(why)
+
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        raise (missing if isinstance(missing, InputError) else InputError(missing)) from None
+    except OSError as exc:
+        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+
+    def check(st: os.stat_result) -> None:
+        if stat.S_ISDIR(st.st_mode):
+            raise refuse(f"{shown(path)} is a directory, not a file")
+        if not stat.S_ISREG(st.st_mode):
+            raise refuse(f"{shown(path)} is not a regular file (a FIFO, socket or device)")
+        if st.st_size > limit:
+            raise refuse(f"{shown(path)} is {st.st_size / 2**20:.0f} MB, larger than "
+                         f"{limit // 2**20} MB; {what}")
+
+    check(st)
+    try:
+        data = read_bounded(path, limit, check)
+    except OSError as exc:
+        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+    if len(data) > limit:
+        raise refuse(f"{shown(path)} is larger than {limit // 2**20} MB; {what}")
+    return data
+
+
+class _TooDeep(ValueError):
+    """Parsed JSON nested deeper than :data:`MAX_DEPTH`."""
+
+
+def _plain(obj: Any, depth: int = 0) -> Any:
+    """``obj`` (parsed JSON) made plain: integers beyond float precision as floats (±inf
+    beyond range), strings as valid UTF-8 (lone surrogates replaced); :class:`_TooDeep` past
+    :data:`MAX_DEPTH` levels of nesting."""
+    if depth > MAX_DEPTH:
+        raise _TooDeep(f"nested deeper than {MAX_DEPTH} levels")
+    if isinstance(obj, dict):
+        return {_plain(k, depth + 1): _plain(v, depth + 1) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_plain(v, depth + 1) for v in obj]
+    if isinstance(obj, int) and not isinstance(obj, bool) and abs(obj) > 2**53:
+        try:
+            return float(obj)
+        except OverflowError:
+            return math.inf if obj > 0 else -math.inf
+    if isinstance(obj, str):
+        return obj.encode("utf-8", "replace").decode("utf-8")
+    return obj
+
+
+def _kind(value: Any) -> str:
+    return {dict: "object", list: "array", str: "string", bool: "boolean"}.get(
+        type(value), "null" if value is None else "number")
+
+
+def brief(value: Any) -> str:
+    """A JSON value as the user wrote it, shortened: ``true``, ``"0.2"``, ``an array``…"""
+    if isinstance(value, (dict, list)):
+        return f"an {_kind(value)}"
+    try:
+        text = json.dumps(value, ensure_ascii=True)
+    except (TypeError, ValueError):
+        text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def number(value: Any, field: str, where: str | Path, *, positive: bool = False,
+           nonnegative: bool = False, maximum: float = MAX_MAGNITUDE) -> float:
+    """``value`` of ``field`` in file ``where`` as a float, or :class:`InputError` naming both.
+
+    It must be a real number (not a boolean, string, array, object or null), finite, of
+    magnitude at most ``maximum``, and ``> 0`` (``positive``, then also at least
+    :data:`MIN_POSITIVE`) or ``≥ 0`` (``nonnegative``) if asked.
+    """
+    head = f"{shown(where)}: {field}"
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise InputError(f"{head} must be a number, got {brief(value)}")
+    try:
+        x = float(value)
+    except OverflowError:
+        x = math.inf
+    if not math.isfinite(x):
+        raise InputError(f"{head} must be finite, got {brief(value) if isinstance(value, int) else x}")
+    if positive and not x >= MIN_POSITIVE:
+        raise InputError(f"{head} must be positive (at least {MIN_POSITIVE:g}), got {x!r}")
+    if nonnegative and x < 0:
+        raise InputError(f"{head} must not be negative, got {x!r}")
+    if abs(x) > maximum:
+        raise InputError(f"{head} = {x:g} is beyond {maximum:g}: not a plausible value")
+    return x

@@ -1,0 +1,170 @@
+"""Free-decay window: where the decay starts (after the release) and where it ends.
+
+From the Hilbert envelope [m/s²] of the band-passed signal on a uniform grid [s]:
+
+* start — just after the envelope maximum (the release);
+* end — the first of: the envelope reaching 3× the in-band noise floor
+  (:func:`noise_floor`, [m/s²]) or rising again (a catch or a new excitation), an abrupt
+  envelope drop (a catch, rattle or contact: :func:`envelope_drops`), or an impact spike more
+  than :data:`IMPACT_RATIO` times the oscillation before it (:func:`impacts`).
+
+:func:`detect_window` returns the window [s] and notes saying why it ends there.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from dampfit.signal.spectrum import noise_density
+
+__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "envelope_drops", "detect_window",
+           "noise_floor", "impacts"]
+
+#: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
+IMPACT_RATIO = 10.0
+#: Abrupt envelope drops (catch, rattle, contact; :func:`envelope_drops`): the span [periods]
+#: over which a drop is measured, the running-median span of the decay trend [periods], the
+#: excess loss factor that ends the window, and the envelope-to-noise-floor ratio needed.
+DROP_PERIODS, DROP_TREND_PERIODS, DROP_FACTOR, DROP_MIN_SNR = 2.0, 15.0, 2.0, 20.0
+#: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
+RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
+
+
+def noise_floor(env: np.ndarray, y: np.ndarray, fs: float, f0: float, band) -> float:
+    """Mean envelope [m/s²] of the in-band noise alone.
+
+    Two estimates, the smaller wins: (a) spectral — white density off the peak times the band
+    width (a Rayleigh envelope has mean 1.25·σ); it is accurate for long records but overstated
+    when a short, strongly damped line leaks into every bin; (b) temporal — the 10th
+    percentile of the envelope, scaled to the Rayleigh mean (×2.7); it is accurate when part of
+    the record is quiet (before release, after the decay) and overstated otherwise.
+    """
+    spectral = RAYLEIGH_MEAN * noise_density(y, fs, f0, band) * np.sqrt(band[1] - band[0])
+    edge = min(len(env) // 10, int(fs / f0))
+    inner = env[edge : len(env) - edge] if len(env) > 2 * edge + 10 else env
+    temporal = RAYLEIGH_MEAN / RAYLEIGH_P10 * float(np.percentile(inner, 10))
+    return float(min(spectral, temporal)) if temporal > 0 else float(spectral)
+
+
+def impacts(t, y, usable, hits, f0) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] of spike samples and their size relative to the usable signal before them.
+
+    The reference is the largest usable |y| [m/s²] between 1.5 and 0.25 periods before the
+    spike: the oscillation's own amplitude, unaffected by masking or filtering.
+    """
+    times = t[hits]
+    ratios = np.empty(times.size)
+    tu, au = t[usable], np.abs(y[usable])
+    for j, (tc, a) in enumerate(zip(times, np.abs(y[hits]))):
+        lo, hi = np.searchsorted(tu, [tc - 1.5 / f0, tc - 0.25 / f0])
+        ref = au[lo:hi].max() if hi > lo else 0.0
+        ratios[j] = a / ref if ref > 0 else np.inf
+    return times, ratios
+
+
+def _running_median(x: np.ndarray, width: int) -> np.ndarray:
+    """Centred running median over ``width`` samples, computed on a thinned copy (fast)."""
+    step = max(1, width // 20)
+    thin = x[::step]
+    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode="nearest")
+    return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
+
+
+def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
+                   i0: int, i1: int) -> list[tuple[float, float]]:
+    """Abrupt envelope drops between grid indices ``i0`` and ``i1``: [(time [s], factor [1])].
+
+    A free decay loses amplitude smoothly: over ``DROP_PERIODS`` periods the log envelope
+    falls by 2π·ζ·``DROP_PERIODS`` (viscous) or by a slowly varying amount (any other smooth
+    law). A catch, rattle or contact takes energy out within a cycle. The drop over
+    ``DROP_PERIODS`` periods, d(t) = ln ē(t + D/2) − ln ē(t − D/2) (ē: the Hilbert envelope
+    averaged over one period), is compared with its running median over ``DROP_TREND_PERIODS``
+    periods (the decay trend, whatever the law); an excess loss of more than ``DROP_FACTOR``
+    (a factor, not a difference) where the envelope stands ≥ ``DROP_MIN_SNR`` × the noise
+    floor before the drop (and ≥ 3× after it, so that the trend is measured on the decay,
+    not on the noise floor) is reported, at the time of the steepest excess.
+    """
+    fs = 1.0 / (grid[1] - grid[0])
+    per = max(1, int(round(fs / f0)))
+    half = max(1, int(round(DROP_PERIODS * per / 2)))
+    lo, hi = max(i0, half), min(i1, len(env) - half - 1)
+    if hi - lo < 4 * per:
+        return []
+    sm = np.log(np.maximum(ndimage.uniform_filter1d(env, per), 1e-300))
+    idx = np.arange(lo, hi)
+    # measured where the envelope stands clear of the noise on both sides: the flat floor
+    # after a decay must not enter the trend (it would make the decay itself look abrupt)
+    clear = (sm[idx - half] > np.log(DROP_MIN_SNR * floor)) & (sm[idx + half] > np.log(3.0 * floor))
+    idx = idx[clear]
+    if idx.size < 4 * per:
+        return []
+    d = sm[idx + half] - sm[idx - half]
+    trend = _running_median(d, int(DROP_TREND_PERIODS * per))
+    excess = trend - d  # > 0: more loss than the trend
+    hits = excess > np.log(DROP_FACTOR)
+    out = []
+    j = 0
+    while j < idx.size:
+        if hits[j]:
+            k = j
+            while k < idx.size and hits[k]:
+                k += 1
+            m = j + int(np.argmax(excess[j:k]))
+            out.append((float(grid[idx[m]]), float(np.exp(excess[m]))))
+            j = k + 2 * half
+        else:
+            j += 1
+    return out
+
+
+def detect_window(
+    grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
+) -> tuple[float, float, list[str]]:
+    """Free-decay window [s] from the smoothed envelope; see the module docstring.
+
+    ``events`` = (times [s], size ratios [1]) of masked impact spikes (:func:`impacts`). A
+    spike ends the free decay (a catch, or a knock that resets the oscillator) if it is more
+    than ``IMPACT_RATIO`` times the oscillation just before it. (Whether the oscillation "dies"
+    after a spike is no test: a heavily damped decay dies by itself within a few periods.)
+    """
+    fs = 1.0 / (grid[1] - grid[0])
+    per = max(1, int(round(fs / f0)))
+    sm = ndimage.uniform_filter1d(env, per)
+    edge = min(per, len(sm) // 10)
+    inner = sm[edge : len(sm) - edge] if len(sm) > 2 * edge + 1 else sm
+    i_pk = int(np.argmax(inner)) + (edge if len(sm) > 2 * edge + 1 else 0)
+    notes = []
+    # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck),
+    # judged on a median over five periods so that short dropouts (gaps) do not end it
+    robust = _running_median(env, 5 * per)
+    run_min = np.minimum.accumulate(robust[i_pk:])
+    low = np.flatnonzero(robust[i_pk:] < 3.0 * floor)
+    rise = np.flatnonzero((robust[i_pk:] > 1.5 * run_min) & (robust[i_pk:] > 5.0 * floor))
+    i_end = len(sm) - 1 - edge
+    if low.size:
+        i_end = min(i_end, i_pk + int(low[0]))
+        notes.append("window ends where the decay reaches 3x the noise floor")
+    if rise.size:
+        i_rise = i_pk + int(rise[0]) - per
+        if i_rise < i_end:
+            i_end = i_rise
+            notes.append("window ends before the envelope rises again (catch or new excitation)")
+    drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
+    if drops:
+        tc, factor = drops[0]
+        i_end = max(int(np.searchsorted(grid, tc)) - per, i_pk)
+        notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
+                     f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
+                     "catch, rattle or contact)")
+    ev_t, ev_a = events
+    after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
+    for tc, ratio in zip(ev_t[after], ev_a[after]):
+        i = int(np.searchsorted(grid, tc))
+        if i >= i_end:
+            break
+        if ratio > IMPACT_RATIO:
+            i_end = max(i - per // 2, i_pk)
+            notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
+            break
+    return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes

@@ -1,0 +1,169 @@
+"""dampfit.physics: the one conversion of (p, ω_d) into physical quantities, the one mass
+check and the one units table, and that the pipeline, posterior, estimators, bound and
+output use them."""
+
+from __future__ import annotations
+
+import inspect
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from dampfit import physics
+from dampfit.errors import InputError
+
+P, WD, M, ACC = 0.0923, 10.8, 5.3, 2.4  # [1/s], [rad/s], [kg], [m/s²]
+
+
+def test_quantities_follow_the_sdof_relations():
+    q = physics.quantities(P, WD, M, accel_amplitude=ACC)
+    wn2 = P**2 + WD**2
+    wn = math.sqrt(wn2)
+    expect = {"p": P, "omega_d": WD, "omega_n": wn, "f_n": wn / (2 * math.pi),
+              "f_d": WD / (2 * math.pi), "zeta": P / wn, "delta": 2 * math.pi * P / WD,
+              "Q": wn / (2 * P), "c": 2 * M * P, "k": M * wn2, "c_crit": 2 * M * wn,
+              "u0": ACC / wn2}
+    assert set(q) == set(expect)
+    for name, value in expect.items():
+        assert float(q[name]) == pytest.approx(value, rel=1e-14), name
+    # the mass-dependent ones round-trip through to_decay and critical_damping
+    p2, wd2 = physics.to_decay(q["c"], q["k"], M)
+    assert (float(p2), float(wd2)) == pytest.approx((P, WD), rel=1e-12)
+    assert float(q["c_crit"]) == pytest.approx(float(physics.critical_damping(q["k"], M)), rel=1e-12)
+    assert float(q["zeta"]) == pytest.approx(float(q["c"] / q["c_crit"]), rel=1e-12)
+
+
+def test_quantities_without_mass_or_amplitude_are_mass_free():
+    q = physics.quantities(P, WD)
+    assert not {"c", "k", "c_crit", "u0"} & set(q)
+    assert physics.from_decay(P, WD, M).keys() == physics.quantities(P, WD, M).keys()
+
+
+def test_quantities_broadcast_draws():
+    p = np.array([0.1, 0.2, 0.3])
+    m = np.array([[5.0], [6.0]])  # mass draws along another axis
+    q = physics.quantities(p, 10.0, m, accel_amplitude=np.ones(3))
+    assert q["c"].shape == (2, 3) and q["zeta"].shape == (3,) and q["u0"].shape == (3,)
+    np.testing.assert_allclose(q["c"], 2 * m * p)
+
+
+def test_quantities_are_differentiable_by_jax():
+    import jax
+    import jax.numpy as jnp
+
+    with jax.enable_x64(True):
+        grad = jax.grad(lambda x: physics.quantities(x[0], x[1], M)["c"])(jnp.array([P, WD]))
+    assert np.asarray(grad) == pytest.approx([2 * M, 0.0])
+
+
+def test_u0_convention_matches_least_squares_and_bound():
+    from dampfit.inference import crlb
+
+    a, b = 1.5, -0.7
+    q = physics.quantities(P, WD, accel_amplitude=math.hypot(a, b))
+    t = np.linspace(0.0, 20.0, 400)
+    bound = crlb.bound(t, 0.1, p=P, omega_d=WD, a_cos=a, a_sin=b, mass=M)
+    assert bound["u0"]["value"] == pytest.approx(float(q["u0"]), rel=1e-12)
+    assert bound["c"]["value"] == pytest.approx(2 * M * P, rel=1e-12)
+
+
+# -- one mass check ----------------------------------------------------------------------------
+@pytest.mark.parametrize(("mass", "sd", "substrings"), [
+    (-1.0, None, ("mass must be positive", "mass must be a positive",
+                  "positive number of kilograms")),
+    (0.0, None, ("mass must be positive",)),
+    (float("nan"), None, ("mass must be positive",)),
+    ("heavy", None, ("mass must be a positive",)),
+    (None, 0.1, ("without --mass", "without mass")),
+    (1.0, -0.1, ("mass_sd", "standard deviation")),
+    (1.0, float("nan"), ("mass_sd", "standard deviation")),
+    (1.0, 0.6, ("more than half the mass",)),
+])
+def test_check_mass_has_one_message_set(mass, sd, substrings):
+    with pytest.raises(InputError) as err:
+        physics.check_mass(mass, sd)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for s in substrings:
+        assert s in msg
+
+
+def test_check_mass_returns_floats():
+    assert physics.check_mass(None) == (None, 0.0)
+    assert physics.check_mass(None, 0.0) == (None, 0.0)
+    assert physics.check_mass(np.float32(2.0), 0.1) == (2.0, pytest.approx(0.1))
+    assert physics.check_mass(5, None) == (5.0, 0.0)
+
+
+def test_every_mass_check_is_the_physics_one():
+    from dampfit import pipeline, simulate
+    from dampfit.estimators import baselines, registry
+    from dampfit.inference import crlb
+
+    for mod in (pipeline, simulate, baselines, registry, crlb):
+        src = inspect.getsource(mod)
+        assert "check_mass(" in src, mod.__name__
+        assert "positive number of kilograms" not in src, mod.__name__
+
+
+# -- one units table ---------------------------------------------------------------------------
+def test_units_come_from_one_table():
+    from dampfit import pipeline
+    from dampfit.damping import quantities
+    from dampfit.inference import crlb
+    from dampfit.output import text
+
+    for table in (pipeline.PARAMETER_UNITS, crlb.UNITS):
+        assert all(unit == physics.UNITS[name] for name, unit in table.items())
+    assert all(quantities.UNITS[name] == physics.UNITS[name] for name in physics.UNITS
+               if name in quantities.UNITS)
+    assert text._LABELS["c"] == "c      [N s/m]"
+
+
+# -- one summariser, diagnostics computed once --------------------------------------------------
+def _idata(rng):
+    import arviz as az
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return az.from_dict(posterior={"p": rng.normal(1.0, 0.1, (8, 50)),
+                                       "mass": np.full((8, 50), M)})
+
+
+def test_posterior_diagnostics_are_arviz_rhat_and_bulk_ess():
+    import arviz as az
+
+    from dampfit.inference.posterior import quantity_diagnostics
+
+    idata = _idata(np.random.default_rng(1))
+    diag = quantity_diagnostics(idata)
+    x = np.asarray(idata.posterior["p"])
+    assert diag["p"]["r_hat"] == pytest.approx(float(az.rhat(x)), rel=1e-12)
+    assert diag["p"]["ess_bulk"] == pytest.approx(float(az.ess(x, method="bulk")), rel=1e-12)
+    assert math.isnan(diag["mass"]["r_hat"])  # constant draws
+
+
+def test_param_summary_takes_the_posterior_diagnostics():
+    from dampfit.pipeline import _param_summary
+
+    idata = _idata(np.random.default_rng(2))
+    diag = {"p": {"r_hat": 1.234, "ess_bulk": 56.0}}
+    s = _param_summary(idata, "p", diag)  # given values are reported, not recomputed
+    assert (s["r_hat"], s["ess_bulk"]) == (1.234, 56.0)
+    x = np.asarray(idata.posterior["p"]).ravel()
+    assert s["unit"] == "1/s" and s["mean"] == pytest.approx(x.mean())
+    assert s["sd"] == pytest.approx(x.std(ddof=1))
+    assert [s["q05"], s["q50"], s["q95"]] == pytest.approx(np.quantile(x, [0.05, 0.5, 0.95]))
+    assert list(s) == ["unit", "mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk"]
+    assert math.isnan(_param_summary(idata, "p", {})["r_hat"])
+
+
+# -- figures draw, they do not compute ---------------------------------------------------------
+def test_figures_neither_compute_physics_nor_evaluate_the_model():
+    from dampfit.output import figures
+
+    src = inspect.getsource(figures)
+    assert "jax" not in src and "design_matrix" not in src
+    assert "np.hypot(p" not in src and "2 * an.mass" not in src
