@@ -264,45 +264,28 @@ class Analysis:
 
 
 # --------------------------------------------------------------------- the job
-def analyze(
-    recording: Recording,
-    mass: float | None = None,
-    mass_sd: float | None = None,
-    *,
-    axis: str = "auto",
-    window: tuple[float, float] | None = None,
-    band: tuple[float, float] | None = None,
-    seed: int = 0,
-    progress: bool = False,
-    max_steps: int = 20000,
-    min_ess: float = 1000.0,
-    model: str = "auto",
-    amplitude: float | None = None,
-) -> Analysis:
-    """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
+@dataclass(frozen=True)
+class ViscousStages:
+    """The stages of the viscous analysis of one prepared signal (:func:`viscous_stages`)."""
 
-    ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
-    the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
-    (start, end) [s] and ``band`` (low, high) [Hz] override the automatic choices. ``seed``
-    makes the posterior reproducible; ``progress`` shows a progress bar.
+    baselines: dict[str, Any]  # name → baselines.BaselineResult | None
+    fit_data: preprocess.FitData
+    least_squares: fit.LeastSquaresResult
+    noise: noise.NoiseModel
+    sampling: posterior.PosteriorResult
+    warnings: list[str]
+    posterior_seconds: float  # wall time [s] of the posterior stage
 
-    ``model`` (``auto``, ``viscous``, ``coulomb``, ``quadratic``, ``power``) chooses the damping
-    law reported as ``c_equivalent`` (:mod:`dampfit.damping`): ``auto`` compares them all and
-    takes the one the evidence prefers; every law is checked either way (``model_checks``).
-    The viscous posterior under ``parameters`` is always computed. ``amplitude`` [m] is the
-    displacement amplitude at which a non-viscous law's equivalent viscous c is reported
-    (default: the geometric mean of the first and last amplitudes of the window).
-    """
-    if not isinstance(recording, Recording):
-        raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
-    m, sd = _check_mass(mass, mass_sd)
-    _check_damping_options(model, amplitude)
+
+def viscous_stages(prep: preprocess.Prepared, mass: float | None, mass_sd: float, *,
+                   seed: int = 0, progress: bool = False, max_steps: int = 20000,
+                   min_ess: float = 1000.0) -> ViscousStages:
+    """Baselines, least squares, noise calibration and the viscous posterior of one prepared
+    signal: the stages :func:`analyze` and the ``bayes`` estimator share (``mass`` [kg] and
+    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`). Refuses (one-line
+    :class:`~dampfit.errors.InputError`) a window with no free decay and a noise-free record."""
     warns: list[str] = []
-    _refuse_impossible_time(recording)
-    prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
-    warns.extend(prep.warnings)
-    warns.extend(unit_plausibility(recording, prep, m))
-
+    m, sd = mass, mass_sd
     # baselines on the uniform grid inside the window (also the initial guess)
     sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
     base: dict[str, baselines.BaselineResult | None] = {}
@@ -335,14 +318,68 @@ def analyze(
     # r floored at its white-noise value on this path: intervals only widen (dampfit.inference.noise)
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
                         white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
-    bound = _crlb(prep, fd, ls, nm, m, sd, warns)
     started = time.monotonic()
     post = posterior.sample(
         fd, ls, band=prep.band, temper=1.0 / nm.psd_ratio, mass=m, mass_sd=sd, seed=seed,
         progress=progress, max_steps=max_steps, min_ess=min_ess,
     )
-    viscous_seconds = time.monotonic() - started
     warns.extend(post.warnings)
+    return ViscousStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, sampling=post,
+                         warnings=warns, posterior_seconds=time.monotonic() - started)
+
+
+def analyze(
+    recording: Recording,
+    mass: float | None = None,
+    mass_sd: float | None = None,
+    *,
+    axis: str = "auto",
+    window: tuple[float, float] | None = None,
+    band: tuple[float, float] | None = None,
+    seed: int = 0,
+    progress: bool = False,
+    max_steps: int = 20000,
+    min_ess: float = 1000.0,
+    model: str = "auto",
+    amplitude: float | None = None,
+) -> Analysis:
+    """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
+
+    ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
+    the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
+    (start, end) [s] and ``band`` (low, high) [Hz] override the automatic choices. ``seed``
+    makes the posterior reproducible; ``progress`` shows a progress bar.
+
+    ``model`` (``auto``, ``viscous``, ``coulomb``, ``quadratic``, ``power``) chooses the damping
+    law reported as ``c_equivalent`` (:mod:`dampfit.damping`): ``auto`` compares them all and
+    takes the one the evidence prefers; every law is checked either way (``model_checks``).
+    The viscous posterior under ``parameters`` is always computed. ``amplitude`` [m] is the
+    displacement amplitude at which a non-viscous law's equivalent viscous c is reported
+    (default: the geometric mean of the first and last amplitudes of the window).
+    """
+    if isinstance(recording, (list, tuple)):  # several recordings of one damper (issue 12)
+        from dampfit.campaign import analyze_campaign
+
+        return analyze_campaign(recording, mass, mass_sd, axis=axis, window=window, band=band,
+                                seed=seed, progress=progress, max_steps=max_steps,
+                                min_ess=min_ess)
+    if not isinstance(recording, Recording):
+        raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
+    m, sd = _check_mass(mass, mass_sd)
+    _check_damping_options(model, amplitude)
+    warns: list[str] = []
+    _refuse_impossible_time(recording)
+    prep = preprocess.prepare(recording, axis=axis, window=window, band=band)
+    warns.extend(prep.warnings)
+    warns.extend(unit_plausibility(recording, prep, m))
+
+    stages = viscous_stages(prep, m, sd, seed=seed, progress=progress, max_steps=max_steps,
+                            min_ess=min_ess)
+    base, fd, ls, nm, post = (stages.baselines, stages.fit_data, stages.least_squares,
+                              stages.noise, stages.sampling)
+    warns.extend(stages.warnings)
+    bound = _crlb(prep, fd, ls, nm, m, sd, warns)
+    viscous_seconds = stages.posterior_seconds
     assessment = _assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
                                  max_steps, min_ess, warns, post.n_steps, viscous_seconds)
     # the r warning, unless the adequacy verdict's warning already explains the structure
@@ -403,7 +440,7 @@ def unit_plausibility(rec: Recording, prep: preprocess.Prepared, mass: float | N
                    "for a free-decay test; check the time unit (--time-unit)")
     if mass is not None:
         with np.errstate(over="ignore"):
-            k = float(mass * (2 * np.pi * np.float64(prep.f0)) ** 2)
+            k = float(physics.stiffness(mass, 2 * np.pi * np.float64(prep.f0)))
         k_lo, k_hi = PLAUSIBLE_K_N_PER_M
         if not k_lo <= k <= k_hi:
             out.append(f"the implied stiffness k ≈ {k:.3g} N/m for {mass:g} kg is outside "

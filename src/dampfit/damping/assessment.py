@@ -33,6 +33,7 @@ from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.damping import checks, curve, quantities
 from dampfit.damping import evidence as compare
+from dampfit.physics import check_mass
 from dampfit.model import laws as models
 from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit as dfit
@@ -132,10 +133,8 @@ def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_c
     if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
         raise InputError("the reference amplitude must be a positive displacement in m, "
                          f"got {amplitude!r}")
-    if mass is not None and not (np.isfinite(mass) and mass > 0):
-        raise InputError(f"mass must be a positive number of kilograms, got {mass!r}")
-    if mass_sd is not None and not (np.isfinite(mass_sd) and mass_sd >= 0):
-        raise InputError(f"mass standard deviation must be ≥ 0 kg, got {mass_sd!r}")
+    if mass is not None:
+        check_mass(mass, mass_sd)
     if posterior not in POSTERIORS:
         raise InputError(f"posterior must be one of {', '.join(POSTERIORS)}, got {posterior!r}")
     if window_cycles is not None and not (np.isfinite(window_cycles) and window_cycles >= 2):

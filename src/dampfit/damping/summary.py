@@ -20,6 +20,7 @@ import numpy as np
 from dampfit._json import jsonable
 from dampfit.damping import checks, quantities
 from dampfit.damping import evidence as compare
+from dampfit.physics import damping_coefficient
 from dampfit.model import laws as models
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -103,7 +104,7 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
         zeta = models.local_rate(name, mf.theta, grid / mf.a0) / mf.omega
         entry = {"zeta_eq": zeta}
         if a.mass is not None:
-            entry["c_eq"] = 2 * a.mass * mf.omega * zeta
+            entry["c_eq"] = damping_coefficient(a.mass, mf.omega * zeta)
         curves[name] = entry
     band = None
     post = a.posteriors.get(a.chosen)
@@ -118,8 +119,9 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
              "accel_amplitude_m_s2": w.accel_amplitude, "p": w.p, "p_sd": w.p_sd,
              "zeta": w.zeta, "zeta_sd": w.zeta_sd, "f_d_hz": w.omega_d / (2 * np.pi),
              "f_d_sd_hz": w.omega_sd / (2 * np.pi),
-             "c": 2 * a.mass * w.p if a.mass is not None else None,
-             "c_sd": 2 * a.mass * w.p_sd if a.mass is not None else None, "n_samples": w.n}
+             "c": damping_coefficient(a.mass, w.p) if a.mass is not None else None,
+             "c_sd": damping_coefficient(a.mass, w.p_sd) if a.mass is not None else None,
+             "n_samples": w.n}
             for w in a.windows]
     visc = a.fits.get("viscous")
     backbone = {

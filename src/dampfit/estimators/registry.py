@@ -134,28 +134,30 @@ def _estimator(name: str):
 # --------------------------------------------------------------------------- estimators
 @_estimator("bayes")
 def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
-    """dampfit's posterior (:func:`dampfit.pipeline.analyze`): medians, 90 % credible intervals.
+    """dampfit's viscous posterior (:func:`dampfit.pipeline.viscous_stages`, the stages of
+    :func:`dampfit.pipeline.analyze` after the preparation): medians, 90 % credible intervals.
 
-    The analysed axis as ``prep`` projected it is passed as a one-axis recording (masked
-    clipped/spike samples left out) with ``prep``'s window and band, so the posterior sees
-    the samples every other estimator sees. ``min_ess`` = :data:`BAYES_MIN_ESS` (400, the
-    CLI asks 1000); the mass is taken as exact (``mass_sd`` = 0). ``ok`` is False when the
-    least squares or the chain did not converge (the numbers are still reported).
+    It runs on ``prep`` itself — the samples every other estimator sees — with
+    ``min_ess`` = :data:`BAYES_MIN_ESS` (400, the CLI asks 1000); the mass is taken as exact
+    (``mass_sd`` = 0). No damping-law comparison is made. ``ok`` is False when the least
+    squares or the chain did not converge (the numbers are still reported).
     """
-    from dampfit import pipeline as analysis
+    from dampfit.pipeline import viscous_stages
 
-    keep = prep.usable
-    rec = Recording(prep.time[keep], prep.signal[keep][:, None], axes=("a",), format="prepared")
-    a = analysis.analyze(rec, mass=mass, mass_sd=0.0, window=prep.window, band=prep.band,
-                         seed=seed, min_ess=BAYES_MIN_ESS)
-    par = a.summary()["parameters"]
-    p, f_n, z = par["p"], par["f_n"], par["zeta"]
-    c = par.get("c") if mass is not None else None
-    msg = "" if a.converged else "; ".join(a.warnings) or "did not converge"
+    st = viscous_stages(prep, mass, 0.0, seed=seed, min_ess=BAYES_MIN_ESS)
+    post = st.sampling.idata.posterior
+
+    def q(name: str) -> tuple[float, float, float]:
+        x = np.asarray(post[name], dtype=float).ravel()
+        return tuple(float(v) for v in np.quantile(x, (0.05, 0.5, 0.95)))
+
+    p, f_n, z = q("p"), q("f_n"), q("zeta")
+    c = q("c") if mass is not None else None
+    ok = bool(st.least_squares.converged and st.sampling.converged)
+    msg = "" if ok else "; ".join(st.warnings) or "did not converge"
     return Estimate(
-        "bayes", p["q50"], f_n["q50"], z["q50"], c["q50"] if c else None,
-        c["q05"] if c else None, c["q95"] if c else None, z["q05"], z["q95"],
-        bool(a.converged), msg, 0.0,
+        "bayes", p[1], f_n[1], z[1], c[1] if c else None, c[0] if c else None,
+        c[2] if c else None, z[0], z[2], ok, msg, 0.0,
     )
 
 

@@ -269,10 +269,9 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
             np.full(k, 1e-6))
         start = rng.multivariate_normal(mf.theta, cov, size=N_WALKERS)
     sampler = ensemble(k, log_prob, rng, N_WALKERS)
-    from tqdm.auto import tqdm
+    from dampfit._progress import progress_bar
 
-    with tqdm(total=steps_allowed, desc=f"{model} posterior", unit="step",
-              disable=not progress, leave=False) as bar:
+    with progress_bar(steps_allowed, f"{model} posterior", enabled=progress) as bar:
         try:
             run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
                                block=block, bar=_DeadlineBar(bar, deadline))

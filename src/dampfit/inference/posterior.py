@@ -388,7 +388,6 @@ def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.Inferen
 
 
 def _progress(total: int, enabled: bool):
-    from tqdm.auto import tqdm
+    from dampfit._progress import progress_bar
 
-    return tqdm(total=total, desc="posterior (emcee steps)", unit="step", disable=not enabled,
-                leave=False, dynamic_ncols=True)
+    return progress_bar(total, "posterior (emcee steps)", enabled=enabled)

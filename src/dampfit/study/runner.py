@@ -93,14 +93,15 @@ def _execute(client, todo: list[Task], store: Store, total: int, done: int, cfg:
              quiet: bool, err: TextIO) -> list[str]:
     """Submit ``todo``, store each record as it completes; return failures (one line each)."""
     from distributed import as_completed
-    from tqdm.auto import tqdm
+
+    from dampfit._progress import progress_bar
 
     tag = uuid.uuid4().hex[:8]
     keys = [f"dampfit-study-{t.scenario}-{t.replicate}-{tag}" for t in todo]
     futures = client.map(run_task, todo, key=keys, pure=False)
     failures = []
-    with tqdm(total=total, initial=done, unit="run", desc=cfg.name, file=err,
-              disable=quiet or not err.isatty(), dynamic_ncols=True) as bar:
+    with progress_bar(total, cfg.name, unit="run", initial=done, file=err,
+                      enabled=not quiet and err.isatty(), leave=True) as bar:
         for fut in as_completed(futures):
             try:
                 record = fut.result()
