@@ -6,7 +6,7 @@ and σ integrated out, Whittle factor r from :mod:`dampfit.inference.noise`) tim
 :mod:`dampfit.inference.posterior`, which samples the viscous law this way.
 
 * ``emcee``: 64 walkers over θ with the viscous sampler's proposals
-  (:func:`dampfit.inference.posterior.MOVES`: kernel-density independence + differential evolution;
+  (:func:`dampfit.inference.posterior.default_moves`: kernel-density independence + differential evolution;
   on the real phone spring's 5-parameter power law 4 s and ESS ≈ 6,600 where the default
   stretch move took 12–15 s for ESS ≈ 2,500), the likelihood compiled once with JAX and
   vmapped, started in a ball from the Laplace covariance; runs in blocks until the chain exceeds 50

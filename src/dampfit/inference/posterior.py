@@ -20,7 +20,7 @@ Model and priors
 Sampling
 --------
 emcee's ensemble (64 walkers; kernel-density independence proposals mixed with
-differential-evolution moves, see :func:`MOVES`) over θ = (ln p, ln ω_d), vectorised: one
+differential-evolution moves, see :func:`default_moves`) over θ = (ln p, ln ω_d), vectorised: one
 jitted, vmapped JAX call evaluates a half-ensemble. Walkers start in a small ball drawn from
 the least-squares covariance. The chain runs in blocks (sized from the running τ estimate,
 see :func:`run_adaptive`) until (a) its length exceeds 50 integrated autocorrelation times,
@@ -61,14 +61,14 @@ def _arviz():
 
 __all__ = ["PosteriorResult", "sample", "seed_sampler", "N_WALKERS"]
 
-#: Ensemble size: with the KDE proposal (:func:`MOVES`) a larger ensemble describes the target
+#: Ensemble size: with the KDE proposal (:func:`default_moves`) a larger ensemble describes the target
 #: better (τ ≈ 2 steps at 64 walkers, ≈ 2.6 at 32) and amortises emcee's per-step Python cost;
 #: 64 walkers reached the stopping rule in the least wall time on the seed paper's recording.
 N_WALKERS = 64
 PARAMETERS = ("c", "k", "u0", "zeta", "f_n")
 
 
-def MOVES():
+def default_moves():
     """emcee proposal mixture for the 2-D θ = (ln p, ln ω_d) (and, in
     :mod:`dampfit.inference.law_sampler`, the 3–6 parameters of a nonlinear damping law).
 
@@ -260,7 +260,8 @@ def ensemble(ndim: int, log_prob, rng: np.random.Generator, n_walkers: int = N_W
     ``KeyboardInterrupt`` of Ctrl-C or SIGTERM — before re-raising it, which broke the CLI's
     one-line promise.
     """
-    sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True, moves=MOVES())
+    sampler = emcee.EnsembleSampler(n_walkers, ndim, log_prob, vectorize=True,
+                                    moves=default_moves())
     sampler.log_prob_fn = log_prob
     seed_sampler(sampler, rng)
     return sampler
