@@ -8,7 +8,7 @@ from dampfit import simulate
 
 # A phone on a soft spring (0.33 kg, 0.9 Hz, ζ = 1 %), recorded at 100 Hz with 7 % timing
 # jitter, bias drift, tilt, a hand-held start and a catch at the end.
-rec, truth = simulate.simulate(simulate.preset("phone", seed=42))
+rec, truth = simulate.recording(simulate.preset("phone", seed=42))
 
 result = dampfit.analyze(rec, mass=truth["mass"], mass_sd=0.005, seed=1)
 s = result.summary()

@@ -17,7 +17,7 @@ from dampfit.io.recording import STANDARD_GRAVITY
 MASS = 5.3  # [kg]
 cfg = simulate.from_modal(MASS, 2.0, 0.01, u0=0.02, duration=60.0, sample_rate=200.0,
                           noise_density=2000.0, seed=3)
-rec, truth = simulate.simulate(cfg)
+rec, truth = simulate.recording(cfg)
 
 results = estimators.run(list(estimators.ESTIMATORS), rec, mass=MASS, seed=0)
 

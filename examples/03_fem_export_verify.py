@@ -31,7 +31,7 @@ if missing and os.environ.get("DAMPFIT_REQUIRE_ALL", "").strip() not in ("", "0"
 out_root = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(tempfile.mkdtemp())
 out_root.mkdir(parents=True, exist_ok=True)
 csv = out_root / "paper.csv"
-rec, truth = simulate.simulate(simulate.preset("paper", seed=7))
+rec, truth = simulate.recording(simulate.preset("paper", seed=7))
 simulate.write_phyphox_csv(rec, csv)
 
 result = out_root / "result"

@@ -164,7 +164,7 @@ def throughput(n: int) -> float:
     from dampfit.signal import prepare as preprocess
     from dampfit import simulate as sim
 
-    recs = [sim.simulate(sim.preset("paper", seed=1000 + i))[0] for i in range(n + 1)]
+    recs = [sim.recording(sim.preset("paper", seed=1000 + i))[0] for i in range(n + 1)]
     prep = preprocess.prepare(recs[0])  # warm-up (compilation) not counted
     fit.least_squares(preprocess.fit_data(prep), float("nan"), prep.f0)
     t0 = time.perf_counter()
@@ -184,7 +184,7 @@ def main(argv=None) -> int:
     from dampfit.signal import prepare as preprocess
     from dampfit import simulate as sim
 
-    rec, truth = sim.simulate(sim.preset("paper", seed=0))
+    rec, truth = sim.recording(sim.preset("paper", seed=0))
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "paper.csv"
         sim.write_phyphox_csv(rec, csv)
@@ -193,7 +193,7 @@ def main(argv=None) -> int:
     floor_narrow = import_floor(STACK_NARROW)
     d_cold = dampfit_run(rec)
     # warm: three further recordings of the same shape, the median one (by sampler ESS/s)
-    warm_runs = [dampfit_run(sim.simulate(sim.preset("paper", seed=s))[0]) for s in (1, 2, 3)]
+    warm_runs = [dampfit_run(sim.recording(sim.preset("paper", seed=s))[0]) for s in (1, 2, 3)]
     d_warm = sorted(warm_runs, key=lambda d: d["posterior_ess_c_per_s"])[1]
     ref = reference(rec, preprocess.prepare(rec), a.ref_steps, seed=0)
     tput = throughput(a.fits)

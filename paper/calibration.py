@@ -53,7 +53,7 @@ def one(args: tuple[str, int]) -> dict:
     f_n, zeta = spec.pop("f_n"), spec.pop("zeta")
     seed = int(np.random.SeedSequence([20261121, list(SCENARIOS).index(name), rep]).generate_state(1)[0])
     cfg = sim.from_modal(MASS, f_n, zeta, u0=U0, seed=seed, **spec)
-    rec, truth = sim.simulate(cfg)
+    rec, truth = sim.recording(cfg)
     t0 = time.perf_counter()
     an = dampfit.analyze(rec, mass=MASS, seed=rep)
     dt = time.perf_counter() - t0

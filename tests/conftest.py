@@ -78,7 +78,7 @@ def short_paper():
     """A 20 s version of the paper preset: (recording, truth)."""
     from dampfit import simulate as sim  # lazy: keeps collection (and tests/conftest.py) light
 
-    return sim.simulate(sim.preset("paper", duration=20.0, seed=7))
+    return sim.recording(sim.preset("paper", duration=20.0, seed=7))
 
 
 @pytest.fixture(scope="session")

@@ -45,7 +45,7 @@ def phone_viscous(i: int):
                      duration=float(r.uniform(30, 60)),
                      noise_density=float(np.exp(r.uniform(np.log(250), np.log(3000)))),
                      flicker=float(r.choice([0.0, 300.0])), seed=i)
-    return sim.simulate(cfg)[0]
+    return sim.recording(cfg)[0]
 
 
 def lab_viscous(i: int):
@@ -56,7 +56,7 @@ def lab_viscous(i: int):
     cfg = sim.preset("paper", k=m * (2 * np.pi * f_n) ** 2, c=2 * zeta * m * 2 * np.pi * f_n,
                      duration=float(r.uniform(20, 60)),
                      noise_density=float(np.exp(r.uniform(np.log(100), np.log(2000)))), seed=i)
-    return sim.simulate(cfg)[0]
+    return sim.recording(cfg)[0]
 
 
 def amplitude_dependent(i: int):

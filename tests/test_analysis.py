@@ -16,7 +16,7 @@ from dampfit.io.recording import Recording
 
 # ---------------------------------------------------------------- preprocessing
 def test_auto_axis_finds_the_tilted_direction():
-    rec, truth = sim.simulate(sim.preset("paper", duration=15.0, tilt_deg=35.0, azimuth_deg=70.0))
+    rec, truth = sim.recording(sim.preset("paper", duration=15.0, tilt_deg=35.0, azimuth_deg=70.0))
     prep = preprocess.prepare(rec)
     d = np.array([prep.direction[a] for a in ("x", "y", "z")])
     cos = abs(d @ np.asarray(truth["direction"]))
@@ -24,7 +24,7 @@ def test_auto_axis_finds_the_tilted_direction():
 
 
 def test_window_starts_after_release_and_ends_before_catch():
-    rec, truth = sim.simulate(sim.preset("phone", seed=3))
+    rec, truth = sim.recording(sim.preset("phone", seed=3))
     prep = preprocess.prepare(rec)
     # the guard after the envelope peak skips the low-pass ringing of the release step
     assert truth["t_release"] < prep.window[0] < truth["t_release"] + 4.0 / truth["f_n"]
@@ -32,7 +32,7 @@ def test_window_starts_after_release_and_ends_before_catch():
 
 
 def test_user_window_and_band_are_used():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0))
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0))
     prep = preprocess.prepare(rec, window=(5.0, 14.0), band=(1.0, 2.5))
     assert prep.window == (5.0, 14.0) and not prep.window_auto
     assert prep.band == (1.0, 2.5) and not prep.band_auto
@@ -47,25 +47,25 @@ def test_user_window_and_band_are_used():
     ({"axis": "w"}, "axis 'w' is not in this recording"),
 ])
 def test_bad_options_are_input_errors(kw, match):
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0))
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0))
     with pytest.raises(InputError, match=match):
         preprocess.prepare(rec, **kw)
 
 
 def test_no_oscillation_is_an_input_error():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0, u0=0.0))  # hand tremor only
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0, u0=0.0))  # hand tremor only
     with pytest.raises(InputError, match="no free.decay"):
         analysis.analyze(rec, mass=5.3)
 
 
 def test_too_short_recording_is_an_input_error():
-    rec, _ = sim.simulate(sim.preset("paper", duration=1.0, handheld=0.0))  # 1.7 cycles
+    rec, _ = sim.recording(sim.preset("paper", duration=1.0, handheld=0.0))  # 1.7 cycles
     with pytest.raises(InputError, match="too short"):  # "no … peak" or "(too short?)"
         preprocess.prepare(rec)
 
 
 def test_stale_repeats_are_dropped():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0))
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0))
     idx = np.repeat(np.arange(rec.n_samples), 1 + (np.arange(rec.n_samples) % 3 == 0))
     t = rec.time[0] + np.arange(idx.size) * 0.75 / rec.sample_rate  # polled faster than ODR
     stale = Recording(t, rec.accel[idx])
@@ -75,7 +75,7 @@ def test_stale_repeats_are_dropped():
 
 
 def test_clipped_samples_are_masked():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0, tilt_deg=0.0))
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0, tilt_deg=0.0))
     level = 0.8 * np.max(np.abs(rec.accel[:, 1]))
     clipped = Recording(rec.time, np.clip(rec.accel, -level, level))
     prep = preprocess.prepare(clipped)
@@ -85,7 +85,7 @@ def test_clipped_samples_are_masked():
 
 
 def test_impact_spikes_are_masked():
-    rec, _ = sim.simulate(sim.preset("paper", duration=15.0))
+    rec, _ = sim.recording(sim.preset("paper", duration=15.0))
     a = rec.accel.copy()
     a[5000, :] += 40.0
     prep = preprocess.prepare(Recording(rec.time, a))

@@ -16,7 +16,7 @@ from dampfit.cli import main
 def csv_file(tmp_path_factory):
     """A short simulated phyphox CSV of the paper's set-up and its truth."""
     d = tmp_path_factory.mktemp("rec")
-    rec, truth = sim.simulate(sim.preset("paper", duration=20.0, seed=5))
+    rec, truth = sim.recording(sim.preset("paper", duration=20.0, seed=5))
     path = d / "Raw Data.csv"
     sim.write_phyphox_csv(rec, path)
     return path, truth

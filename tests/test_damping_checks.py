@@ -242,7 +242,7 @@ def _phone_viscous(i: int):
                          bias=(0.08, -0.12, 0.15), drift=0.02, quantization=0.0024, tilt_deg=12.0,
                          azimuth_deg=60.0, main_axis="z", gravity=True, handheld=4.0, catch=True,
                          seed=i)
-    return sim.simulate(cfg)[0]
+    return sim.recording(cfg)[0]
 
 
 @pytest.mark.slow

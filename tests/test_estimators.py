@@ -30,7 +30,7 @@ FAST = [n for n in ESTIMATORS if n != "bayes"]
 
 def _record(seed: int = 0, **kw):
     kw = {"duration": 60.0, "sample_rate": 200.0, "noise_density": NOISE, "seed": seed, **kw}
-    return sim.simulate(sim.from_modal(MASS, 2.0, 0.01, **kw))
+    return sim.recording(sim.from_modal(MASS, 2.0, 0.01, **kw))
 
 
 @pytest.fixture(scope="module")

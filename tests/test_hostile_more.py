@@ -197,7 +197,7 @@ def test_export_refuses_a_file_name_too_long(tmp_path, capsys):
 
 
 def test_simulate_refuses_a_file_name_too_long_before_simulating(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(sim, "simulate", lambda *a, **k: pytest.fail("simulated anyway"))
+    monkeypatch.setattr(sim, "recording", lambda *a, **k: pytest.fail("simulated anyway"))
     fails(tmp_path, capsys, ["simulate", "--out", tmp_path / f"{LONG}.csv"], "File name too long")
     # the CSV name fits, the truth file's (longer) name does not: refused before either is written
     fails(tmp_path, capsys, ["simulate", "--out", tmp_path / ("y" * 245 + ".csv")],

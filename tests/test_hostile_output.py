@@ -37,7 +37,7 @@ def _no_compile_cache(monkeypatch):
 @pytest.fixture(scope="module")
 def rec_bytes():
     """A 20 s simulated phyphox CSV (bytes) of the paper's set-up."""
-    rec, _ = sim.simulate(sim.preset("paper", duration=20.0, seed=5))
+    rec, _ = sim.recording(sim.preset("paper", duration=20.0, seed=5))
     d = Path(os.environ.get("TMPDIR", "/tmp"))
     path = d / f"dampfit-hostile-{os.getpid()}.csv"
     sim.write_phyphox_csv(rec, path)
@@ -370,7 +370,7 @@ def test_bad_analyze_numbers_exit_2_before_any_work(work, monkeypatch, capsys, e
     (["--seed", "-1"], "--seed"),
 ], ids=lambda v: " ".join(v) if isinstance(v, list) else None)
 def test_bad_simulate_numbers_exit_2(work, monkeypatch, capsys, extra, match):
-    monkeypatch.setattr(sim, "simulate", lambda *a, **k: pytest.fail("simulated anyway"))
+    monkeypatch.setattr(sim, "recording", lambda *a, **k: pytest.fail("simulated anyway"))
     before = snapshot(work)
     code, _, err = run(["simulate", "--out", work / "sim.csv", *extra], capsys)
     assert_one_line_error(code, err, match=match)

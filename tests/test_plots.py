@@ -25,7 +25,7 @@ ALL = {"signal", "spectrum", "fit", "displacement", "posterior", "trace", "ampli
 
 @pytest.fixture(scope="module")
 def recording():
-    rec, _ = simulate.simulate(simulate.preset("paper", duration=20.0))
+    rec, _ = simulate.recording(simulate.preset("paper", duration=20.0))
     return rec
 
 

@@ -41,7 +41,7 @@ def scenario(f_n: float, zeta: float, fs: float, noise: float, seed: int) -> sim
 
 def check(tmp_path, cfg: sim.SimulationConfig, dialect: str) -> dict:
     """Simulate, write, analyse through the CLI; return the verdict per parameter."""
-    rec, truth = sim.simulate(cfg)
+    rec, truth = sim.recording(cfg)
     csv = tmp_path / f"rec-{dialect}.csv"
     sim.write_phyphox_csv(rec, csv, dialect=dialect)
     out = tmp_path / "out"

@@ -52,7 +52,7 @@ def live(monkeypatch, analysed):
 
 @pytest.fixture(scope="module")
 def csv_file(tmp_path_factory):
-    rec, _ = sim.simulate(sim.preset("paper", duration=20.0, seed=3))
+    rec, _ = sim.recording(sim.preset("paper", duration=20.0, seed=3))
     path = tmp_path_factory.mktemp("rec") / "rec.csv"
     sim.write_phyphox_csv(rec, path)
     return path

@@ -22,7 +22,7 @@ from dampfit.simulate import (
     free_decay,
     from_modal,
     preset,
-    simulate,
+    recording as simulate_recording,
     write_phyphox_csv,
     write_truth,
 )
@@ -41,7 +41,7 @@ def _axis_along(rec: Recording, truth: dict) -> np.ndarray:
 
 def test_acceleration_after_release_solves_the_ode():
     cfg = SimulationConfig(**CLEAN, jitter=0.05, gaps=3, handheld=1.0, seed=3)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     m, c, k, u0 = cfg.mass, cfg.c, cfg.k, cfg.u0
     after = rec.time >= truth["t_release"]
     tau = rec.time[after] - truth["t_release"]
@@ -65,7 +65,7 @@ def test_free_decay_starts_at_rest_at_u0():
 
 def test_truth_is_consistent_and_json_safe(tmp_path):
     cfg = preset("paper")
-    _, truth = simulate(cfg)
+    _, truth = simulate_recording(cfg)
     assert truth["zeta"] == pytest.approx(cfg.c / (2 * math.sqrt(cfg.k * cfg.mass)), rel=1e-12)
     assert truth["f_n"] == pytest.approx(1.72, rel=1e-9)
     assert truth["omega_n"] == pytest.approx(2 * math.pi * truth["f_n"], rel=1e-12)
@@ -88,7 +88,7 @@ def test_from_modal_gives_physical_c_and_k():
     cfg = from_modal(0.33, 0.9, 0.01, u0=0.03)
     assert cfg.k == pytest.approx(0.33 * (2 * math.pi * 0.9) ** 2)
     assert cfg.c == pytest.approx(2 * 0.01 * math.sqrt(cfg.k * 0.33))
-    _, truth = simulate(dataclasses.replace(cfg, duration=5.0))
+    _, truth = simulate_recording(dataclasses.replace(cfg, duration=5.0))
     assert truth["zeta"] == pytest.approx(0.01) and truth["f_n"] == pytest.approx(0.9)
 
 
@@ -100,7 +100,7 @@ def test_presets():
     assert preset("paper", seed=7, duration=20.0).seed == 7
     assert set(PRESETS) >= {"paper", "phone"}
     for name in PRESETS:
-        rec, truth = simulate(preset(name))
+        rec, truth = simulate_recording(preset(name))
         assert rec.time[0] == 0.0 and rec.time[-1] < PRESETS[name].duration
 
 
@@ -109,23 +109,23 @@ def test_presets():
 
 def test_noise_level_matches_noise_sigma():
     cfg = SimulationConfig(u0=0.0, duration=20.0, noise_density=150.0, seed=1)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     assert truth["noise_sigma"] == pytest.approx(150e-6 * STANDARD_GRAVITY * math.sqrt(250.0))
     np.testing.assert_allclose(rec.accel.std(axis=0), truth["noise_sigma"], rtol=0.03)
     np.testing.assert_allclose(rec.accel.mean(axis=0), 0.0, atol=4 * truth["noise_sigma"] / math.sqrt(rec.n_samples))
 
 
 def test_jitter_cv_matches_config():
-    rec, _ = simulate(SimulationConfig(**CLEAN, jitter=0.05, seed=2))
+    rec, _ = simulate_recording(SimulationConfig(**CLEAN, jitter=0.05, seed=2))
     assert rec.jitter == pytest.approx(0.05, rel=0.05)
     assert rec.sample_rate == pytest.approx(500.0, rel=0.01)
-    regular, _ = simulate(SimulationConfig(**CLEAN))
+    regular, _ = simulate_recording(SimulationConfig(**CLEAN))
     np.testing.assert_allclose(np.diff(regular.time), 1 / 500.0, rtol=1e-9)
     assert regular.n_samples == 5000
 
 
 def test_gaps_remove_samples():
-    rec, _ = simulate(SimulationConfig(**CLEAN, gaps=5, seed=4))
+    rec, _ = simulate_recording(SimulationConfig(**CLEAN, gaps=5, seed=4))
     big = np.diff(rec.time) > 1.5 / 500.0
     assert 1 <= big.sum() <= 5 and rec.n_samples < 5000
 
@@ -133,7 +133,7 @@ def test_gaps_remove_samples():
 @pytest.mark.parametrize("main_axis, tilt, azimuth", [("y", 10.0, 30.0), ("z", 25.0, 200.0), ("x", 5.0, 90.0)])
 def test_tilt_projects_along_direction(main_axis, tilt, azimuth):
     cfg = SimulationConfig(**CLEAN, main_axis=main_axis, tilt_deg=tilt, azimuth_deg=azimuth)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     d = np.asarray(truth["direction"])
     i = "xyz".index(main_axis)
     assert d[i] == pytest.approx(math.cos(math.radians(tilt)))
@@ -142,14 +142,14 @@ def test_tilt_projects_along_direction(main_axis, tilt, azimuth):
     for j, name in enumerate("xyz"):
         assert rec.axis(name)[peak] / a[peak] == pytest.approx(d[j] / d[i], abs=1e-12)
     # the amplitude along the direction is the untilted one
-    untilted, _ = simulate(SimulationConfig(**CLEAN))
+    untilted, _ = simulate_recording(SimulationConfig(**CLEAN))
     np.testing.assert_allclose(_axis_along(rec, truth), untilted.axis("y"), atol=1e-12)
 
 
 def test_gravity_adds_g_along_direction():
     kw = dict(CLEAN, tilt_deg=20.0, azimuth_deg=45.0, noise_density=150.0, seed=5)
-    with_g, truth = simulate(SimulationConfig(**kw, gravity=True))
-    without, _ = simulate(SimulationConfig(**kw, gravity=False))
+    with_g, truth = simulate_recording(SimulationConfig(**kw, gravity=True))
+    without, _ = simulate_recording(SimulationConfig(**kw, gravity=False))
     g_vec = STANDARD_GRAVITY * np.asarray(truth["direction"])
     np.testing.assert_allclose(with_g.accel - without.accel, np.broadcast_to(g_vec, with_g.accel.shape), atol=1e-12)
     assert with_g.gravity_removed is False and without.gravity_removed is True
@@ -157,7 +157,7 @@ def test_gravity_adds_g_along_direction():
 
 def test_bias_and_drift():
     cfg = SimulationConfig(u0=0.0, noise_density=0.0, bias=(0.1, -0.2, 0.3), drift=0.02, duration=30.0)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     np.testing.assert_allclose(rec.accel.mean(axis=0), [0.1, -0.2, 0.3], atol=1e-12)
     np.testing.assert_allclose(rec.accel.std(axis=0), 0.02, rtol=1e-9)
     # slow: almost no power above f_n/5
@@ -169,7 +169,7 @@ def test_bias_and_drift():
 
 def test_quantization_gives_multiples_of_the_step():
     q = 0.0012
-    rec, _ = simulate(SimulationConfig(quantization=q, bias=(0.01, 0.02, 0.03), drift=0.01, duration=5.0))
+    rec, _ = simulate_recording(SimulationConfig(quantization=q, bias=(0.01, 0.02, 0.03), drift=0.01, duration=5.0))
     steps = rec.accel / q
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
     assert len(np.unique(rec.axis("x"))) > 10
@@ -177,7 +177,7 @@ def test_quantization_gives_multiples_of_the_step():
 
 def test_handheld_segment_precedes_the_decay():
     cfg = SimulationConfig(**CLEAN, handheld=3.0)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     t_r = truth["t_release"]
     assert t_r == 3.0
     before = rec.time < t_r
@@ -197,7 +197,7 @@ def test_handheld_segment_precedes_the_decay():
 
 def test_catch_spike_then_held():
     cfg = SimulationConfig(**CLEAN, catch=True)
-    rec, truth = simulate(cfg)
+    rec, truth = simulate_recording(cfg)
     t_c = truth["t_catch"]
     assert t_c == pytest.approx(cfg.duration - 1.5)
     a = _axis_along(rec, truth)
@@ -213,12 +213,12 @@ def test_catch_spike_then_held():
 
 def test_seeds_are_deterministic():
     cfg = preset("phone", duration=15.0)
-    a, ta = simulate(cfg)
-    b, tb = simulate(cfg)
+    a, ta = simulate_recording(cfg)
+    b, tb = simulate_recording(cfg)
     np.testing.assert_array_equal(a.time, b.time)
     np.testing.assert_array_equal(a.accel, b.accel)
     assert ta == tb
-    c, _ = simulate(preset("phone", duration=15.0, seed=1))
+    c, _ = simulate_recording(preset("phone", duration=15.0, seed=1))
     assert a.time.size != c.time.size or not np.array_equal(a.time, c.time)
     assert a.accel.shape != c.accel.shape or not np.array_equal(a.accel, c.accel)
 
@@ -264,7 +264,7 @@ def test_csv_header_and_number_format(tmp_path, dialect, gravity_removed):
 
 @pytest.mark.parametrize("dialect", list(_DIALECTS))
 def test_csv_round_trip_with_pandas(tmp_path, dialect):
-    rec, _ = simulate(preset("phone", duration=10.0))
+    rec, _ = simulate_recording(preset("phone", duration=10.0))
     path = write_phyphox_csv(rec, tmp_path / "phone.csv", dialect=dialect)
     kw = {"comma": {}, "tab": {"sep": "\t"}, "semicolon": {"sep": ";", "decimal": ","}}[dialect]
     df = pd.read_csv(path, **kw)
@@ -275,7 +275,7 @@ def test_csv_round_trip_with_pandas(tmp_path, dialect):
 
 
 def test_csv_writer_is_fast(tmp_path):
-    rec, _ = simulate(preset("paper"))
+    rec, _ = simulate_recording(preset("paper"))
     start = time.perf_counter()
     path = write_phyphox_csv(rec, tmp_path / "paper.csv")
     assert time.perf_counter() - start < 1.5  # typically ~0.2 s for 30k rows
@@ -349,4 +349,4 @@ def test_invalid_helpers_raise():
     with pytest.raises(InputError, match="f_n must be positive"):
         from_modal(1.0, -1.0, 0.1)
     with pytest.raises(InputError, match="gaps do not fit"):
-        simulate(SimulationConfig(duration=0.1, gaps=10))
+        simulate_recording(SimulationConfig(duration=0.1, gaps=10))

@@ -171,7 +171,7 @@ def test_crlb_design_is_the_noise_free_simulated_acceleration():
     also with jitter, a hand-held start (window not at the release) and quantization σ."""
     cfg = sim.from_modal(2.0, 1.5, 0.03, u0=0.05, duration=12.0, sample_rate=80.0, jitter=0.05,
                          noise_density=0.0, handheld=1.234, seed=3)
-    rec, truth = sim.simulate(cfg)
+    rec, truth = sim.recording(cfg)
     d = crlb_design(rec, truth)
     free = rec.time >= truth["t_release"]
     want = rec.axis("y")[free]

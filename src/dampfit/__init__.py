@@ -12,7 +12,7 @@ Typical use::
     result.to_json("summary.json")
     again = dampfit.load("Raw Data.csv.dampfit")   # a result folder read back: same class
 
-    rec, truth = dampfit.simulate.simulate(dampfit.simulate.preset("paper"))
+    rec, truth = dampfit.simulate.recording(dampfit.simulate.preset("paper"))
 """
 
 from importlib import import_module as _import_module

@@ -1,33 +1,67 @@
-"""``dampfit analyze FILE`` and ``dampfit demo``: a recording (read, or simulated) into a result folder.
+"""``dampfit analyze FILE…`` and ``dampfit demo``: recordings (read, or simulated) into a result folder.
 
 Both write the same folder (:mod:`dampfit.cli.staging`): summary.json, posterior.nc,
 signals.npz, the figures unless ``--no-figures``, and with ``--report`` report.html/.md; then
 print the summary table (``--json``: summary.json itself).
+
+Several files (``dampfit analyze FILE FILE… [--mass KG [--mass-sd KG] | --added-mass KG KG…
+[--added-mass-sd KG]] --out DIR``) are several recordings of one damper, analysed jointly by
+:func:`dampfit.campaign.analyze_campaign` (a campaign: repeated tests pooled by a hierarchical
+model, or the added-mass method when ``--added-mass`` gives each recording's known added mass
+[kg], 0 for the bare system). The folder (marker kind ``campaign``) holds summary.json
+(``"kind": "campaign"``), posterior.nc, ``forest.png`` and, with ``--added-mass``,
+``added_mass.png`` (:mod:`dampfit.output.campaign`); no signals.npz. Default ``--out``: the
+first FILE's name + ``.campaign.dampfit`` in the current folder. Every input file is protected
+like the one input of a single analysis (``--out`` may not be or hold the folder of any of them).
+Refused before any work, one line, exit 2, nothing written: ``--added-mass`` with a count other
+than the number of files, ``--added-mass`` together with ``--mass`` (the added-mass method
+estimates the effective mass m₀ itself), ``--added-mass-sd`` without ``--added-mass``, a file
+given twice, ``--model``/``--amplitude`` (single-recording options); a file that cannot be read
+is named in its one error line. ``--window``/``--band``/``--axis`` apply to every file.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import MAX_STEPS, SEED_LIMIT, _integer, _mass, _real, seed_arg
-from dampfit.cli.staging import old_demo_folder, result_folder, write_outputs, write_report
+from dampfit.cli.options import MAX_MASS, MAX_STEPS, SEED_LIMIT, _integer, _mass, _real, seed_arg
+from dampfit.cli.staging import (old_demo_folder, result_folder, write_campaign_outputs,
+                                  write_outputs, write_report)
 from dampfit.errors import InputError
 
-__all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "command", "demo"]
+__all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "campaign_command", "command",
+           "demo"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
 
 
 def add_arguments(a: argparse.ArgumentParser) -> None:
     """Options of ``dampfit analyze``."""
-    a.add_argument("file", help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ, MATLAB .mat")
+    a.add_argument("file", metavar="FILE",
+                   help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ, "
+                        "MATLAB .mat")
+    a.add_argument("more_files", nargs="*", metavar="FILE",
+                   help="further recordings of the same damper: all FILEs are analysed jointly "
+                        "(a campaign; give the FILEs before the options)")
     _analysis_options(a)
-    a.add_argument("--out", metavar="DIR", help="output directory (default: FILE's name + '.dampfit')")
+    a.add_argument("--out", metavar="DIR",
+                   help="output directory (default: FILE's name + '.dampfit'; several files: "
+                        "the first FILE's name + '.campaign.dampfit')")
     a.add_argument("--force", action="store_true",
                    help="replace an existing output directory that dampfit wrote")
+    c = a.add_argument_group("several recordings of one damper (campaign)")
+    c.add_argument("--added-mass", nargs="+", type=_real("an added mass in kg, 0 to 1e6",
+                                                         lambda v: 0 <= v <= MAX_MASS),
+                   metavar="KG", help="added-mass method: the known mass added in each recording "
+                                      "[kg], one per FILE in order (0 for the bare system); the "
+                                      "effective mass m0 and k are estimated (not with --mass)")
+    c.add_argument("--added-mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
+                   metavar="KG", default=None,
+                   help="standard deviation of each added mass [kg] (default 0)")
     g = a.add_argument_group("reading (generic CSV/NPY, MATLAB)")
     g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
     g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
@@ -109,18 +143,31 @@ def _print_result(an, out: Path, as_json: bool) -> None:
               "summary.json before using these numbers", file=sys.stderr)
 
 
+def _read_options(args) -> dict:
+    """Options of :func:`dampfit.io.readers.read` given on the command line."""
+    return {k: getattr(args, k) for k in ("time_column", "accel_columns", "time_unit",
+                                           "accel_unit", "sheet", "variable", "row")
+            if getattr(args, k) is not None}
+
+
 def command(args) -> int:
     """``dampfit analyze FILE …``: read, analyse, write the result folder; exit code 0."""
     from dampfit.pipeline import analyze
     from dampfit.io.readers import read
 
+    files = [args.file, *(getattr(args, "more_files", None) or [])]
     _check_analysis_options(args)
-    out = Path(args.out) if args.out else Path(Path(args.file).name + ".dampfit")
-    opts = {k: getattr(args, k) for k in ("time_column", "accel_columns", "time_unit",
-                                           "accel_unit", "sheet", "variable", "row")
-            if getattr(args, k) is not None}
-    with result_folder(out, "analyze", args.force, inputs=[args.file]) as folder:
-        rec = read(args.file, **opts)
+    if len(files) > 1:
+        return campaign_command(args, files)
+    for option in ("added_mass", "added_mass_sd"):
+        if getattr(args, option, None) is not None:
+            raise InputError(f"argument --{option.replace('_', '-')}: the added-mass method needs "
+                             "several recordings (one FILE per added mass), got one FILE")
+    path = files[0]
+    out = Path(args.out) if args.out else Path(Path(path).name + ".dampfit")
+    opts = _read_options(args)
+    with result_folder(out, "analyze", args.force, inputs=[path]) as folder:
+        rec = read(path, **opts)
         an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
                      window=tuple(args.window) if args.window else None,
                      band=tuple(args.band) if args.band else None, seed=args.seed,
@@ -131,6 +178,88 @@ def command(args) -> int:
         if args.report:
             write_report(out)
     _print_result(an, out, args.json)
+    return 0
+
+
+def _check_campaign_options(args, files: list[str]) -> None:
+    """Relations between the options of a campaign (several FILEs), before any work."""
+    n = len(files)
+    if args.added_mass is not None:
+        if len(args.added_mass) != n:
+            raise InputError(f"argument --added-mass: give one added mass per FILE, got "
+                             f"{len(args.added_mass)} for {n} files")
+        if args.mass is not None or args.mass_sd is not None:
+            raise InputError("argument --mass: not with --added-mass (the added-mass method "
+                             "estimates the effective mass m0 itself); give one of them")
+    elif args.added_mass_sd is not None:
+        raise InputError("argument --added-mass-sd: given without --added-mass")
+    if args.mass_sd is not None and args.mass is None:
+        raise InputError("argument --mass-sd: a mass standard deviation without --mass")
+    if args.model != "auto" or args.amplitude is not None:
+        which = "--model" if args.model != "auto" else "--amplitude"
+        raise InputError(f"argument {which}: applies to one recording, not to a campaign of "
+                         f"{n} files; analyse a file alone for its damping-law check")
+    seen: dict[str, str] = {}
+    for f in files:
+        key = os.path.realpath(f)
+        if key in seen:
+            also = "" if seen[key] == f else f" (also as {seen[key]})"
+            raise InputError(f"{f}: given twice{also}; give each recording once")
+        seen[key] = f
+
+
+def _read_named(read, path: str, opts: dict):
+    """``read(path, **opts)``; a refusal that does not name the file gets its name in front."""
+    try:
+        return read(path, **opts)
+    except InputError as exc:
+        if str(path) in str(exc) or Path(path).name in str(exc):
+            raise
+        raise InputError(f"{path}: {exc}") from None
+
+
+def _print_campaign(an, out: Path, as_json: bool) -> None:
+    """The campaign table (or its summary.json) on stdout; not converged: a warning on stderr."""
+    from dampfit.output import campaign as render
+
+    s = an.summary()
+    if as_json:
+        import json
+
+        print(json.dumps(s, indent=2))
+    else:
+        print(render.text(s))
+        extras = "".join(f", {name}" for name in ("forest.png", "added_mass.png", "report.html")
+                         if (out / name).exists())
+        print(f"\n  written to {out}/ (summary.json, posterior.nc{extras})")
+    if not an.converged:
+        print("dampfit: WARNING: the result did NOT converge; see diagnostics.warnings in "
+              "summary.json before using these numbers", file=sys.stderr)
+
+
+def campaign_command(args, files: list[str]) -> int:
+    """``dampfit analyze FILE FILE…``: several recordings of one damper analysed jointly
+    (:func:`dampfit.campaign.analyze_campaign`) into one result folder; exit code 0."""
+    from dampfit.campaign import analyze_campaign
+    from dampfit.io.readers import read
+
+    _check_campaign_options(args, files)
+    out = Path(args.out) if args.out else Path(Path(files[0]).name + ".campaign.dampfit")
+    opts = _read_options(args)
+    with result_folder(out, "campaign", args.force, inputs=files) as folder:
+        recs = [_read_named(read, f, opts) for f in files]
+        kw = {"added_mass": list(args.added_mass), "added_mass_sd": args.added_mass_sd or 0.0} \
+            if args.added_mass is not None else {}
+        an = analyze_campaign(recs, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
+                              window=tuple(args.window) if args.window else None,
+                              band=tuple(args.band) if args.band else None, seed=args.seed,
+                              progress=not args.quiet and sys.stderr.isatty(),
+                              max_steps=args.max_steps, **kw)
+        write_campaign_outputs(an, folder, not args.no_figures)
+        folder.publish()
+        if args.report:
+            write_report(out)
+    _print_campaign(an, out, args.json)
     return 0
 
 
@@ -150,7 +279,7 @@ def demo(args) -> int:
               f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at "
               f"{cfg.sample_rate:g} Hz) as a phyphox CSV, then analysing it\n")
         stage = folder.stage
-        rec, truth = sim.simulate(cfg)
+        rec, truth = sim.recording(cfg)
         csv = stage / "paper-preset.csv"
         with folder.writing():
             sim.write_phyphox_csv(rec, csv)

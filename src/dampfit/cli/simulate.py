@@ -1,4 +1,9 @@
-"""``dampfit simulate --out FILE.csv``: a synthetic phyphox CSV with known truth (FILE.truth.json)."""
+"""``dampfit simulate --out FILE.csv``: a synthetic phyphox CSV with known truth (FILE.truth.json).
+
+With ``--tests N`` (or ``--added-mass``/``--amplitudes`` with one value per test) a campaign
+of N recordings of one damper (:func:`dampfit.simulate.campaign`): FILE-1.csv … FILE-N.csv
+and one FILE.truth.json, all or none.
+"""
 
 from __future__ import annotations
 
@@ -7,11 +12,15 @@ import math
 import os
 from pathlib import Path
 
-from dampfit.cli.options import (MAX_SIM_SAMPLES, _mass, _non_negative, _positive, _real,
-                                 seed_arg)
+from dampfit.cli.options import (MAX_MASS, MAX_SIM_SAMPLES, _integer, _mass, _non_negative,
+                                 _positive, _real, seed_arg)
 from dampfit.errors import InputError
 
 __all__ = ["add_arguments", "command"]
+
+#: Most tests of one campaign and largest --c-spread (the library's limits).
+MAX_TESTS = 100
+MAX_C_SPREAD = 2.0
 
 
 def add_arguments(s: argparse.ArgumentParser) -> None:
@@ -40,6 +49,20 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--out", required=True, metavar="FILE.csv")
     s.add_argument("--force", action="store_true",
                    help="overwrite existing files FILE.csv and FILE.truth.json")
+    g = s.add_argument_group("campaign (several recordings of one damper)")
+    g.add_argument("--tests", type=_integer(2, MAX_TESTS, f"an integer from 2 to {MAX_TESTS}"),
+                   metavar="N", help="write N recordings FILE-1.csv … FILE-N.csv of the same "
+                   "system and one FILE.truth.json")
+    g.add_argument("--c-spread", type=_real(f"a spread in [0, {MAX_C_SPREAD:g}] (sd of ln c)",
+                                            lambda v: 0 <= v <= MAX_C_SPREAD),
+                   metavar="F", help="between-test sd of ln c [1] (≈ relative sd; default 0)")
+    g.add_argument("--added-mass", type=_real(f"a mass in [0, {MAX_MASS:g}] kg",
+                                              lambda v: 0 <= v <= MAX_MASS),
+                   nargs="+", metavar="KG", help="known added mass of each test [kg] (0 for the "
+                   "bare system); sets N when --tests is not given")
+    g.add_argument("--amplitudes", type=_real("a displacement in [0, 100] m",
+                                              lambda v: 0 <= v <= 100),
+                   nargs="+", metavar="M", help="release displacement u0 of each test [m]")
 
 
 _SIM_FIELDS = {"mass": "mass", "u0": "u0", "duration": "duration", "sample_rate": "sample_rate",
@@ -72,7 +95,8 @@ def _sim_config(args):
 
 
 def command(args) -> int:
-    """``dampfit simulate``: FILE.csv and FILE.truth.json, both or neither.
+    """``dampfit simulate``: FILE.csv and FILE.truth.json, both or neither (a campaign:
+    :func:`_campaign_command`).
 
     Before any work: both names are checked (:func:`dampfit._files.check_output_file`: an
     existing file or link only with --force, never a directory; a name too long or a missing
@@ -87,6 +111,8 @@ def command(args) -> int:
     from dampfit import simulate as sim
     from dampfit._files import _reason, check_output_file
 
+    if _campaign_size(args) is not None:
+        return _campaign_command(args)
     out = Path(args.out)
     if not out.name or out.name in (".", ".."):
         raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
@@ -100,7 +126,7 @@ def command(args) -> int:
         raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
     cfg = _sim_config(args)
     sim.check_limits(cfg)
-    rec, truth = sim.simulate(cfg)
+    rec, truth = sim.recording(cfg)
     try:
         stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
     except OSError as exc:
@@ -128,3 +154,127 @@ def command(args) -> int:
           f"c = {truth['c']:.6g} N s/m, k = {truth['k']:.6g} N/m, m = {truth['mass']:.6g} kg, "
           f"f_n = {truth['f_n']:.6g} Hz, zeta = {truth['zeta']:.4g}")
     return 0
+
+
+# -- campaigns ------------------------------------------------------------------------------
+
+
+def _campaign_size(args) -> int | None:
+    """Number of tests asked for, or None for one recording (today's behaviour).
+
+    ``--tests`` gives it; else the count of ``--added-mass`` or ``--amplitudes`` values. A
+    list whose length differs from it, or ``--c-spread`` without a campaign, is one line.
+    """
+    lists = [(opt, getattr(args, name, None)) for opt, name in
+             (("--added-mass", "added_mass"), ("--amplitudes", "amplitudes"))]
+    given = [(opt, v) for opt, v in lists if v is not None]
+    n = getattr(args, "tests", None)
+    if n is None and given:
+        n = len(given[0][1])
+        if n < 2:
+            raise InputError(f"{given[0][0]} gives 1 value: a campaign needs at least 2 tests "
+                             "(one value per test)")
+    if n is None:
+        if getattr(args, "c_spread", None) is not None:
+            raise InputError("--c-spread needs a campaign: give --tests N (or --added-mass "
+                             "with one value per test)")
+        return None
+    for opt, values in given:
+        if len(values) != n:
+            raise InputError(f"{opt} gives {len(values)} value(s) for {n} tests; give one per test")
+    return n
+
+
+def campaign_paths(out: Path, n: int) -> tuple[list[Path], Path]:
+    """FILE-1.csv … FILE-N.csv and FILE.truth.json for ``--out FILE.csv``."""
+    return ([out.with_name(f"{out.stem}-{i}{out.suffix}") for i in range(1, n + 1)],
+            out.with_suffix(".truth.json"))
+
+
+def _campaign_command(args) -> int:
+    """``dampfit simulate --tests N``: N CSVs and one truth file, all or none.
+
+    The same checks as one recording, before any work, for every name; all files are
+    written into a private staging folder beside them and renamed into place; if a rename
+    fails, the files already renamed are removed (or, with --force, the old ones put back).
+    """
+    import shutil
+    import tempfile
+
+    from dampfit import simulate as sim
+    from dampfit._files import _reason, check_output_file
+
+    n = _campaign_size(args)
+    out = Path(args.out)
+    if not out.name or out.name in (".", ".."):
+        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
+    try:
+        csvs, truth_path = campaign_paths(out, n)
+    except ValueError:
+        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv") from None
+    for f in (*csvs, truth_path):
+        check_output_file(f, args.force)
+    if not os.access(out.parent, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
+    base = _sim_config(args)
+    sim.check_limits(base)
+    recs, truth = sim.campaign(base, n_tests=n, c_spread=args.c_spread or 0.0,
+                               added_mass=args.added_mass, amplitudes=args.amplitudes,
+                               seed=args.seed)
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+    try:
+        for rec, path in zip(recs, csvs):
+            sim.write_phyphox_csv(rec, stage / path.name, dialect=args.dialect)
+        sim.write_truth(truth, stage / truth_path.name)
+        _publish(stage, [*csvs, truth_path])
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+    except InputError as exc:  # a failed write in the staging folder
+        cause = exc.__cause__
+        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
+        raise InputError(f"cannot write {out}: {reason}; nothing was written") from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    print(f"wrote {csvs[0]} … {csvs[-1]} ({n} tests, {recs[0].duration:.4g} s each) and "
+          f"{truth_path}: c = {truth['c']:.6g} N s/m (median; spread {truth['c_spread']:g} in "
+          f"ln c), k = {truth['k']:.6g} N/m, m0 = {truth['mass']:.6g} kg")
+    for i, (c, m, f, u0) in enumerate(zip(truth["c_tests"], truth["mass_tests"],
+                                          truth["f_n_tests"], truth["u0_tests"]), 1):
+        print(f"  test {i}: c = {c:.6g} N s/m, m = {m:.6g} kg, f_n = {f:.6g} Hz, u0 = {u0:.4g} m")
+    return 0
+
+
+def _publish(stage: Path, targets: list[Path]) -> None:
+    """Rename ``stage/<name>`` onto each target, all or none.
+
+    An existing target (allowed by --force) is first moved into ``stage`` so it can be put
+    back; on an OSError every target already renamed is removed or restored, then the error
+    propagates.
+    """
+    done: list[tuple[Path, Path | None]] = []
+    try:
+        for i, dest in enumerate(targets):
+            backup = None
+            if os.path.lexists(dest):
+                backup = stage / f".previous-{i}"
+                os.replace(dest, backup)
+            try:
+                os.replace(stage / dest.name, dest)
+            except OSError:
+                if backup is not None:
+                    os.replace(backup, dest)
+                raise
+            done.append((dest, backup))
+    except OSError:
+        for dest, backup in reversed(done):
+            try:
+                if backup is None:
+                    os.unlink(dest)
+                else:
+                    os.replace(backup, dest)
+            except OSError:
+                pass
+        raise

@@ -1,4 +1,5 @@
-"""Result folders of ``analyze`` and ``demo``: staged, locked, then published whole.
+"""Result folders of ``analyze`` (one recording or a campaign of several) and ``demo``: staged,
+locked, then published whole.
 
 The folder itself is :class:`dampfit._files.ResultFolder` (marker, lock, staging, free space);
 this module sizes it for the input, writes the analysis into its staging folder and
@@ -12,7 +13,8 @@ from pathlib import Path
 
 from dampfit._files import DEMO_MARKER, MIN_FREE, ResultFolder
 
-__all__ = ["old_demo_folder", "result_folder", "write_outputs", "write_report"]
+__all__ = ["old_demo_folder", "result_folder", "write_campaign_outputs", "write_outputs",
+           "write_report"]
 
 #: Every file an old demo folder (written before the .dampfit-result marker) can hold.
 _DEMO_FILES = frozenset({
@@ -61,6 +63,20 @@ def write_outputs(an, folder: ResultFolder, figures: bool) -> None:
             from dampfit.output.figures import save_figures
 
             save_figures(an, stage)
+
+
+def write_campaign_outputs(an, folder: ResultFolder, figures: bool) -> None:
+    """summary.json, posterior.nc and the campaign figures (``forest.png``, and
+    ``added_mass.png`` of the added-mass design; :mod:`dampfit.output.campaign`, drawn from the
+    summary) of a :class:`dampfit.campaign.analysis.CampaignAnalysis` into the staging folder."""
+    stage = folder.stage
+    with folder.writing():
+        an.to_json(stage / "summary.json")
+        an.to_netcdf(stage / "posterior.nc")
+        if figures:
+            from dampfit.output.campaign import save_figures
+
+            save_figures(an.summary(), stage)
 
 
 def write_report(out: Path) -> None:

@@ -17,6 +17,11 @@ most T/50) and the fixed time step comes from :func:`dampfit.fem.timestep.choose
 (≥ 200 steps per period, phase error ≤ 1e-3 rad at the end). With ``--gravity`` the mass
 hangs under g = 9.80665 m/s² and is released from static equilibrium + u0.
 
+A campaign folder (several recordings of one damper) gives the population damper
+(:func:`dampfit.fem.sdof.load`); the deck says so in a comment line near its top, with the
+number of tests and the predictive interval of c for a new test. Its duration is the longest
+test window, its output interval from the highest test sample rate.
+
 The file is written atomically and an existing one (a symbolic link too, even a dangling one:
 the link is replaced, never its target) is replaced only with ``--force``.
 """
@@ -59,6 +64,8 @@ def output_interval(period: float, sample_rate: float | None) -> float:
 
 def _duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
     """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``."""
+    if duration is None and summary.get("kind") == "campaign":
+        duration = _campaign_duration(summary, path)
     if duration is None:
         w = summary.get("window") or {}
         if w.get("start_s") is None or w.get("end_s") is None:
@@ -74,8 +81,30 @@ def _duration(summary: dict[str, Any], duration: float | None, path: Path) -> fl
     return float(duration)
 
 
+def _campaign_duration(summary: dict[str, Any], path: Path) -> float:
+    """Longest analysed window [s] of the tests of a campaign summary."""
+    spans = []
+    for i, t in enumerate(summary.get("tests") or []):
+        w = t.get("window") if isinstance(t, dict) else None
+        if isinstance(w, dict) and w.get("start_s") is not None and w.get("end_s") is not None:
+            start = sdof_mod.number(w["start_s"], f"tests[{i}].window.start_s", path)
+            end = sdof_mod.number(w["end_s"], f"tests[{i}].window.end_s", path)
+            if end > start:
+                spans.append(end - start)
+    if not spans:
+        raise InputError(f"{shown(path)} has no analysis window in its tests; give --duration S")
+    return max(spans)
+
+
 def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
-    """``input.sample_rate_hz`` [Hz] of the summary (``None`` if absent), checked."""
+    """``input.sample_rate_hz`` [Hz] of the summary (``None`` if absent), checked; of a
+    campaign the highest of its tests'."""
+    if summary.get("kind") == "campaign":
+        rates = [sdof_mod.number(t["input"]["sample_rate_hz"], f"tests[{i}].input.sample_rate_hz",
+                                 path, positive=True)
+                 for i, t in enumerate(summary.get("tests") or []) if isinstance(t, dict)
+                 and isinstance(t.get("input"), dict) and t["input"].get("sample_rate_hz") is not None]
+        return max(rates) if rates else None
     fs = (summary.get("input") or {}).get("sample_rate_hz")
     return None if fs is None else sdof_mod.number(fs, "input.sample_rate_hz", path, positive=True)
 
@@ -115,10 +144,26 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
         from dampfit.fem.calculix import deck
 
         text = deck(sdof, system, dur, dt, output_dt)
+    note = sdof.source.get("campaign")
+    if note:
+        text = _with_note(text, fmt, note)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
             "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
             "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof}
     return text, info
+
+
+def _with_note(text: str, fmt: str, note: str) -> str:
+    """``text`` of a deck with the comment ``note`` (a campaign's population damper) near its
+    top, in the comment syntax of ``fmt`` (sanitised: it can never start a card or code)."""
+    from dampfit.fem.sanitize import calculix_comment, lsdyna_comment, python_comment
+
+    lines = text.split("\n")
+    if fmt == "lsdyna":  # after *KEYWORD, which must stay the first line
+        return "\n".join(lines[:1] + lsdyna_comment(note, limit=None) + lines[1:])
+    if fmt == "calculix":
+        return "\n".join(calculix_comment(note, limit=None) + lines)
+    return "\n".join([f"# {python_comment(note, None)}"] + lines)  # before the docstring
 
 
 def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,

@@ -13,6 +13,11 @@ read from the summary's ``q05``/``q50``/``q95``; any other q ∈ (0, 1) from the
 The quantiles are *marginal* (c at q and k at q are not one joint draw). The mass is the
 weighed mass ``mass.value`` of the summary (the value a FEM model is built with).
 
+A campaign folder (several recordings of one damper, ``"kind": "campaign"``) gives the
+population damper: c and k from its ``parameters`` (the population), the mass from ``mass``
+(the effective mass m₀ in added-mass mode), u0 the median of the tests' ``amplitude_m``; its
+``source`` carries a ``campaign`` sentence the decks print as a comment.
+
 u0 in the summary is the displacement envelope amplitude at the start of the analysed
 window; a release from rest at u0 has envelope u0·ω_n/ω_d = u0/√(1 − ζ²), which differs from
 u0 by ζ²/2 (≤ 5e-5 for ζ ≤ 0.01).
@@ -36,8 +41,8 @@ from dampfit.result.schema import brief as _brief
 from dampfit.result.schema import number as number
 from dampfit.result.schema import read_summary as read_checked
 
-__all__ = ["MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "Sdof", "load", "number",
-           "read_summary", "summary_quantile"]
+__all__ = ["MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "Sdof", "campaign_note",
+           "campaign_u0", "load", "number", "read_summary", "summary_quantile"]
 
 #: Quantiles the summary stores, by key.
 _SUMMARY_QUANTILES = {0.05: "q05", 0.5: "q50", 0.95: "q95"}
@@ -177,6 +182,43 @@ def _posterior_quantile(folder: Path, name: str, q: float) -> float:
                          "re-run 'dampfit analyze'") from None
 
 
+def _campaign_tests(summary: dict[str, Any]) -> list[dict[str, Any]]:
+    tests = summary.get("tests")
+    return [t for t in tests if isinstance(t, dict)] if isinstance(tests, list) else []
+
+
+def campaign_u0(summary: dict[str, Any], path: Path) -> float:
+    """Release displacement [m] of a campaign's population damper: the median of the tests'
+    initial displacement amplitudes ``tests[i].amplitude_m`` (each checked, > 0)."""
+    amps = sorted(number(t.get("amplitude_m"), f"tests[{i}].amplitude_m", path, positive=True)
+                  for i, t in enumerate(_campaign_tests(summary)))
+    if not amps:
+        raise InputError(f"{shown(path)}: a campaign summary without tests: no release "
+                         "amplitude for the deck")
+    n = len(amps)
+    return amps[n // 2] if n % 2 else 0.5 * (amps[n // 2 - 1] + amps[n // 2])
+
+
+def campaign_note(summary: dict[str, Any]) -> str:
+    """One sentence for a deck written from a campaign: it is the population damper of N tests
+    (its predictive interval for a new test, when stored)."""
+    design = summary.get("design") if isinstance(summary.get("design"), dict) else {}
+    n = design.get("n_tests")
+    n = n if isinstance(n, int) and not isinstance(n, bool) else len(_campaign_tests(summary))
+    model = design.get("model") if design.get("model") in ("hierarchical", "added-mass") \
+        else "hierarchical"
+    note = (f"Population damper of a campaign of {n} tests ({model} model): c, k and m are the "
+            "population values (the centre of the tests), u0 the median release amplitude")
+    pred = ((summary.get("population") or {}).get("predictive") or {}).get("c") \
+        if isinstance(summary.get("population"), dict) else None
+    if isinstance(pred, dict) and all(isinstance(pred.get(k), (int, float))
+                                      and not isinstance(pred.get(k), bool)
+                                      and math.isfinite(pred[k]) for k in ("q05", "q95")):
+        note += (f"; a new test's c is predicted in [{pred['q05']:.4g}, {pred['q95']:.4g}] "
+                 "N*s/m (90 % predictive interval)")
+    return note + "."
+
+
 def load(folder: str | Path, quantile: float = 0.5, gravity: bool = False) -> Sdof:
     """The identified system of result ``folder`` at posterior ``quantile`` ∈ (0, 1).
 
@@ -188,7 +230,11 @@ def load(folder: str | Path, quantile: float = 0.5, gravity: bool = False) -> Sd
     folder, summary, digest = checked.folder, checked.data, checked.sha256
     path = checked.path
     mass = _mass(summary, path)
-    values = {name: summary_quantile(summary, name, quantile, folder) for name in ("k", "c", "u0")}
+    campaign = summary.get("kind") == "campaign"
+    values = {name: summary_quantile(summary, name, quantile, folder)
+              for name in (("k", "c") if campaign else ("k", "c", "u0"))}
+    if campaign:
+        values["u0"] = campaign_u0(summary, path)
     critical = 2.0 * math.sqrt(values["k"] * mass)
     if values["c"] >= critical:
         raise InputError(f"{shown(path)}: c = {values['c']:g} N s/m is at or above the critical "
@@ -203,5 +249,7 @@ def load(folder: str | Path, quantile: float = 0.5, gravity: bool = False) -> Sd
         "dampfit_version": summary.get("dampfit_version"),
         "mass_sd": None if sd is None else number(sd, "mass.sd", path, nonnegative=True),
     }
+    if campaign:
+        source["campaign"] = campaign_note(summary)
     return Sdof(mass=mass, k=values["k"], c=values["c"], u0=values["u0"],
                 g=STANDARD_GRAVITY if gravity else 0.0, source=source)

@@ -5,7 +5,7 @@
   dialects (:data:`DIALECTS`); :func:`dampfit.io.readers.read` reads it back as
   ``"phyphox-csv"``.
 * :func:`write_truth` — the known parameters of a simulated recording
-  (:func:`dampfit.simulate.simulate`) as indented JSON, strict (no NaN or infinity).
+  (:func:`dampfit.simulate.recording`) as indented JSON, strict (no NaN or infinity).
 
 Both write atomically (:func:`dampfit._files.atomic_write_text`): a file is complete or absent.
 """
@@ -63,6 +63,6 @@ def write_phyphox_csv(recording: Recording, path: str | os.PathLike, dialect: st
 
 
 def write_truth(truth: dict[str, Any], path: str | os.PathLike) -> Path:
-    """Write the truth dict of :func:`dampfit.simulate.simulate` as JSON (indent 2); returns
+    """Write the truth dict of :func:`dampfit.simulate.recording` as JSON (indent 2); returns
     the path."""
     return atomic_write_text(path, json.dumps(truth, indent=2, allow_nan=False) + "\n")

@@ -11,6 +11,10 @@ only the standard library: no JAX, no matplotlib.
 * ``report.md`` refers to the figures as relative PNG files in ``DIR``.
 
 Both are built from one list of blocks (:func:`build`), so they always say the same thing.
+A campaign folder (several recordings of one damper, ``"kind": "campaign"``) gets its own
+report: design and input files, the population table with the predictive interval for a new
+test and the between-test spread, the verdict, the per-test table (alone and pooled) with the
+forest plot, and in added-mass mode m₀, k and the 1/ω_n²–Δm figure.
 Optional summary entries (``crlb``, ``model_checks``, ``amplitude_curve``, verification) are
 shown when present and otherwise say "not computed" with the command that computes them;
 entries whose layout this module does not know are rendered as generic tables.
@@ -53,6 +57,8 @@ from dampfit.output.document import render_markdown as render_markdown
 from dampfit._files import DEMO_MARKER, atomic_write_text
 from dampfit.errors import InputError
 from dampfit.result.schema import folder_of, read_summary
+from dampfit.output.campaign import FIGURES as CAMPAIGN_FIGURES
+from dampfit.output.campaign import labels as campaign_labels
 from dampfit.output.text import _own_spread
 from dampfit.output.text import interval as _honest
 
@@ -105,6 +111,7 @@ FIGURES = {
                  "with its 90 % band and the constant frequency the fit assumes.",
     "verify": "OpenSees verification: simulated response of the identified system against the "
               "measurement.",
+    **CAMPAIGN_FIGURES,
 }
 
 
@@ -908,15 +915,247 @@ def _amplitude(s: dict, directory: Path) -> list[Block]:
     return out + (_generic(rest) if rest else [])
 
 
+# ----------------------------------------------------------------------------- campaign
+# A campaign folder (several recordings of one damper, summary "kind": "campaign";
+# dampfit.campaign): design, population table with the predictive interval and the spread,
+# per-test table, the verdict, the forest and added-mass figures.
+CAMPAIGN_NAMES = {**NAMES, "m0": "m₀, effective mass"}
+CAMPAIGN_UNITS = {**UNITS, "m0": "kg"}
+
+
+def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
+    """The shell command that re-creates the campaign folder ``directory`` from its inputs."""
+    directory = Path(os.path.abspath(directory))
+    q = shlex.quote
+    tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
+    paths = [_get(t, "input", "path") for t in tests]
+    parts = ["dampfit", "analyze"] + [q(p) if isinstance(p, str) else "FILE" for p in paths]
+    am = _get(s, "design", "added_mass")
+    m = _get(s, "design", "mass")
+    if isinstance(am, dict) and isinstance(am.get("values"), list):
+        parts += ["--added-mass"] + [repr(float(v)) if _finite(v) else "KG" for v in am["values"]]
+        if _finite(am.get("sd")) and am["sd"] > 0:
+            parts += ["--added-mass-sd", repr(float(am["sd"]))]
+    elif isinstance(m, dict) and _finite(m.get("value")):
+        parts += ["--mass", repr(float(m["value"]))]
+        if _finite(m.get("sd")) and m["sd"] > 0:
+            parts += ["--mass-sd", repr(float(m["sd"]))]
+    opts = _get(s, "provenance", "options")
+    opts = opts if isinstance(opts, dict) else {}
+    if isinstance(opts.get("axis"), str) and opts["axis"] != "auto":
+        parts += ["--axis", q(opts["axis"])]
+    for key in ("window", "band"):
+        v = opts.get(key)
+        if isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v):
+            parts += [f"--{key}", repr(float(v[0])), repr(float(v[1]))]
+    seed = _get(s, "provenance", "seed")
+    seed = seed if isinstance(seed, int) and not isinstance(seed, bool) else 0
+    return " ".join(parts + ["--seed", str(seed), "--out", q(str(directory))])
+
+
+def _campaign_status(s: dict) -> list[Block]:
+    """The red or green box at the top of a campaign report (every warning once)."""
+    d = s.get("diagnostics") if isinstance(s.get("diagnostics"), dict) else {}
+    warns: list[str] = []
+    for w in (d.get("warnings") if isinstance(d.get("warnings"), list) else []) + \
+            (s.get("warnings") if isinstance(s.get("warnings"), list) else []):
+        text = _num(w).strip()
+        if text and text not in warns:
+            warns.append(text)
+    facts = (f"max R-hat {_fixed(d.get('max_r_hat'), '.4f')}, min bulk ESS "
+             f"{_fixed(d.get('min_ess_bulk'), '.0f')}, {_num(d.get('n_steps'))} steps")
+    if not d:
+        return [("box", "bad", "No diagnostics in summary.json: convergence is unknown",
+                 [["Re-run the analysis before using these numbers."]]
+                 + [[("b", "Warning: "), w] for w in warns])]
+    if d.get("converged") is not True or warns:
+        title = ("NOT CONVERGED — read the diagnostics before using these numbers"
+                 if d.get("converged") is not True else "Converged, with warnings")
+        return [("box", "bad", title, [[f"Diagnostics: {facts}."]]
+                 + [[("b", "Warning: "), w] for w in warns])]
+    return [("box", "ok", "Converged, no warnings", [[f"Diagnostics: {facts}."]])]
+
+
+def _campaign_design(s: dict) -> list[Block]:
+    design = s.get("design") if isinstance(s.get("design"), dict) else {}
+    m = s.get("mass") if isinstance(s.get("mass"), dict) else {}
+    am = design.get("added_mass") if isinstance(design.get("added_mass"), dict) else None
+    tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
+    rows = [["tests", _num(design.get("n_tests", len(tests)))],
+            ["model", _num(design.get("model"))]]
+    if am is not None:
+        rows.append(["added masses", f"{_num(am.get('values'))} kg, sd {_num(am.get('sd'), 3)} kg"])
+        rows.append(["mass used for c and k", f"effective mass m₀ (median {_num(m.get('value'))} kg), "
+                                              "estimated from the frequencies"])
+    elif _finite(m.get("value")):
+        sd = f" ± {_num(m['sd'], 3)}" if _finite(m.get("sd")) and m["sd"] > 0 else " (sd not given)"
+        rows.append(["mass", f"{_num(m['value'])}{sd} kg"])
+    else:
+        rows.append(["mass", "not given (c and k cannot be identified)"])
+    rows += [["dampfit version", _num(s.get("dampfit_version"))],
+             ["seed", _num(_get(s, "provenance", "seed"))]]
+    out: list[Block] = [("table", ["item", "value"], rows)]
+    irows = []
+    for i, t in enumerate(tests):
+        inp = t.get("input") if isinstance(t.get("input"), dict) else {}
+        win = t.get("window") if isinstance(t.get("window"), dict) else {}
+        irows.append([str(i + 1), _num(inp.get("path")), str(_num(inp.get("sha256")))[:16],
+                      f"{_num(inp.get('n_samples'))} at {_num(inp.get('sample_rate_hz'), 5)} Hz",
+                      f"{_num(win.get('start_s'), 5)} – {_num(win.get('end_s'), 5)}"])
+    if irows:
+        out += [("h3", "Input files"),
+                ("table", ["test", "file", "sha256 (first 16)", "samples", "window [s]"], irows)]
+    return out
+
+
+def _campaign_population(s: dict) -> list[Block]:
+    params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
+    pop = s.get("population") if isinstance(s.get("population"), dict) else {}
+    pred = pop.get("predictive") if isinstance(pop.get("predictive"), dict) else {}
+    rows = []
+    for name in ("c", "k", "zeta", "f_n", "m0", "p"):
+        q = params.get(name)
+        if not isinstance(q, dict) or not _finite(q.get("q50")):
+            continue
+        pq = pred.get(name) if isinstance(pred.get(name), dict) else {}
+        rows.append([CAMPAIGN_NAMES.get(name, name), CAMPAIGN_UNITS.get(name, ""), _median(q),
+                     _interval(q), _median(pq) if pq else "—", _interval(pq) if pq else "—",
+                     _fixed(q.get("r_hat"), ".4f"), _fixed(q.get("ess_bulk"), ".0f")])
+    out: list[Block] = []
+    if rows:
+        out.append(("table", ["quantity", "unit", "population median", "90 % interval",
+                              "new test: median", "90 % predictive interval", "R-hat",
+                              "bulk ESS"], rows))
+    else:
+        out.append(("p", ["No population summary in summary.json."]))
+    out.append(("p", ["The population values describe “this damper”: the centre of the "
+                      "distribution the tests are drawn from. The predictive interval is where "
+                      "the value of one new test is expected (90 %): it adds the between-test "
+                      "spread to the uncertainty of the centre, and it is the interval an FEM "
+                      "model of this damper should carry."]))
+    spread = pop.get("spread") if isinstance(pop.get("spread"), dict) else {}
+    srows = [[label, _median(spread[key]), _interval(spread[key])]
+             for key, label in (("p", "τ of ln p (decay rate)"), ("omega", "τ of ln ω_n (frequency)"))
+             if isinstance(spread.get(key), dict)]
+    if srows:
+        out += [("h3", "Between-test spread"),
+                ("table", ["spread (relative sd between tests)", "median", "90 % interval"], srows)]
+    zero = pop.get("spread_consistent_with_zero")
+    if zero is not None:
+        out.append(("p", [("b", "Spread consistent with zero: " if zero else
+                           "Spread not consistent with zero: "),
+                          "the tests agree within their own uncertainty." if zero else
+                          "the tests differ by more than their own uncertainty explains."]))
+    return out
+
+
+def _campaign_tests(s: dict) -> list[Block]:
+    tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
+    has_c = tests and all(isinstance(_get(t, "own", "c"), dict) for t in tests)
+    names = ("c", "zeta", "f_n") if has_c else ("zeta", "f_n")
+    head = ["test", "file", "Δm [kg]", "amplitude [m]"]
+    for n in names:
+        unit = CAMPAIGN_UNITS[n]
+        sym = CAMPAIGN_NAMES[n].split(",")[0]
+        head += [f"{sym} alone" + (f" [{unit}]" if unit != "1" else ""), f"{sym} pooled"]
+    head.append("outlier")
+    rows = []
+    for i, (t, name) in enumerate(zip(tests, campaign_labels(tests))):
+        row = [str(i + 1), name,
+               _num(t.get("added_mass_kg"), 4), _num(t.get("amplitude_m"), 3)]
+        for n in names:
+            row += [_with_interval(_get(t, "own", n)), _with_interval(_get(t, "pooled", n))]
+        row.append("OUTLIER" if t.get("outlier") is True else "no")
+        rows.append(row)
+    if not rows:
+        return [("p", ["No tests in summary.json."])]
+    return [("table", head, rows),
+            ("p", ["“alone”: the test's own posterior (median [90 % interval]); “pooled”: its "
+                   "estimate within the hierarchical model, pulled towards the population by as "
+                   "much as the spread between the tests allows."])]
+
+
+def _campaign_verdict(s: dict) -> list[Block]:
+    checks = s.get("checks") if isinstance(s.get("checks"), dict) else {}
+    if not checks:
+        return [("p", ["No checks in summary.json."])]
+    out: list[Block] = [("p", [("b", f"{_num(checks.get('verdict'))}: "), _num(checks.get("text"))])]
+    rows = [["between-test spread / typical own sd", _num(checks.get("tau_over_within"), 3)]]
+    tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
+    rows.append(["outliers (test numbers)", ", ".join(
+        str(i + 1) for i, t in enumerate(tests) if t.get("outlier") is True) or "none"])
+    amp = checks.get("amplitude") if isinstance(checks.get("amplitude"), dict) else {}
+    if amp:
+        y = "ln c" if isinstance(s.get("added_mass"), dict) else "ln p"
+        rows.append([f"slope of each test's {y} against its ln amplitude",
+                     f"{_num(amp.get('slope'), 3)} (90 % interval [{_num(amp.get('q05'), 3)}, "
+                     f"{_num(amp.get('q95'), 3)}])"])
+        rows.append(["amplitude explains the scatter", _num(amp.get("explains_scatter"))])
+    out.append(("table", ["check", "value"], rows))
+    return out
+
+
+def _campaign_added_mass(s: dict) -> list[Block]:
+    am = s.get("added_mass")
+    if not isinstance(am, dict):
+        return []
+    out: list[Block] = [("h2", "Added-mass method"),
+                        ("p", ["The natural frequencies fall with the added mass as "
+                               "ω_n² = k/(m₀ + Δm), so 1/ω_n² is a straight line in Δm with slope "
+                               "1/k that crosses zero at Δm = −m₀: ",
+                               ("b", f"m₀ = {_with_interval(am.get('m0'), 'kg')}"), ", ",
+                               ("b", f"k = {_with_interval(am.get('k'), 'N/m')}"), "."])]
+    pts = [p for p in (am.get("points") or []) if isinstance(p, dict)]
+    if pts:
+        out.append(("table", ["Δm [kg]", "ω_n² [rad²/s²]", "sd [rad²/s²]"],
+                    [[_num(p.get("added_mass_kg"), 4), _num(p.get("omega_n2"), 6),
+                      _num(p.get("omega_n2_sd"), 3)] for p in pts]))
+    out.append(_figure("added_mass"))
+    return out
+
+
+def _campaign_build(data: dict[str, Any], directory: Path, now: str) -> tuple[str, list[Block]]:
+    """(title, blocks) of the report of a campaign folder (several recordings of one damper)."""
+    s = data["summary"]
+    n = _get(s, "design", "n_tests")
+    title = f"dampfit damping report — campaign of {_num(n)} tests ({directory.name})"
+    b: list[Block] = [("h1", title)] + _campaign_status(s)
+    for name, sym in (("c", "c"), ("zeta", "ζ")):  # ζ when no mass identifies c
+        x = _get(s, "parameters", name)
+        px = _get(s, "population", "predictive", name)
+        if isinstance(x, dict) and _finite(x.get("q50")):
+            unit = CAMPAIGN_UNITS[name]
+            b.append(("p", [("b", f"Population {sym} = {_with_interval(x, unit)}"),
+                            "; a new test: " + (_with_interval(px, unit) if isinstance(px, dict)
+                                                else "—") + " (90 % intervals)."]))
+            break
+    b += [("h2", "Design")] + _campaign_design(s)
+    b += [("h2", "Population: the damper")] + _campaign_population(s)
+    b += [("h2", "Verdict")] + _campaign_verdict(s)
+    b += [("h2", "Each test")] + _campaign_tests(s) + [_figure("forest")]
+    b += _campaign_added_mass(s)
+    here = shlex.quote(os.path.abspath(directory))
+    b += [("h2", "How to reproduce and cite"),
+          ("p", ["Re-create this folder from the input files (add --force to replace it):"]),
+          ("code", campaign_reproduce_command(s, directory)),
+          ("p", [f"Cite as: dampfit {_num(s.get('dampfit_version'))} (hierarchical Bayesian "
+                 "analysis of repeated free-decay tests of m·ü + c·u̇ + k·u = 0). Rendered from "
+                 "summary.json by ", ("code", f"dampfit report {here}"), f" on {now}."])]
+    return title, b
+
+
 def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = None
           ) -> tuple[str, list[Block]]:
     """(title, blocks) of the report of ``data`` (from :func:`load`) for the folder ``directory``.
 
     Every warning appears once, in the box at the top; the noise level is defined once, in
-    "Noise model", and the Cramér–Rao bound refers to it; every key shown has a human label."""
+    "Noise model", and the Cramér–Rao bound refers to it; every key shown has a human label.
+    A campaign folder (``"kind": "campaign"``) gets the campaign report."""
     directory = Path(directory)
     s = data["summary"]
     now = now or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+    if s.get("kind") == "campaign":
+        return _campaign_build(data, directory, now)
     path = _get(s, "input", "path")
     title = f"dampfit damping report — {Path(path).name if isinstance(path, str) else directory.name}"
     b: list[Block] = [("h1", title)]

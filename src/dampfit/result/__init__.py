@@ -1,6 +1,7 @@
 """Result folders read back: the one validating reader of summary.json
 (:mod:`dampfit.result.schema`) and :func:`load` (:mod:`dampfit.result.folder`), which returns the
-:class:`dampfit.pipeline.Analysis` a folder was written from.
+:class:`dampfit.pipeline.Analysis` a folder was written from (of a campaign folder, several
+recordings of one damper: the :class:`dampfit.campaign.analysis.CampaignAnalysis`).
 
 Nothing heavy is imported here (the report reads summaries with the standard library only).
 """

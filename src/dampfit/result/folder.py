@@ -1,5 +1,8 @@
 """A result folder read back: :func:`load` returns the :class:`dampfit.pipeline.Analysis` the
-folder was written from, with what the folder holds.
+folder was written from, with what the folder holds — or, for a campaign folder (summary.json
+with ``"kind": "campaign"``, several recordings of one damper), the
+:class:`dampfit.campaign.analysis.CampaignAnalysis` (its stored summary; the joint posterior
+from posterior.nc on first use; no signals.npz, no per-test analyses).
 
 What ``dampfit analyze`` / ``dampfit demo`` write (:mod:`dampfit.cli.staging`) and how it is read:
 
@@ -26,7 +29,7 @@ from typing import Any
 
 from dampfit.errors import DampfitError, InputError
 from dampfit.fem.sanitize import shown
-from dampfit.result.schema import Summary, folder_of, read_summary
+from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
 
 __all__ = ["MAX_POSTERIOR_BYTES", "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "load", "load_signals",
            "read_posterior"]
@@ -46,14 +49,17 @@ def load(folder: str | os.PathLike):
     """The :class:`~dampfit.pipeline.Analysis` of result ``folder`` (see the module).
 
     ``summary()`` is the folder's summary.json; ``posterior`` and ``signals()`` are read when
-    first used; ``folder`` is the folder. :class:`~dampfit.errors.InputError` (one line) if
-    ``folder`` is not a usable result folder.
+    first used; ``folder`` is the folder. A campaign folder (``"kind": "campaign"``) gives a
+    :class:`~dampfit.campaign.analysis.CampaignAnalysis` (:func:`_load_campaign`).
+    :class:`~dampfit.errors.InputError` (one line) if ``folder`` is not a usable result folder.
     """
-    from dampfit.pipeline import Analysis
-
     s = read_summary(folder)
     d = s.data
     loaded = _Loaded(s)
+    if is_campaign(d):
+        return _load_campaign(s, loaded)
+    from dampfit.pipeline import Analysis
+
     mass = d.get("mass") if isinstance(d.get("mass"), dict) else {}
     prov = d.get("provenance") if isinstance(d.get("provenance"), dict) else {}
     diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
@@ -68,6 +74,20 @@ def load(folder: str | os.PathLike):
         warnings=[w for w in warns if isinstance(w, str)] if isinstance(warns, list) else [],
         date=prov.get("date") if isinstance(prov.get("date"), str) else None,
         folder=s.folder, _loaded=loaded)
+
+
+def _load_campaign(s: Summary, loaded: "_Loaded"):
+    """The :class:`~dampfit.campaign.analysis.CampaignAnalysis` of a campaign folder: its
+    summary as stored, the joint posterior read from posterior.nc on first use; the per-test
+    single-recording analyses are not stored (``tests`` is empty)."""
+    from dampfit.campaign.analysis import CampaignAnalysis
+
+    d = s.data
+    diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
+    warns = [w for w in (diag.get("warnings") or []) + (d.get("warnings") or [])
+             if isinstance(w, str)]
+    return CampaignAnalysis(tests=[], sampling=None, warnings=list(dict.fromkeys(warns)),
+                            folder=s.folder, _loaded=loaded)
 
 
 def _real(x: Any) -> bool:

@@ -11,6 +11,10 @@ What a usable ``summary.json`` is:
 * one JSON object nested at most :data:`MAX_DEPTH` levels, with a ``parameters`` object;
   sections ``mass``, ``input``, ``window`` are objects (or absent/null), ``dampfit_version`` a
   string (or absent);
+* ``"kind": "campaign"`` (several recordings of one damper, :mod:`dampfit.campaign`): then
+  ``tests`` is a list of at least two objects and ``design``, ``population``, ``checks``,
+  ``added_mass``, ``diagnostics`` are objects (or null); a summary of one recording has no
+  ``kind``, any other ``kind`` is refused;
 * ``schema_version`` a non-negative integer of at most :data:`SCHEMA_VERSION`; a summary
   without it was written by dampfit before the schema was versioned and is read as version 0
   with the same checks. A newer version is refused with one line naming both versions.
@@ -41,8 +45,8 @@ from dampfit.errors import InputError
 from dampfit.fem.sanitize import shown
 
 __all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "SCHEMA_VERSION",
-           "Summary", "brief", "folder_of", "not_a_result", "number", "read_regular",
-           "read_summary"]
+           "Summary", "brief", "folder_of", "is_campaign", "not_a_result", "number",
+           "read_regular", "read_summary"]
 
 #: Version of the summary.json layout :meth:`dampfit.pipeline.Analysis.summary` writes (its
 #: ``schema_version``). 0: written before the field existed (same layout as 1).
@@ -134,6 +138,45 @@ def _check_fields(summary: dict[str, Any], path: Path) -> None:
     version = summary.get("dampfit_version")
     if version is not None and not isinstance(version, str):
         raise InputError(f"{shown(path)}: 'dampfit_version' must be a string, got {brief(version)}")
+    if "kind" in summary:
+        if summary["kind"] != "campaign":
+            raise InputError(f"{shown(path)}: 'kind' must be \"campaign\" (or absent for one "
+                             f"recording), got {brief(summary['kind'])}")
+        _check_campaign(summary, path)
+
+
+#: Sections of a campaign summary (``"kind": "campaign"``) that are objects (or null/absent).
+CAMPAIGN_SECTIONS = ("design", "population", "checks", "added_mass", "diagnostics")
+#: Sections of each test of a campaign that are objects (or null/absent).
+CAMPAIGN_TEST_SECTIONS = ("input", "window", "own", "pooled")
+
+
+def _check_campaign(summary: dict[str, Any], path: Path) -> None:
+    """Field-level checks of a campaign summary (several recordings of one damper): ``tests``
+    a list of at least two objects, the sections objects (one line naming the field)."""
+    for section in CAMPAIGN_SECTIONS:
+        if summary.get(section) is not None and not isinstance(summary[section], dict):
+            raise InputError(f"{shown(path)}: '{section}' must be an object, "
+                             f"got {brief(summary[section])}")
+    tests = summary.get("tests")
+    if not isinstance(tests, list) or len(tests) < 2:
+        raise InputError(f"{shown(path)}: 'tests' of a campaign must be a list of at least 2 "
+                         f"tests, got {brief(tests) if not isinstance(tests, list) else len(tests)}")
+    for i, test in enumerate(tests):
+        if not isinstance(test, dict):
+            raise InputError(f"{shown(path)}: tests[{i}] must be an object, got {brief(test)}")
+        for section in CAMPAIGN_TEST_SECTIONS:
+            if test.get(section) is not None and not isinstance(test[section], dict):
+                raise InputError(f"{shown(path)}: tests[{i}].{section} must be an object, "
+                                 f"got {brief(test[section])}")
+    for key in ("warnings",):
+        if summary.get(key) is not None and not isinstance(summary[key], list):
+            raise InputError(f"{shown(path)}: '{key}' must be a list, got {brief(summary[key])}")
+
+
+def is_campaign(summary: dict[str, Any]) -> bool:
+    """True for the summary of a campaign (several recordings of one damper)."""
+    return isinstance(summary, dict) and summary.get("kind") == "campaign"
 
 
 def _schema_version(summary: dict[str, Any], path: Path) -> int:

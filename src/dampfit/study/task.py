@@ -150,7 +150,7 @@ def run_task(task: Task) -> dict[str, Any]:
     mass = task.mass if task.mass_known else None
     truth = None
     try:
-        rec, truth = sim.simulate(sim_config(task.params, task.mass, task.seed))
+        rec, truth = sim.recording(sim_config(task.params, task.mass, task.seed))
         sd, record["crlb_note"] = _bound(rec, truth, mass)
         # the estimators' seed: a second stream of the run's seed sequence
         est_seed = int(np.random.SeedSequence(task.seed).generate_state(1)[0])

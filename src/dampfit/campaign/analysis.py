@@ -1,0 +1,717 @@
+r"""Joint analysis of several free-decay recordings of one damper: :func:`analyze_campaign`.
+
+Stages
+------
+1. **Per test** (each recording on its own, as :func:`dampfit.pipeline.analyze` does it):
+   preparation (window, band, axis: :func:`dampfit.signal.prepare.prepare`), the baselines'
+   initial decay rate, least squares (:func:`dampfit.inference.least_squares.least_squares`),
+   the single-recording refusals (no free decay; noise-free), the noise calibration r_i
+   (:func:`dampfit.inference.noise.estimate`), and the Laplace expansion of the tempered
+   profiled likelihood ℓ_i (eqs. C1, C2 of :mod:`dampfit.campaign.model`).
+2. **Refusals** before any sampling (:mod:`dampfit.campaign.checks`).
+3. **Hyper-posterior** of φ (eqs. C3–C5) sampled with emcee
+   (differential-evolution moves, see :func:`_ensemble`, and the stopping rule of :func:`dampfit.inference.posterior.run_adaptive`: ≥ 50
+   autocorrelation times, R-hat < 1.01, bulk ESS ≥ ``min_ess``, or ``max_steps``).
+4. **Per-test values and the exact likelihood**: for every draw of φ, each test's
+   ψ_i = (ln p_i, ln ω_n,i) is drawn from its Gaussian conditional, and the joint draw gets
+   the importance weight
+
+       w = Π_i exp[ℓ_i(θ_i) − ℓ_i(θ̂_i) − (ℓ̃_i(ψ_i) − ℓ̃_i(ψ̂_i))],                     (C6)
+
+   the ratio of the exact tempered likelihood (C1) to its Laplace form (C2) (everything else
+   in the joint density is common to both, so (C6) is exact); each walker's draws are
+   resampled by w (systematic resampling). The importance ESS fraction is reported; below
+   :data:`MIN_IMPORTANCE_FRACTION` the result is flagged not converged.
+5. **Quantities** per draw (:func:`_from_rates`, :mod:`dampfit.physics`): the population damper from
+   the location parameters (mass mode: c = 2·m·e^{μ_p} [N·s/m], k = m·e^{2μ_ω} [N/m] with m
+   drawn normal(m, sd) truncated at 0 as in :func:`dampfit.inference.posterior.mass_draws`;
+   added-mass mode: c, k, m₀ directly, p = c/(2m₀), ω_n² = k/m₀ for the bare system), the
+   **predictive** damper of a new test (ln p_new = μ_p + τ_p·z, ln ω_new = μ_ω + τ_ω·z'), each
+   test's **pooled** values from its ψ_i (mass m, or m₀ + Δm_i), and each test's **own**
+   values from its Laplace expansion alone (mass m, or the posterior m₀ + Δm_i).
+6. **Checks** (:mod:`dampfit.campaign.checks`): spread consistent with zero, outliers,
+   amplitude explains the scatter, and a one-sentence verdict.
+
+The summary's schema is ``summary.json`` of kind "campaign" (schema_version 1).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import time
+import warnings as _warnings
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from dampfit._files import atomic_write, atomic_write_text
+from dampfit._json import jsonable
+from dampfit.errors import DampfitError, InputError
+
+__all__ = ["CampaignAnalysis", "TestFit", "analyze_campaign", "SUMMARY_KEYS",
+           "MIN_IMPORTANCE_FRACTION"]
+
+#: Top-level keys of :meth:`CampaignAnalysis.summary` (schema_version 1, kind "campaign").
+SUMMARY_KEYS = ("schema_version", "kind", "dampfit_version", "design", "parameters", "mass",
+                "population", "tests", "checks", "added_mass", "diagnostics", "warnings")
+#: Least importance ESS of (C6) as a fraction of the draws [1] for a converged result.
+MIN_IMPORTANCE_FRACTION = 0.1
+#: emcee walkers over the 4–5 hyper-parameters.
+N_WALKERS = 64
+#: Draws [1] of each test's own (Laplace) estimate.
+OWN_DRAWS = 4000
+#: Population quantities reported under "parameters" and their units.
+POPULATION_UNITS = {"c": "N s/m", "k": "N/m", "zeta": "1", "f_n": "Hz", "p": "1/s",
+                    "c_crit": "N s/m", "m0": "kg"}
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass(eq=False)
+class TestFit:
+    """One recording's single-test stage: preparation, least squares, noise calibration and
+    the Laplace expansion of its tempered likelihood.
+
+    ``theta_hat`` (ln p, ln ω_d) at the maximum of ℓ_i, ``cov_theta`` its Laplace covariance,
+    ``ll_max`` ℓ_i(θ̂) [1], ``psi_hat`` (ln p, ln ω_n) and ``sigma_psi`` Σ_i (C2),
+    ``temper`` 1/r_i, ``amplitude_m`` the initial displacement amplitude of the window [m]."""
+
+    index: int
+    recording: Any
+    prepared: Any
+    fit_data: Any
+    least_squares: Any
+    noise: Any
+    temper: float
+    theta_hat: np.ndarray
+    cov_theta: np.ndarray
+    ll_max: float
+    psi_hat: np.ndarray
+    sigma_psi: np.ndarray
+    amplitude_m: float
+    added_mass_kg: float | None
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def name(self) -> str:
+        path = self.recording.path
+        return os.path.basename(str(path)) if path else f"recording {self.index + 1}"
+
+    def samples(self):
+        """:class:`dampfit.model.profile.Samples` of the padded fit data (inside x64)."""
+        from dampfit.model.profile import Samples
+
+        return Samples.from_padded(self.fit_data.padded)
+
+
+@dataclass(frozen=True)
+class CampaignSampling:
+    """The joint posterior (arviz InferenceData) and the sampler's facts."""
+
+    idata: Any
+    converged: bool
+    n_steps: int
+    burn_in: int
+    thin: int
+    autocorr_time: np.ndarray
+    acceptance: float
+    importance_ess_fraction: float
+    diagnostics: dict[str, dict[str, float]]
+    warnings: tuple[str, ...] = ()
+    seconds: float = float("nan")
+
+
+@dataclass
+class CampaignAnalysis:
+    """Everything :func:`analyze_campaign` computed; :meth:`summary` is its plain-data view.
+
+    Loaded back from a result folder (:func:`dampfit.load`), ``summary()`` is the stored
+    summary.json, ``posterior`` is read from posterior.nc, and ``tests`` is empty."""
+
+    tests: list = field(default_factory=list)
+    sampling: Any = None
+    warnings: list[str] = field(default_factory=list)
+    folder: Path | None = None
+    _loaded: Any = field(default=None, repr=False, compare=False)
+    mass: float | None = None
+    mass_sd: float = 0.0
+    added_mass: np.ndarray | None = None
+    added_mass_sd: float = 0.0
+    seed: int = 0
+    options: dict[str, Any] = field(default_factory=dict)
+    date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
+
+    @property
+    def model(self) -> str:
+        """"hierarchical" (known or no mass) or "added-mass"."""
+        return "added-mass" if self.added_mass is not None else "hierarchical"
+
+    @property
+    def posterior(self):
+        """The joint posterior as arviz ``InferenceData`` (variables named as in the summary)."""
+        if self._loaded is not None:
+            return self._loaded.posterior()
+        return self.sampling.idata
+
+    @property
+    def converged(self) -> bool:
+        """The hyper-posterior met its stopping rule and the importance weights are healthy."""
+        if self._loaded is not None:
+            return bool(self._loaded.converged())
+        return bool(self.sampling.converged)
+
+    def draws(self, name: str) -> np.ndarray:
+        """All posterior draws of one quantity (per-test ones: (draws, tests))."""
+        x = np.asarray(self.posterior.posterior[name])
+        return x.reshape((-1,) + x.shape[2:])
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON-safe summary (kind "campaign", schema_version 1), a fresh copy; computed
+        once and cached (of a loaded result: the summary.json read)."""
+        if self._summary is None:
+            if self._loaded is not None:
+                self._summary = self._loaded.summary
+            else:
+                self._summary = _summarise(self)
+        return copy.deepcopy(self._summary)
+
+    def to_json(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`summary` as JSON to ``path`` (atomically)."""
+        return atomic_write_text(path, json.dumps(self.summary(), indent=2) + "\n")
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write the joint posterior (arviz InferenceData) to a NetCDF file."""
+        return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
+                            suffix=".nc")
+
+
+# ----------------------------------------------------------------------------- the job
+def analyze_campaign(recordings: Sequence, mass: float | None = None,
+                     mass_sd: float | None = None, *, added_mass: Sequence[float] | None = None,
+                     added_mass_sd: float = 0.0, seed: int = 0, progress: bool = False,
+                     max_steps: int = 20000, min_ess: float = 1000.0,
+                     window: tuple[float, float] | Sequence | None = None,
+                     band: tuple[float, float] | Sequence | None = None,
+                     axis: str = "auto") -> CampaignAnalysis:
+    """Joint hierarchical analysis of several recordings of one damper.
+
+    ``recordings`` (≥ 2 :class:`~dampfit.io.recording.Recording`). Either ``mass`` [kg] (sd
+    ``mass_sd`` [kg]; both optional: without a mass only p, ζ, f_n are reported) — the
+    "hierarchical" design — or ``added_mass`` [kg] per recording (0 for the bare system) with
+    sd ``added_mass_sd`` [kg] — the "added-mass" design, which estimates m₀ and k itself.
+    ``window`` (start, end) [s] and ``band`` (low, high) [Hz] apply to every recording, or
+    give one per recording (a list of pairs or None). ``seed`` makes the run reproducible;
+    ``max_steps`` and ``min_ess`` bound the sampler. Bad inputs raise a one-line
+    :class:`~dampfit.errors.InputError` before any sampling.
+    """
+    from dampfit.campaign import checks
+
+    recs, m, sd, dm, dm_sd = checks.check_design(recordings, mass, mass_sd, added_mass,
+                                                 added_mass_sd)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    windows = _per_test_option("window", window, len(recs))
+    bands = _per_test_option("band", band, len(recs))
+    tests = [_fit_test(i, r, axis, windows[i], bands[i], m, None if dm is None else dm[i])
+             for i, r in enumerate(recs)]
+    names = [t.name for t in tests]
+    warns = [f"test {t.index + 1} ({t.name}): {w}" for t in tests for w in t.warnings]
+    if dm is None:
+        checks.check_same_system([t.prepared.f0 for t in tests], names)
+    data, centre = _campaign_data(tests, dm, dm_sd)
+    started = time.monotonic()
+    sampling = _sample(tests, data, dm is not None, m, sd, dm, seed, progress, max_steps,
+                       min_ess)
+    sampling = _with_seconds(sampling, time.monotonic() - started)
+    warns.extend(sampling.warnings)
+    options = {"axis": axis, "window": _jsonable_option(window), "band": _jsonable_option(band),
+               "max_steps": max_steps, "min_ess": min_ess}
+    return CampaignAnalysis(tests=tests, sampling=sampling, warnings=warns, mass=m,
+                            mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=int(seed),
+                            options=options)
+
+
+def _with_seconds(s: CampaignSampling, seconds: float) -> CampaignSampling:
+    from dataclasses import replace
+
+    return replace(s, seconds=float(seconds))
+
+
+def _jsonable_option(x):
+    if x is None:
+        return None
+    return [list(v) if isinstance(v, (list, tuple)) else v for v in x] if _is_per_test(x) else list(x)
+
+
+def _is_per_test(x) -> bool:
+    return isinstance(x, (list, tuple)) and len(x) > 0 and all(
+        v is None or (isinstance(v, (list, tuple)) and len(v) == 2) for v in x)
+
+
+def _per_test_option(name: str, value, n: int) -> list:
+    """``value`` (one (lo, hi) pair or None for all, or one per recording) as n entries."""
+    if value is None:
+        return [None] * n
+    if _is_per_test(value):
+        if len(value) != n:
+            raise InputError(f"{name} gives {len(value)} ranges for {n} recordings; give one "
+                             "range for all or one per recording")
+        return [None if v is None else tuple(v) for v in value]
+    return [tuple(value)] * n
+
+
+def _fit_test(i: int, rec, axis, window, band, mass, dm) -> TestFit:
+    """Stage 1 for recording ``i`` (as :func:`dampfit.pipeline.analyze`), every refusal
+    prefixed with the test it concerns."""
+    try:
+        return _fit_test_inner(i, rec, axis, window, band, mass, dm)
+    except InputError as exc:
+        name = os.path.basename(str(rec.path)) if rec.path else f"recording {i + 1}"
+        raise InputError(f"test {i + 1} ({name}): {exc}") from None
+
+
+def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
+    import jax
+
+    from dampfit import pipeline
+    from dampfit.campaign import model
+    from dampfit.estimators import baselines
+    from dampfit.inference import least_squares as fit
+    from dampfit.inference import noise
+    from dampfit.signal import prepare as preprocess
+
+    warns: list[str] = []
+    pipeline._refuse_impossible_time(rec)
+    prep = preprocess.prepare(rec, axis=axis, window=window, band=band)
+    warns.extend(prep.warnings)
+    warns.extend(pipeline.unit_plausibility(rec, prep, mass))
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    base = {}
+    for name, fn in (("log_decrement", baselines.log_decrement),
+                     ("envelope_pipeline", baselines.envelope_pipeline)):
+        try:
+            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=mass)
+        except InputError:
+            base[name] = None
+    p0 = pipeline._initial_decay_rate(base)
+    fd = preprocess.fit_data(prep)
+    ls = fit.least_squares(fd, p0, prep.f0)
+    if ls.explained < pipeline.MIN_EXPLAINED:
+        raise InputError(
+            f"no free decay found: a damped oscillation explains only {100 * ls.explained:.0f} "
+            f"% of the signal in {prep.window[0]:.3g}–{prep.window[1]:.3g} s; check the file, "
+            "the axis or the window")
+    if ls.rss_drift > 0 and ls.rss < pipeline.NOISE_FREE_POWER * ls.rss_drift:
+        raise InputError("the recording is free of noise to numerical precision (a simulation "
+                         "without sensor noise?); a posterior needs measurement noise")
+    if not ls.converged:
+        warns.append(f"least squares did not converge ({ls.message})")
+    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
+                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
+    temper = 1.0 / nm.psd_ratio
+    with jax.enable_x64(True):
+        from dampfit.model.profile import Samples
+
+        samples = Samples.from_padded(fd.padded)
+        theta, cov, ll_max = model.laplace(np.asarray(ls.theta[:2], float), samples, temper,
+                                           np.asarray(ls.cov[:2, :2]) / temper)
+    if not (np.all(np.isfinite(theta)) and np.isfinite(ll_max)):
+        raise InputError("its likelihood could not be evaluated at the least-squares decay")
+    psi, sigma = model.to_population(theta, cov)
+    amp = float(pipeline.ls_quantities(ls)["u0"])
+    return TestFit(index=i, recording=rec, prepared=prep, fit_data=fd, least_squares=ls,
+                   noise=nm, temper=temper, theta_hat=theta, cov_theta=cov, ll_max=ll_max,
+                   psi_hat=psi, sigma_psi=sigma, amplitude_m=amp,
+                   added_mass_kg=None if dm is None else float(dm), warnings=warns)
+
+
+def _campaign_data(tests: list[TestFit], dm, dm_sd):
+    """(:class:`~dampfit.campaign.model.CampaignData`, prior centres) and the added-mass
+    design's refusals (:func:`dampfit.campaign.checks.check_added_mass_design`)."""
+    import jax
+    import jax.numpy as jnp
+
+    from dampfit.campaign import checks, model
+
+    psi = np.array([t.psi_hat for t in tests])
+    sigma = np.array([t.sigma_psi for t in tests])
+    if dm is None:
+        centre = np.array([psi[:, 0].mean(), psi[:, 1].mean()])
+        dm_arr = np.zeros(len(tests))
+    else:
+        centre = np.array(checks.check_added_mass_design(psi, sigma, dm, dm_sd))
+        dm_arr = np.asarray(dm, float)
+    with jax.enable_x64(True):
+        data = model.CampaignData(jnp.asarray(psi), jnp.asarray(sigma), jnp.asarray(dm_arr),
+                                  jnp.float64(dm_sd), jnp.asarray(centre),
+                                  jnp.float64(1.0 if dm is not None else 0.0))
+    return data, centre
+
+
+# ----------------------------------------------------------------------------- sampling
+def _start(data, added: bool, rng, n_walkers: int) -> np.ndarray:
+    """Walkers about the moment estimates: locations at the prior centres (± their spread
+    over the tests), τ from the tests' scatter (a small positive value at least)."""
+    psi = np.asarray(data.psi_hat)
+    centre = np.asarray(data.centre)
+    tau0 = np.maximum(np.std(psi, axis=0, ddof=1), [1e-3, 1e-4])
+    loc_sd = np.maximum(tau0 / np.sqrt(psi.shape[0]), 1e-4)
+    if added:
+        loc_sd = np.array([loc_sd[0], loc_sd[1], 0.05])
+    loc = centre[None] + rng.standard_normal((n_walkers, centre.size)) * loc_sd[None]
+    ln_tau = np.log(tau0)[None] + 0.3 * rng.standard_normal((n_walkers, 2))
+    return np.concatenate([loc, ln_tau], axis=1)
+
+
+def _sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
+            min_ess) -> CampaignSampling:
+    import jax.numpy as jnp
+
+    from dampfit.campaign import model
+    from dampfit.inference import posterior
+
+    rng = np.random.default_rng(seed)
+    names = model.hyper_names(added)
+    ndim = len(names)
+
+    def log_prob(phis: np.ndarray) -> np.ndarray:  # inside jax.enable_x64(True)
+        return np.asarray(model.log_posterior(jnp.asarray(phis, dtype=jnp.float64), data))
+
+    sampler = _ensemble(ndim, log_prob, rng)
+    start = _start(data, added, rng, sampler.nwalkers)
+    bar = posterior._progress(max_steps, progress)
+    try:
+        run = posterior.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
+                                     bar=bar, x64=True)
+    finally:
+        bar.close()
+    warns: list[str] = []
+    if not run.converged:
+        warns.append(f"campaign posterior NOT converged after {run.steps} steps: {run.reason}")
+    burn, thin = posterior.burn_thin(run.tau)
+    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, k)
+    n_draw, n_walk, _ = chain.shape
+    phi = chain.reshape(-1, ndim)
+    psi = model.conditional(phi, data, rng)  # (N, n, 2)
+    logw = _importance_log_weights(tests, psi, data)
+    ess_frac, idx = _resample(logw, n_draw, n_walk, rng)
+    phi, psi = phi[idx], psi[idx]
+    if ess_frac < MIN_IMPORTANCE_FRACTION:
+        warns.append(f"the exact per-test likelihoods differ from their Laplace forms: "
+                     f"importance ESS only {100 * ess_frac:.1f} % of the draws")
+    idata = _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng)
+    diag = _diagnostics(idata)
+    return CampaignSampling(
+        idata=idata, converged=bool(run.converged and ess_frac >= MIN_IMPORTANCE_FRACTION),
+        n_steps=run.steps, burn_in=burn, thin=thin, autocorr_time=np.asarray(run.tau),
+        acceptance=float(np.mean(sampler.acceptance_fraction)),
+        importance_ess_fraction=float(ess_frac), diagnostics=diag, warnings=tuple(warns))
+
+
+def _ensemble(ndim: int, log_prob, rng):
+    """emcee's vectorised ensemble over φ with differential-evolution moves (80 % DE, 20 % DE
+    snooker), seeded from ``rng``. Not :func:`dampfit.inference.posterior.default_moves`: its
+    KDE proposal costs ≈ 50 ms a step in 4–5 dimensions (measured: 2000 steps 114 s against
+    4.5 s for DE at integrated autocorrelation ≈ 20–40 steps either way on a 5-test
+    campaign). The log-probability is called directly (no emcee wrapper), as in
+    :func:`dampfit.inference.posterior.ensemble`."""
+    import emcee
+
+    from dampfit.inference import posterior
+
+    sampler = emcee.EnsembleSampler(N_WALKERS, ndim, log_prob, vectorize=True,
+                                    moves=[(emcee.moves.DEMove(), 0.8),
+                                           (emcee.moves.DESnookerMove(), 0.2)])
+    sampler.log_prob_fn = log_prob
+    posterior.seed_sampler(sampler, rng)
+    return sampler
+
+
+def _importance_log_weights(tests, psi: np.ndarray, data) -> np.ndarray:
+    """log w of (C6) per joint draw (N,)."""
+    import jax
+
+    from dampfit.campaign import model
+
+    approx = model.gaussian_log_likelihood(psi, data)  # (N, n), 0 at ψ̂
+    theta = model.to_decay(psi)
+    logw = np.zeros(psi.shape[0])
+    with jax.enable_x64(True):
+        for i, t in enumerate(tests):
+            th = theta[:, i]
+            ok = np.all(np.isfinite(th), axis=1)
+            ll = np.full(th.shape[0], -np.inf)
+            if ok.any():
+                ll[ok] = model.exact_log_likelihood(th[ok], t.samples(), t.temper)
+            logw += ll - t.ll_max - approx[:, i]
+    return logw
+
+
+def _resample(logw: np.ndarray, n_draw: int, n_walk: int, rng) -> tuple[float, np.ndarray]:
+    """Importance ESS fraction [1] and indices (into the flat (draw, walker) order) of each
+    walker's draws resampled systematically by its weights."""
+    finite = np.isfinite(logw)
+    if not finite.any():
+        raise DampfitError("no posterior draw has a finite likelihood in every test")
+    w = np.where(finite, np.exp(logw - logw[finite].max()), 0.0)
+    frac = float(w.sum() ** 2 / np.sum(w**2) / w.size)
+    w2 = w.reshape(n_draw, n_walk)
+    idx = np.empty((n_draw, n_walk), dtype=int)
+    for j in range(n_walk):
+        wj = w2[:, j]
+        if wj.sum() <= 0:  # this walker's draws all impossible: borrow the pooled weights
+            wj = w2.sum(axis=1)
+        cdf = np.cumsum(wj / wj.sum())
+        u = (rng.random() + np.arange(n_draw)) / n_draw
+        rows = np.minimum(np.searchsorted(cdf, u), n_draw - 1)
+        idx[:, j] = rows * n_walk + j
+    return frac, idx.ravel()
+
+
+def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
+    """arviz InferenceData of the hyper-parameters, population, predictive and per-test
+    quantities (walkers as chains)."""
+    from dampfit.inference import posterior
+
+    n_total, n_tests = psi.shape[0], psi.shape[1]
+    post: dict[str, np.ndarray] = {name: phi[:, j] for j, name in enumerate(names)}
+    tau_p, tau_w = np.exp(phi[:, -2]), np.exp(phi[:, -1])
+    post["tau_p"], post["tau_omega"] = tau_p, tau_w
+    if added:
+        p, wn, m0 = np.exp(phi[:, 0]), np.exp(phi[:, 1]), np.exp(phi[:, 2])
+        m = m0
+        post["m0"] = m0
+        test_mass = m0[:, None] + np.asarray(dm)[None, :]
+    else:
+        m = posterior.mass_draws(mass, mass_sd, n_total, rng)
+        p, wn = np.exp(phi[:, 0]), np.exp(phi[:, 1])
+        if m is not None:
+            post["mass"] = m
+        test_mass = None if m is None else np.broadcast_to(m[:, None], (n_total, n_tests))
+    q = _from_rates(p, wn, m)
+    for name in ("c", "k", "zeta", "f_n", "p", "c_crit"):
+        if name in q:
+            post[name] = q[name]
+    z = rng.standard_normal((n_total, 2))
+    p_new, wn_new = p * np.exp(tau_p * z[:, 0]), wn * np.exp(tau_w * z[:, 1])
+    qn = _from_rates(p_new, wn_new, m)
+    for name in ("c", "k", "zeta", "f_n", "p"):
+        if name in qn:
+            post[f"predictive_{name}"] = qn[name]
+    p_i, wn_i = np.exp(psi[..., 0]), np.exp(psi[..., 1])
+    qi = _from_rates(p_i, wn_i, test_mass)
+    for name in ("c", "k", "zeta", "f_n", "p"):
+        if name in qi:
+            post[f"{name}_test"] = qi[name]
+
+    def shape(v):  # flat (draw·walker) → arviz (chain = walker, draw, …)
+        v = np.asarray(v, dtype=float).reshape((n_draw, n_walk) + np.shape(v)[1:])
+        return np.swapaxes(v, 0, 1)
+
+    import emcee
+
+    dims = {k_: ["test"] for k_ in post if k_.endswith("_test")}
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        return posterior._arviz().from_dict(
+            posterior={k_: shape(v) for k_, v in post.items()},
+            coords={"test": np.arange(1, n_tests + 1)}, dims=dims,
+            attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
+                   "model": "added-mass" if added else "hierarchical",
+                   "per_test_likelihood": "exact tempered profile (importance-resampled)"},
+        )
+
+
+def _from_rates(p, omega_n, mass) -> dict[str, np.ndarray]:
+    """Reported quantities from the decay rate p [1/s], ω_n [rad/s] and the mass [kg] (None:
+    the mass-free ones only): c = 2·m·p [N·s/m], k = m·ω_n² [N/m], c_crit = 2·m·ω_n
+    [N·s/m], ζ = p/ω_n, f_n = ω_n/2π [Hz] (:mod:`dampfit.physics`; no ω_d needed, so a draw
+    with p ≥ ω_n stays finite)."""
+    from dampfit import physics
+
+    out = {"p": np.asarray(p, float), "zeta": p / omega_n, "f_n": omega_n / (2 * np.pi)}
+    if mass is not None:
+        out["c"] = physics.damping_coefficient(mass, p)
+        out["k"] = physics.stiffness(mass, omega_n)
+        out["c_crit"] = 2.0 * mass * omega_n
+    return out
+
+
+def _diagnostics(idata) -> dict[str, dict[str, float]]:
+    """R-hat and bulk ESS of every scalar quantity (walkers as chains)."""
+    from dampfit.inference import posterior
+
+    az = posterior._arviz()
+    out = {}
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        scalars = [v for v, x in idata.posterior.data_vars.items() if x.ndim == 2]
+        rhat = az.rhat(idata.posterior[scalars])
+        ess = az.ess(idata.posterior[scalars], method="bulk")
+    for v in scalars:
+        out[str(v)] = {"r_hat": float(rhat[v]), "ess_bulk": float(ess[v])}
+    return out
+
+
+# ----------------------------------------------------------------------------- summary
+def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
+    from dampfit import pipeline
+    from dampfit.campaign import checks, model
+    from dampfit.damping.quantities import summarise
+    from dampfit.result.schema import SCHEMA_VERSION
+
+    post = a.posterior.posterior
+    diag = a.sampling.diagnostics
+    added = a.added_mass is not None
+
+    def par(name, unit):
+        if name not in post:
+            return None
+        return summarise(np.asarray(post[name]), unit, diag.get(name, {}))
+
+    def q3(x, unit=None):
+        x = np.asarray(x, float).ravel()
+        x = x[np.isfinite(x)]
+        if x.size == 0:
+            return {"q05": None, "q50": None, "q95": None, "sd": None,
+                    **({"unit": unit} if unit else {})}
+        out = {"q05": float(np.quantile(x, 0.05)), "q50": float(np.median(x)),
+               "q95": float(np.quantile(x, 0.95)), "sd": float(x.std(ddof=1))}
+        if unit:
+            out["unit"] = unit
+        return out
+
+    params = {n: par(n, u) for n, u in POPULATION_UNITS.items() if n != "m0" or added}
+    if added:
+        m0 = np.asarray(post["m0"]).ravel()
+        mass_entry = {"value": float(np.median(m0)), "sd": float(m0.std(ddof=1)), "unit": "kg"}
+    else:
+        mass_entry = {"value": a.mass, "sd": a.mass_sd if a.mass is not None else None,
+                      "unit": "kg"}
+    spread = {"p": {k_: v for k_, v in q3(post["tau_p"], "1").items() if k_ != "sd"},
+              "omega": {k_: v for k_, v in q3(post["tau_omega"], "1").items() if k_ != "sd"}}
+    predictive = {}
+    for name in ("c", "zeta", "f_n", "k"):
+        key = f"predictive_{name}"
+        unit = POPULATION_UNITS[name]
+        predictive[name] = ({k_: v for k_, v in q3(post[key], unit).items() if k_ != "sd"}
+                            if key in post else None)
+
+    # each test's own (Laplace) and pooled values
+    rng = np.random.default_rng(a.seed + 1)
+    n = len(a.tests)
+    from dampfit.inference import posterior as post_mod
+
+    if added:
+        m0_draws = rng.choice(np.asarray(post["m0"]).ravel(), OWN_DRAWS)
+    else:
+        m_own = post_mod.mass_draws(a.mass, a.mass_sd, OWN_DRAWS, rng)
+    tests_out, y_own, s_own, yw_own, sw_own = [], [], [], [], []
+    m0_med = mass_entry["value"] if added else None
+    for t in a.tests:
+        z = rng.multivariate_normal(t.psi_hat, t.sigma_psi, OWN_DRAWS)
+        p, wn = np.exp(z[:, 0]), np.exp(z[:, 1])
+        mass_i = (m0_draws + t.added_mass_kg) if added else m_own
+        q = _from_rates(p, wn, mass_i)
+        own = {name: (q3(q[name]) if name in q else None) for name in ("c", "zeta", "f_n", "p")}
+        pooled = {}
+        for name in ("c", "zeta", "f_n", "p"):
+            key = f"{name}_test"
+            pooled[name] = (q3(np.asarray(post[key])[..., t.index]) if key in post else None)
+        rec, prep = t.recording, t.prepared
+        tests_out.append({
+            "index": t.index + 1,
+            "input": {"path": os.path.abspath(rec.path) if rec.path else rec.path,
+                      "sha256": rec.sha256, "n_samples": rec.n_samples,
+                      "sample_rate_hz": prep.fs, "duration_s": rec.duration},
+            "window": {"start_s": prep.window[0], "end_s": prep.window[1]},
+            "band": {"low_hz": prep.band[0], "high_hz": prep.band[1]},
+            "dominant_frequency_hz": prep.f0,
+            "added_mass_kg": t.added_mass_kg,
+            "amplitude_m": t.amplitude_m,
+            "noise_psd_ratio": t.noise.psd_ratio,
+            "own": own, "pooled": pooled, "outlier": False})
+        # the verdicts' y: own ln p (ln c in added-mass mode, at the posterior m0)
+        y = t.psi_hat[0] + (np.log(2 * (m0_med + t.added_mass_kg)) if added else 0.0)
+        y_own.append(y)
+        s_own.append(np.sqrt(t.sigma_psi[0, 0]))
+        # frequencies: own ln ω_n (of the bare system in added-mass mode)
+        yw_own.append(t.psi_hat[1] + (0.5 * np.log1p(t.added_mass_kg / m0_med) if added else 0.0))
+        sw_own.append(np.sqrt(t.sigma_psi[1, 1]))
+    y_own, s_own = np.array(y_own), np.array(s_own)
+    yw_own, sw_own = np.array(yw_own), np.array(sw_own)
+    _, p_het = checks.heterogeneity(y_own, s_own)
+    consistent = bool(p_het >= checks.ALPHA)
+    _, p_het_w = checks.heterogeneity(yw_own, sw_own)
+    spread_w = checks.spread(yw_own, sw_own)
+    freq_off = bool(p_het_w < checks.ALPHA and spread_w > checks.FREQUENCY_RELEVANT)
+    tau_p = np.asarray(post["tau_p"]).ravel()
+    ratio = float(np.median(tau_p) / np.median(s_own))
+    outliers = checks.loo_outliers(y_own, s_own, model.TAU_P_SCALE)
+    for i in outliers:
+        tests_out[i]["outlier"] = True
+    amps = [t.amplitude_m for t in a.tests]
+    amplitude = checks.amplitude_regression(y_own, s_own, amps)
+    amplitude_w = checks.amplitude_regression(yw_own, sw_own, amps)
+    amplitude["frequency"] = amplitude_w
+    names = [t.name for t in a.tests]
+    verdict, text = checks.verdict(consistent, freq_off, outliers, amplitude, amplitude_w,
+                                   ratio, names)
+
+    added_section = None
+    if added:
+        k = np.asarray(post["k"]).ravel()
+        m0 = np.asarray(post["m0"]).ravel()
+        points = []
+        for t in a.tests:
+            w2 = float(np.exp(2 * t.psi_hat[1]))
+            points.append({"added_mass_kg": t.added_mass_kg, "omega_n2": w2,
+                           "omega_n2_sd": float(2 * w2 * np.sqrt(t.sigma_psi[1, 1]))})
+        added_section = {"m0": params["m0"], "k": params["k"], "points": points,
+                         "line": {"intercept": float(np.median(m0 / k)),
+                                  "slope": float(np.median(1.0 / k)),
+                                  "unit_intercept": "s^2", "unit_slope": "s^2/kg"}}
+    s = a.sampling
+    reported = [diag[v] for v in ("c", "k", "zeta", "f_n", "p", "m0", "tau_p", "tau_omega")
+                if v in diag]
+    max_rhat = max((d["r_hat"] for d in reported if np.isfinite(d["r_hat"])), default=np.nan)
+    min_ess = min((d["ess_bulk"] for d in reported if np.isfinite(d["ess_bulk"])),
+                  default=np.nan)
+    return jsonable({
+        "schema_version": SCHEMA_VERSION,
+        "kind": "campaign",
+        "dampfit_version": pipeline._version(),
+        "design": {"n_tests": n, "model": a.model,
+                   "mass": ({"value": a.mass, "sd": a.mass_sd, "unit": "kg"}
+                            if a.mass is not None else None),
+                   "added_mass": ({"values": [float(x) for x in a.added_mass],
+                                   "sd": a.added_mass_sd, "unit": "kg"} if added else None),
+                   "priors": {"tau_p": f"half-normal, scale {model.TAU_P_SCALE}",
+                              "tau_omega": f"half-normal, scale {model.TAU_OMEGA_SCALE}",
+                              "locations": f"normal, sd {model.LOCATION_SD} about the "
+                                           "least-squares values (log scale)"}},
+        "parameters": params,
+        "mass": mass_entry,
+        "population": {"spread": spread, "predictive": predictive,
+                       "spread_consistent_with_zero": bool(consistent and not freq_off)},
+        "tests": tests_out,
+        "checks": {"verdict": verdict, "text": text, "tau_over_within": ratio,
+                   "heterogeneity_p_value": p_het,
+                   "frequency_heterogeneity_p_value": p_het_w,
+                   "frequency_spread": spread_w, "frequency_disagrees": freq_off,
+                   "outliers": [i + 1 for i in outliers],
+                   "amplitude": amplitude},
+        "added_mass": added_section,
+        "diagnostics": {"converged": a.converged, "max_r_hat": max_rhat,
+                        "min_ess_bulk": min_ess, "n_steps": s.n_steps, "burn_in": s.burn_in,
+                        "thin": s.thin, "acceptance_fraction": s.acceptance,
+                        "importance_ess_fraction": s.importance_ess_fraction,
+                        "seconds": s.seconds, "warnings": list(s.warnings)},
+        "warnings": list(a.warnings),
+        "provenance": {"seed": a.seed, "options": a.options, "date": a.date},
+    })

@@ -1,0 +1,184 @@
+"""Joint analysis of several recordings of one damper (issue 12): dampfit.campaign.
+
+Simulated campaigns are short (20 s at 100 Hz) and the sampler's budget small, so each
+analysis takes seconds; the calibration of the intervals over many replicates is
+paper/campaign_calibration.py.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import dampfit
+from dampfit import simulate as sim
+from dampfit.campaign import CampaignAnalysis, analyze_campaign
+from dampfit.campaign.analysis import SUMMARY_KEYS
+from dampfit.errors import InputError
+
+FAST = dict(max_steps=2500, min_ess=200)
+
+
+def _base(**kw):
+    return sim.from_modal(1.0, 5.0, 0.01, duration=20.0, sample_rate=100.0, **kw)
+
+
+def _campaign(**kw):
+    """(recordings, truth) of a simulated campaign (dampfit.simulate.campaign when present)."""
+    if hasattr(sim, "campaign"):
+        return sim.campaign(_base(), **kw)
+    # fallback: one simulate() per test
+    n, spread = kw["n_tests"], kw.get("c_spread", 0.0)
+    dm = kw.get("added_mass") or [0.0] * n
+    rng = np.random.default_rng(kw.get("seed", 0))
+    recs, cs = [], []
+    base = _base()
+    for i in range(n):
+        c = base.c * float(np.exp(spread * rng.standard_normal()))
+        cfg = sim.SimulationConfig(**{**base.__dict__, "c": c, "mass": base.mass + dm[i],
+                                      "seed": 100 + i})
+        recs.append(sim.recording(cfg)[0])
+        cs.append(c)
+    return recs, {"c": base.c, "k": base.k, "mass": base.mass, "c_tests": cs}
+
+
+def _inside(entry, value):
+    return entry["q05"] <= value <= entry["q95"]
+
+
+@pytest.fixture(scope="module")
+def spread_result():
+    recs, truth = _campaign(n_tests=5, c_spread=0.15, seed=3)
+    return dampfit.analyze(recs, mass=1.0, mass_sd=0.01, seed=1, **FAST), truth
+
+
+def test_population_c_recovered_with_spread(spread_result):
+    res, truth = spread_result
+    assert isinstance(res, CampaignAnalysis)
+    s = res.summary()
+    assert set(SUMMARY_KEYS) <= set(s)
+    assert s["kind"] == "campaign" and s["design"]["model"] == "hierarchical"
+    assert s["design"]["n_tests"] == 5 and len(s["tests"]) == 5
+    assert _inside(s["parameters"]["c"], truth["c"])
+    assert _inside(s["parameters"]["k"], truth["k"])
+    spread = s["population"]["spread"]["p"]
+    assert spread["q05"] < 0.15 < spread["q95"]
+    assert not s["population"]["spread_consistent_with_zero"]
+    assert s["checks"]["verdict"] in ("scatter", "outlier")
+    pred = s["population"]["predictive"]["c"]
+    assert pred["q95"] - pred["q05"] > s["parameters"]["c"]["q95"] - s["parameters"]["c"]["q05"]
+    for t, c_true in zip(s["tests"], truth["c_tests"]):
+        assert _inside(t["pooled"]["c"], c_true) or abs(t["pooled"]["c"]["q50"] / c_true - 1) < 0.03
+        assert t["own"]["c"]["sd"] > 0 and t["amplitude_m"] > 0
+    assert s["diagnostics"]["importance_ess_fraction"] > 0.5
+
+
+def test_campaign_outputs_roundtrip(spread_result, tmp_path):
+    res, _ = spread_result
+    path = res.to_json(tmp_path / "summary.json")
+    back = json.loads(path.read_text())
+    assert back["parameters"]["c"]["q50"] == res.summary()["parameters"]["c"]["q50"]
+    res.to_netcdf(tmp_path / "posterior.nc")
+    post = res.posterior.posterior
+    for name in ("c", "k", "zeta", "f_n", "tau_p", "tau_omega", "predictive_c", "c_test"):
+        assert name in post
+    assert post["c_test"].shape[-1] == 5
+
+
+def test_zero_spread_is_consistent_with_zero():
+    recs, truth = _campaign(n_tests=4, c_spread=0.0, seed=4)
+    s = analyze_campaign(recs, mass=1.0, seed=2, **FAST).summary()
+    assert s["population"]["spread_consistent_with_zero"]
+    assert s["checks"]["verdict"] == "consistent"
+    assert _inside(s["parameters"]["c"], truth["c"])
+
+
+def test_added_mass_recovers_m0_and_k():
+    dm = [0.0, 0.3, 0.6, 1.0]
+    recs, truth = _campaign(n_tests=4, c_spread=0.05, seed=5, added_mass=dm)
+    s = analyze_campaign(recs, added_mass=dm, added_mass_sd=0.005, seed=3, **FAST).summary()
+    assert s["design"]["model"] == "added-mass"
+    assert _inside(s["parameters"]["m0"], truth["mass"])
+    assert _inside(s["parameters"]["k"], truth["k"])
+    assert _inside(s["parameters"]["c"], truth["c"])
+    am = s["added_mass"]
+    assert len(am["points"]) == 4 and am["line"]["slope"] > 0
+    assert s["mass"]["value"] == pytest.approx(s["parameters"]["m0"]["q50"])
+
+
+# ----------------------------------------------------------------------------- refusals
+@pytest.fixture(scope="module")
+def two():
+    return _campaign(n_tests=2, seed=7)[0]
+
+
+def test_refuses_one_added_mass_value(two):
+    with pytest.raises(InputError, match="at least 2 different added masses"):
+        analyze_campaign(two, added_mass=[0.2, 0.2])
+
+
+def test_refuses_added_mass_count_mismatch(two):
+    with pytest.raises(InputError, match="give one per recording"):
+        analyze_campaign(two, added_mass=[0.0, 0.2, 0.4])
+
+
+def test_refuses_mass_with_added_mass(two):
+    with pytest.raises(InputError, match="cannot be combined"):
+        analyze_campaign(two, mass=1.0, added_mass=[0.0, 0.5])
+
+
+def test_refuses_single_recording(two):
+    with pytest.raises(InputError, match="at least 2 recordings"):
+        analyze_campaign(two[:1], mass=1.0)
+    with pytest.raises(InputError, match="not a Recording"):
+        analyze_campaign([two[0], "file.csv"], mass=1.0)
+
+
+def test_refuses_different_systems(two):
+    other, _ = sim.recording(sim.from_modal(1.0, 8.0, 0.01, duration=20.0, sample_rate=100.0))
+    with pytest.raises(InputError, match="not of one system") as exc:
+        analyze_campaign([two[0], other], mass=1.0)
+    assert "\n" not in str(exc.value)
+
+
+def test_refuses_added_masses_too_close(two):
+    # the same system recorded twice but labelled with different masses: no fall in frequency
+    with pytest.raises(InputError, match="does not identify m0"):
+        analyze_campaign(two, added_mass=[0.0, 0.001])
+    # 1 g on 1 kg known to ± 1 g: a 0.05 % change, below 3× the mass uncertainty's effect
+    recs, _ = _campaign(n_tests=2, seed=8, added_mass=[0.0, 0.001])
+    with pytest.raises(InputError, match="too close to identify m0"):
+        analyze_campaign(recs, added_mass=[0.0, 0.001], added_mass_sd=0.001)
+
+
+def test_refuses_a_test_without_decay(two):
+    quiet, _ = sim.recording(sim.from_modal(1.0, 5.0, 0.01, duration=20.0, sample_rate=100.0,
+                                           u0=1e-9))
+    with pytest.raises(InputError, match=r"^test 2 \(") as exc:
+        analyze_campaign([two[0], quiet], mass=1.0)
+    assert "\n" not in str(exc.value)
+
+
+# ----------------------------------------------------------------------------- verdicts
+def test_checks_amplitude_outlier_and_heterogeneity():
+    from dampfit.campaign import checks
+
+    rng = np.random.default_rng(0)
+    amp = np.array([0.002, 0.004, 0.008, 0.016, 0.03])
+    s = np.full(5, 0.01)
+    y = -1 + 0.3 * np.log(amp) + rng.normal(0, 0.01, 5)  # decay rate ∝ amplitude^0.3
+    reg = checks.amplitude_regression(y, s, amp)
+    assert reg["explains_scatter"] and reg["q05"] < 0.3 < reg["q95"]
+    _, p = checks.heterogeneity(y, s)
+    assert p < checks.ALPHA
+    none = checks.amplitude_regression(y, s, np.full(5, 0.01))
+    assert checks.verdict(False, False, [], reg, none, 30.0, ["a"] * 5)[0] == "amplitude-dependent"
+    assert checks.verdict(False, True, [], reg, none, 30.0, ["a"] * 5)[0] == "scatter"
+    assert checks.verdict(True, False, [], none, none, 0.5, ["a"] * 5)[0] == "consistent"
+    flat = -1 + rng.normal(0, 0.01, 5)
+    assert not checks.amplitude_regression(flat, s, amp)["explains_scatter"]
+    assert checks.heterogeneity(flat, s)[1] > checks.ALPHA
+    assert checks.loo_outliers(np.array([0.0, 0.01, -0.01, 0.005, 0.5]), s, 0.5) == [4]
+    assert checks.loo_outliers(flat, s, 0.5) == []

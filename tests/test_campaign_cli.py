@@ -1,0 +1,405 @@
+"""``dampfit analyze FILE FILE…`` (several recordings of one damper, issue 12) and the outputs of
+a campaign folder: the text table, ``forest.png`` / ``added_mass.png``, the report, FEM export
+and :func:`dampfit.load`.
+
+Most tests run against a hand-made campaign summary that follows the contract of
+:mod:`dampfit.campaign` (a fake ``analyze_campaign`` returns it), so the CLI, staging and
+outputs are checked without sampling; ``test_end_to_end_*`` run the real joint analysis on
+short simulated recordings (20 s at 100 Hz).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+import dampfit
+from dampfit import simulate as sim
+from dampfit._files import MARKER
+from dampfit.cli import main
+
+
+# ----------------------------------------------------------------------------- fixtures
+def _q(m, sd, unit=None):
+    d = {"mean": m, "sd": sd, "q05": m - 1.645 * sd, "q50": m, "q95": m + 1.645 * sd,
+         "r_hat": 1.002, "ess_bulk": 2400.0}
+    if unit is not None:
+        d["unit"] = unit
+    return d
+
+
+def _qi(m, sd):
+    return {"q05": m - 1.645 * sd, "q50": m, "q95": m + 1.645 * sd, "sd": sd}
+
+
+def hand_summary(added_mass: bool = False, n: int = 3, paths=None) -> dict:
+    """A campaign summary as /tmp/campaign_contract.md specifies it (schema_version 1)."""
+    m, k = 5.3, 619.0
+    dms = [0.0, 2.0, 4.0, 6.0][:n] if added_mass else [None] * n
+    paths = paths or [f"/data/rec-{i + 1}.csv" for i in range(n)]
+    tests = []
+    for i in range(n):
+        c = 0.2 * (1 + 0.05 * (i - 1))
+        tests.append({
+            "index": i + 1,
+            "input": {"path": str(paths[i]), "sha256": "ab" * 32, "n_samples": 2000,
+                      "sample_rate_hz": 100.0, "duration_s": 20.0},
+            "window": {"start_s": 0.5, "end_s": 19.5}, "added_mass_kg": dms[i],
+            "amplitude_m": 0.04 - 0.01 * i,
+            "own": {"c": _qi(c, 0.01), "zeta": _qi(c / 114.6, 1e-4), "f_n": _qi(1.72, 1e-3),
+                    "p": _qi(c / 2 / m, 1e-3)},
+            "pooled": {"c": _qi(0.2, 0.008), "zeta": _qi(0.2 / 114.6, 8e-5),
+                       "f_n": _qi(1.72, 1e-3), "p": _qi(0.2 / 2 / m, 8e-4)},
+            "outlier": i == n - 1})
+    params = {"c": _q(0.2, 0.01, "N s/m"), "k": _q(k, 3.0, "N/m"), "zeta": _q(0.00175, 1e-4, "1"),
+              "f_n": _q(1.72, 0.002, "Hz"), "p": _q(0.0189, 0.001, "1/s"),
+              "c_crit": _q(114.6, 0.5, "N s/m")}
+    s = {"schema_version": 1, "kind": "campaign", "dampfit_version": "0.test",
+         "design": {"n_tests": n, "model": "added-mass" if added_mass else "hierarchical",
+                    "mass": None if added_mass else {"value": m, "sd": 0.02, "unit": "kg"},
+                    "added_mass": ({"values": dms, "sd": 0.001, "unit": "kg"} if added_mass
+                                   else None)},
+         "parameters": params,
+         "mass": {"value": m, "sd": 0.1 if added_mass else 0.02, "unit": "kg"},
+         "population": {
+             "spread": {"p": {"unit": "1", "q05": 0.01, "q50": 0.04, "q95": 0.12},
+                        "omega": {"unit": "1", "q05": 0.0001, "q50": 0.001, "q95": 0.003}},
+             "predictive": {"c": {"unit": "N s/m", "q05": 0.17, "q50": 0.2, "q95": 0.23},
+                            "zeta": {"unit": "1", "q05": 0.0015, "q50": 0.00175, "q95": 0.002},
+                            "f_n": {"unit": "Hz", "q05": 1.71, "q50": 1.72, "q95": 1.73},
+                            "k": {"unit": "N/m", "q05": 612.0, "q50": 619.0, "q95": 626.0}},
+             "spread_consistent_with_zero": True},
+         "tests": tests,
+         "checks": {"verdict": "outlier",
+                    "text": f"Test {n} disagrees with the others beyond its own uncertainty.",
+                    "tau_over_within": 1.3, "outliers": [n],
+                    "amplitude": {"slope": 0.1, "q05": -0.2, "q95": 0.4,
+                                  "explains_scatter": False}},
+         "added_mass": None,
+         "diagnostics": {"converged": True, "max_r_hat": 1.004, "min_ess_bulk": 1800.0,
+                         "n_steps": 3000, "warnings": []},
+         "warnings": []}
+    if added_mass:
+        params["m0"] = _q(m, 0.1, "kg")
+        s["added_mass"] = {"m0": _q(m, 0.1, "kg"), "k": _q(k, 3.0, "N/m"),
+                           "points": [{"added_mass_kg": dm, "omega_n2": k / (m + dm),
+                                       "omega_n2_sd": 0.05} for dm in dms],
+                           "line": {"intercept": m / k, "slope": 1 / k}}
+    return s
+
+
+class FakeCampaign:
+    """Stands for :class:`dampfit.campaign.analysis.CampaignAnalysis` (writing path only)."""
+
+    def __init__(self, summary: dict):
+        self._s = summary
+        self.converged = summary["diagnostics"]["converged"]
+        self.warnings: list[str] = []
+
+    def summary(self) -> dict:
+        return json.loads(json.dumps(self._s))
+
+    def to_json(self, path):
+        Path(path).write_text(json.dumps(self._s, indent=2) + "\n")
+
+    def to_netcdf(self, path):
+        import arviz as az
+        import numpy as np
+
+        rng = np.random.default_rng(0)
+        az.from_dict(posterior={"c": 0.2 + 0.01 * rng.standard_normal((2, 50)),
+                                "k": 619 + 3 * rng.standard_normal((2, 50))}
+                     ).to_netcdf(str(path), engine="h5netcdf")
+
+
+@pytest.fixture
+def fake_campaign(monkeypatch):
+    """``analyze_campaign`` returns the hand-made summary (with the given paths); the list
+    records each call's (recordings, keyword arguments)."""
+    calls: list = []
+
+    def fake(recordings, mass=None, mass_sd=None, **kw):
+        calls.append((recordings, {"mass": mass, "mass_sd": mass_sd, **kw}))
+        added = kw.get("added_mass") is not None
+        return FakeCampaign(hand_summary(added, len(recordings),
+                                         paths=[r.path for r in recordings]))
+
+    monkeypatch.setattr("dampfit.campaign.analyze_campaign", fake)
+    return calls
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    """Three short simulated recordings of one damper (20 s at 100 Hz) and one of a system
+    twice as fast (a different system)."""
+    d = tmp_path_factory.mktemp("campaign")
+    paths = []
+    for i, u0 in enumerate((0.04, 0.03, 0.02)):
+        cfg = sim.from_modal(1.0, 2.0, 0.01, duration=20.0, sample_rate=100.0, u0=u0, seed=i + 1)
+        rec, _ = sim.recording(cfg)
+        paths.append(sim.write_phyphox_csv(rec, d / f"rec-{i + 1}.csv"))
+    cfg = sim.from_modal(1.0, 6.0, 0.01, duration=20.0, sample_rate=100.0, seed=9)
+    other = sim.write_phyphox_csv(sim.recording(cfg)[0], d / "other.csv")
+    return [Path(p) for p in paths], Path(other)
+
+
+def run(argv, capsys):
+    capsys.readouterr()
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("dampfit: error:")
+    return lines[0]
+
+
+def write_folder(tmp_path: Path, summary: dict, name: str = "camp") -> Path:
+    folder = tmp_path / name
+    folder.mkdir()
+    (folder / "summary.json").write_text(json.dumps(summary))
+    (folder / MARKER).write_text(json.dumps({"kind": "campaign", "dampfit": "0.test"}))
+    FakeCampaign(summary).to_netcdf(folder / "posterior.nc")
+    return folder
+
+
+# ----------------------------------------------------------------------------- text, figures
+def test_text_table_names_population_predictive_spread_tests_and_verdict():
+    from dampfit.output.campaign import text
+
+    t = text(hand_summary())
+    for words in ("campaign of 3 tests", "c      [N s/m]", "new test (predictive)",
+                  "0.200 [0.170, 0.230]", "spread τ of p", "rec-3.csv", "OUTLIER",
+                  "verdict         outlier", "converged       yes"):
+        assert words in t, words
+    t = text(hand_summary(added_mass=True))
+    assert "m0     [kg]" in t and "added masses 0, 2, 4 kg" in t and "m0 = 5.30 [5.14, 5.46] kg" in t
+
+
+def test_figures_from_the_summary(tmp_path):
+    from dampfit.output.campaign import save_figures
+
+    written = save_figures(hand_summary(added_mass=True), tmp_path)
+    assert set(written) == {"forest", "added_mass"}
+    for p in written.values():
+        assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # without the added-mass design the old added_mass.png is removed, forest.png rewritten
+    assert set(save_figures(hand_summary(), tmp_path)) == {"forest"}
+    assert not (tmp_path / "added_mass.png").exists()
+
+
+def test_tests_of_the_same_file_name_are_told_apart():
+    from dampfit.output.campaign import labels, text
+
+    paths = [f"/data/40cm/08-12_11-4{i}-04_adxl6cmfromtip/accelerometer_data.npy" for i in range(3)]
+    names = labels(hand_summary(paths=paths)["tests"])
+    assert len(set(names)) == 3 and all(n.endswith("/accelerometer_data.npy") for n in names)
+    assert "08-12_11-41-04_" in names[1]
+    assert all(n in text(hand_summary(paths=paths)) for n in names)
+
+
+# ----------------------------------------------------------------------------- CLI, writing
+def test_campaign_cli_writes_the_folder(recordings, fake_campaign, tmp_path, capsys):
+    paths, _ = recordings
+    out = tmp_path / "camp"
+    code, text, err = run(["analyze", *paths, "--mass", "1.0", "--mass-sd", "0.01", "--out", out,
+                           "--quiet", "--report"], capsys)
+    assert code == 0, err
+    assert "campaign of 3 tests" in text and "written to" in text and "forest.png" in text
+    recs, kw = fake_campaign[-1]
+    assert [r.path for r in recs] == [str(p) for p in paths]
+    assert kw["mass"] == 1.0 and kw["mass_sd"] == 0.01 and "added_mass" not in kw
+    names = {p.name for p in out.iterdir()}
+    assert {"summary.json", "posterior.nc", "forest.png", "report.html", "report.md",
+            MARKER} <= names
+    assert "added_mass.png" not in names and "signals.npz" not in names
+    assert json.loads((out / MARKER).read_text())["kind"] == "campaign"
+    assert not list(tmp_path.glob(".camp*")), "staging or lock left behind"
+    # an existing folder is replaced only with --force
+    code, _, err = run(["analyze", *paths, "--mass", "1", "--out", out, "--quiet"], capsys)
+    assert code == 2 and "use --force" in one_line(err)
+    code, text, err = run(["analyze", *paths, "--added-mass", "0", "0.5", "1", "--out", out,
+                           "--quiet", "--force", "--json"], capsys)
+    assert code == 0, err
+    assert json.loads(text)["design"]["model"] == "added-mass"
+    assert fake_campaign[-1][1]["added_mass"] == [0.0, 0.5, 1.0]
+    assert {"forest.png", "added_mass.png"} <= {p.name for p in out.iterdir()}
+    assert "report.html" not in {p.name for p in out.iterdir()}
+
+
+def test_default_out_is_named_after_the_first_file(recordings, fake_campaign, tmp_path,
+                                                   monkeypatch, capsys):
+    paths, _ = recordings
+    monkeypatch.chdir(tmp_path)
+    code, _, err = run(["analyze", *paths[:2], "--mass", "1", "--quiet", "--no-figures"], capsys)
+    assert code == 0, err
+    out = tmp_path / (paths[0].name + ".campaign.dampfit")
+    assert (out / "summary.json").is_file() and not (out / "forest.png").exists()
+
+
+@pytest.mark.parametrize("extra,match", [
+    (["--added-mass", "0", "1"], "one added mass per FILE, got 2 for 3 files"),
+    (["--added-mass", "0", "1", "2", "--mass", "1"], "not with --added-mass"),
+    (["--added-mass-sd", "0.01", "--mass", "1"], "without --added-mass"),
+    (["--mass-sd", "0.01"], "without --mass"),
+    (["--mass", "1", "--model", "coulomb"], "applies to one recording"),
+    (["--added-mass", "0", "-1", "2"], "an added mass in kg"),
+])
+def test_bad_campaign_options_one_line_nothing_written(recordings, fake_campaign, tmp_path,
+                                                       capsys, extra, match):
+    paths, _ = recordings
+    out = tmp_path / "o"
+    code, _, err = run(["analyze", *paths, "--out", out, "--quiet", *extra], capsys)
+    assert code == 2
+    assert match in one_line(err)
+    assert not out.exists() and not list(tmp_path.glob(".o*"))
+    assert fake_campaign == []
+
+
+def test_missing_or_repeated_file_is_named(recordings, fake_campaign, tmp_path, capsys):
+    paths, _ = recordings
+    out = tmp_path / "o"
+    missing = tmp_path / "nope.csv"
+    code, _, err = run(["analyze", paths[0], missing, "--mass", "1", "--out", out, "--quiet"],
+                       capsys)
+    assert code == 2 and str(missing) in one_line(err)
+    code, _, err = run(["analyze", paths[0], paths[1], paths[0], "--mass", "1", "--out", out,
+                        "--quiet"], capsys)
+    assert code == 2 and "given twice" in one_line(err)
+    assert not out.exists() and not list(tmp_path.glob(".o*")) and fake_campaign == []
+
+
+def test_added_mass_needs_several_files(recordings, tmp_path, capsys):
+    paths, _ = recordings
+    code, _, err = run(["analyze", paths[0], "--added-mass", "0", "--out", tmp_path / "o"], capsys)
+    assert code == 2 and "needs several recordings" in one_line(err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_every_input_folder_is_protected(recordings, fake_campaign, tmp_path, capsys):
+    paths, _ = recordings
+    code, _, err = run(["analyze", *paths, "--mass", "1", "--out", paths[1].parent, "--force",
+                        "--quiet"], capsys)
+    assert code == 2 and "holds the input" in one_line(err)
+
+
+# ----------------------------------------------------------------------------- read back
+def test_campaign_folder_round_trips_through_load(tmp_path):
+    from dampfit.campaign.analysis import CampaignAnalysis
+
+    s = hand_summary(added_mass=True)
+    folder = write_folder(tmp_path, s)
+    an = dampfit.load(folder)
+    assert isinstance(an, CampaignAnalysis)
+    assert an.summary() == s and an.folder == folder and an.converged is True
+    assert "c" in an.posterior.posterior
+    # the loaded result renders and exports like its folder
+    from dampfit.fem.export import export
+    from dampfit.output.report import write_report
+
+    assert write_report(an)["md"].is_file()
+    path, info = export(an, "calculix")
+    assert path.is_file() and info["mass"] == pytest.approx(5.3)
+
+
+@pytest.mark.parametrize("edit,match", [
+    (lambda s: s.update(tests="x"), "'tests' of a campaign"),
+    (lambda s: s.update(tests=[s["tests"][0]]), "at least 2"),
+    (lambda s: s["tests"].__setitem__(1, 3), "tests[1] must be an object"),
+    (lambda s: s.update(population=[1]), "'population' must be an object"),
+    (lambda s: s.update(kind="zoo"), "'kind' must be"),
+])
+def test_broken_campaign_summary_is_one_line(tmp_path, capsys, edit, match):
+    s = hand_summary()
+    edit(s)
+    folder = write_folder(tmp_path, s)
+    code, _, err = run(["report", folder], capsys)
+    assert code == 2 and match in one_line(err)
+
+
+def test_report_of_a_campaign_folder(tmp_path, capsys):
+    from dampfit.output.campaign import save_figures
+
+    folder = write_folder(tmp_path, hand_summary(added_mass=True))
+    save_figures(hand_summary(added_mass=True), folder)
+    code, text, err = run(["report", folder], capsys)
+    assert code == 0, err
+    html = (folder / "report.html").read_text()
+    md = (folder / "report.md").read_text()
+    for words in ("campaign of 3 tests", "90 % predictive interval", "Between-test spread",
+                  "Added-mass method", "OUTLIER", "--added-mass 0.0 2.0 4.0"):
+        assert words in md, words
+    assert "forest.png" in md and "added_mass.png" in md
+    assert html.count("data:image/png;base64") == 2
+
+
+@pytest.mark.parametrize("fmt,comment", [("lsdyna", "$ "), ("opensees", "# "),
+                                         ("calculix", "** ")])
+def test_export_of_a_campaign_is_the_population_damper(tmp_path, capsys, fmt, comment):
+    folder = write_folder(tmp_path, hand_summary())
+    code, text, err = run(["export", folder, "--format", fmt], capsys)
+    assert code == 0, err
+    assert "c = 0.2 N s/m" in text and "m = 5.3 kg" in text and "u0 = 0.03 m" in text
+    deck = next(p for p in folder.iterdir() if p.name.startswith("sdof_")).read_text()
+    assert f"{comment}Population damper of a campaign of 3 tests" in deck
+    assert "[0.17, 0.23]" in deck.replace("\n" + comment, " ")
+    if fmt == "lsdyna":
+        assert deck.startswith("*KEYWORD\n")
+    if fmt == "opensees":
+        compile(deck, "deck.py", "exec")
+
+
+# ----------------------------------------------------------------------------- end to end
+def test_end_to_end_campaign_round_trip_report_export(recordings, tmp_path, capsys):
+    """The real joint analysis (short chain: not converged, exit 0 with the warning)."""
+    from dampfit.campaign.analysis import CampaignAnalysis
+
+    paths, _ = recordings
+    out = tmp_path / "camp"
+    code, text, err = run(["analyze", *paths, "--mass", "1.0", "--mass-sd", "0.01", "--out", out,
+                           "--quiet", "--max-steps", "300", "--report"], capsys)
+    assert code == 0, err
+    assert "campaign of 3 tests" in text and "verdict" in text
+    assert {"summary.json", "posterior.nc", "forest.png", "report.html"} <= {
+        p.name for p in out.iterdir()}
+    an = dampfit.load(out)
+    assert isinstance(an, CampaignAnalysis)
+    assert an.summary() == json.loads((out / "summary.json").read_text())
+    assert an.summary()["kind"] == "campaign" and len(an.summary()["tests"]) == 3
+    assert "c" in an.posterior.posterior
+    code, text, err = run(["export", out, "--format", "lsdyna"], capsys)
+    assert code == 0, err
+    assert "Population damper of a campaign of 3 tests" in (out / "sdof_lsdyna.k").read_text()
+    code, _, err = run(["report", out], capsys)
+    assert code == 0, err
+    assert "Each test" in (out / "report.md").read_text()
+
+
+def test_end_to_end_added_mass(tmp_path, capsys):
+    paths = []
+    for i, dm in enumerate((0.0, 0.5, 1.0)):
+        cfg = sim.from_modal(1.0 + dm, 2.0 / (1.0 + dm) ** 0.5, 0.01, duration=20.0,
+                             sample_rate=100.0, seed=20 + i)
+        paths.append(sim.write_phyphox_csv(sim.recording(cfg)[0], tmp_path / f"m{i}.csv"))
+    out = tmp_path / "am"
+    code, text, err = run(["analyze", *paths, "--added-mass", "0", "0.5", "1.0", "--out", out,
+                           "--quiet", "--max-steps", "300"], capsys)
+    assert code == 0, err
+    assert "m0     [kg]" in text
+    s = json.loads((out / "summary.json").read_text())
+    assert s["design"]["model"] == "added-mass" and isinstance(s["added_mass"], dict)
+    assert (out / "added_mass.png").is_file() and (out / "forest.png").is_file()
+
+
+def test_files_of_different_systems_one_line_nothing_written(recordings, tmp_path, capsys):
+    paths, other = recordings
+    out = tmp_path / "o"
+    code, _, err = run(["analyze", paths[0], paths[1], other, "--mass", "1", "--out", out,
+                        "--quiet"], capsys)
+    assert code == 2 and "not of one system" in one_line(err)
+    assert not out.exists() and not list(tmp_path.glob(".o*"))
