@@ -95,6 +95,9 @@ class TestFit:
     amplitude_m: float
     added_mass_kg: float | None
     warnings: list[str] = field(default_factory=list)
+    #: this test's damping-law verdict (:mod:`dampfit.damping`: "adequate" when one viscous c
+    #: describes its decay; "amplitude-dependent", "misfit", …), None if it could not be made
+    damping_verdict: str | None = None
 
     @property
     def name(self) -> str:
@@ -324,10 +327,32 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
         raise InputError("its likelihood could not be evaluated at the least-squares decay")
     psi, sigma = model.to_population(theta, cov)
     amp = float(pipeline.ls_quantities(ls)["u0"])
+    verdict = _damping_verdict(prep, fd, ls, nm, mass, warns)
     return TestFit(index=i, recording=rec, prepared=prep, fit_data=fd, least_squares=ls,
                    noise=nm, temper=temper, theta_hat=theta, cov_theta=cov, ll_max=ll_max,
                    psi_hat=psi, sigma_psi=sigma, amplitude_m=amp,
-                   added_mass_kg=None if dm is None else float(dm), warnings=warns)
+                   added_mass_kg=None if dm is None else float(dm), warnings=warns,
+                   damping_verdict=verdict)
+
+
+def _damping_verdict(prep, fd, ls, nm, mass, warns: list[str]) -> str | None:
+    """This test's damping-law verdict (:func:`dampfit.damping.assess`, Laplace evidence only:
+    no sampling), and a warning when one viscous c does not describe its decay: the hierarchy
+    pools one decay rate per test, so within-test amplitude dependence (ζ falling with the
+    amplitude, as in most real dampers) is averaged, not modelled."""
+    from dampfit import damping
+
+    try:
+        res = damping.assess(prep, fd, ls, nm, mass, 0.0, posterior="laplace")
+    except InputError as exc:
+        warns.append(f"damping-law check not made: {exc}")
+        return None
+    verdict = res.verdict_name
+    if verdict != "adequate":
+        warns.append(f"one viscous c does not describe this test's decay (damping-law check: "
+                     f"{verdict}); its pooled c averages over its amplitudes — analyse the "
+                     "file alone for ζ(amplitude) and the damping laws")
+    return verdict
 
 
 def _campaign_data(tests: list[TestFit], dm, dm_sd):
@@ -635,6 +660,7 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
             "added_mass_kg": t.added_mass_kg,
             "amplitude_m": t.amplitude_m,
             "noise_psd_ratio": t.noise.psd_ratio,
+            "damping_verdict": t.damping_verdict,
             "own": own, "pooled": pooled, "outlier": False})
         # the verdicts' y: own ln p (ln c in added-mass mode, at the posterior m0)
         y = t.psi_hat[0] + (np.log(2 * (m0_med + t.added_mass_kg)) if added else 0.0)
@@ -662,6 +688,17 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
     names = [t.name for t in a.tests]
     verdict, text = checks.verdict(consistent, freq_off, outliers, amplitude, amplitude_w,
                                    ratio, names)
+    # within-test amplitude dependence (each test's damping-law check): the between-test
+    # verdict alone would let tests that agree with each other but are each not one viscous
+    # decay pass as "consistent" without a word; the verdict name stays the between-test one
+    within = [t.index + 1 for t in a.tests
+              if t.damping_verdict not in (None, "adequate")]
+    if within:
+        kinds = sorted({t.damping_verdict for t in a.tests
+                        if t.damping_verdict not in (None, "adequate")})
+        text += (f"; within the tests, one viscous c is not adequate (test "
+                 f"{', '.join(map(str, within))}: {', '.join(kinds)}), so the population c is "
+                 "an average over the tested amplitudes, valid near them only")
 
     added_section = None
     if added:
@@ -705,7 +742,8 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
                    "frequency_heterogeneity_p_value": p_het_w,
                    "frequency_spread": spread_w, "frequency_disagrees": freq_off,
                    "outliers": [i + 1 for i in outliers],
-                   "amplitude": amplitude},
+                   "amplitude": amplitude,
+                   "within_test_inadequate": within},
         "added_mass": added_section,
         "diagnostics": {"converged": a.converged, "max_r_hat": max_rhat,
                         "min_ess_bulk": min_ess, "n_steps": s.n_steps, "burn_in": s.burn_in,

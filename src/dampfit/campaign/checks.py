@@ -261,15 +261,21 @@ def verdict(damping_consistent: bool, frequency_disagrees: bool, outliers: Seque
                 "the tests disagree beyond their own uncertainty, but the release amplitude "
                 f"explains it: {' and '.join(parts)} (a nonlinear damper or spring; see the "
                 "damping-law assessment of each test)")
+    if amplitude.get("slope") is None:
+        clause = "the release amplitudes are too alike to tell whether the amplitude matters"
+    else:
+        clause = ("no effect of the release amplitude is resolved over the tested amplitudes"
+                  if not (damping_off or frequency_disagrees)
+                  else "the release amplitude does not explain it")
     if outliers:
         which = ", ".join(f"test {i + 1} ({names[i]})" for i in outliers)
         return ("outlier",
                 f"{which} lies outside the 99 % interval the other tests predict; check that "
-                "recording (mounting, release, window) before pooling it")
+                f"recording (mounting, release, window) before pooling it; {clause}")
     if not (damping_off or frequency_disagrees):
         return ("consistent",
                 "the tests agree within their own uncertainty: the between-test spread is "
-                "consistent with zero")
+                f"consistent with zero; {clause}")
     what = (f"by {tau_over_within:.1f}× their own uncertainty in the decay rate"
             if damping_off else "in frequency beyond their own uncertainty")
     return ("scatter",
