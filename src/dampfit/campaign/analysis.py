@@ -335,6 +335,11 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
                    damping_verdict=verdict)
 
 
+#: Damping-law verdicts that say one viscous c does not describe a test's decay
+#: ("inconclusive" says nothing either way and is only reported per test).
+INADEQUATE = ("amplitude-dependent", "misfit")
+
+
 def _damping_verdict(prep, fd, ls, nm, mass, warns: list[str]) -> str | None:
     """This test's damping-law verdict (:func:`dampfit.damping.assess`, Laplace evidence only:
     no sampling), and a warning when one viscous c does not describe its decay: the hierarchy
@@ -348,7 +353,7 @@ def _damping_verdict(prep, fd, ls, nm, mass, warns: list[str]) -> str | None:
         warns.append(f"damping-law check not made: {exc}")
         return None
     verdict = res.verdict_name
-    if verdict != "adequate":
+    if verdict in INADEQUATE:
         warns.append(f"one viscous c does not describe this test's decay (damping-law check: "
                      f"{verdict}); its pooled c averages over its amplitudes — analyse the "
                      "file alone for ζ(amplitude) and the damping laws")
@@ -691,11 +696,9 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
     # within-test amplitude dependence (each test's damping-law check): the between-test
     # verdict alone would let tests that agree with each other but are each not one viscous
     # decay pass as "consistent" without a word; the verdict name stays the between-test one
-    within = [t.index + 1 for t in a.tests
-              if t.damping_verdict not in (None, "adequate")]
+    within = [t.index + 1 for t in a.tests if t.damping_verdict in INADEQUATE]
     if within:
-        kinds = sorted({t.damping_verdict for t in a.tests
-                        if t.damping_verdict not in (None, "adequate")})
+        kinds = sorted({t.damping_verdict for t in a.tests if t.damping_verdict in INADEQUATE})
         text += (f"; within the tests, one viscous c is not adequate (test "
                  f"{', '.join(map(str, within))}: {', '.join(kinds)}), so the population c is "
                  "an average over the tested amplitudes, valid near them only")
