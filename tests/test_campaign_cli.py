@@ -403,3 +403,31 @@ def test_files_of_different_systems_one_line_nothing_written(recordings, tmp_pat
                         "--quiet"], capsys)
     assert code == 2 and "not of one system" in one_line(err)
     assert not out.exists() and not list(tmp_path.glob(".o*"))
+
+
+def test_unidentifiable_added_mass_design_one_line_nothing_written(recordings, tmp_path, capsys):
+    """One distinct added mass cannot separate m0 from k: refused before any sampling."""
+    paths, _ = recordings
+    out = tmp_path / "o"
+    code, _, err = run(["analyze", paths[0], paths[1], "--added-mass", "0.1", "0.1", "--out",
+                        out, "--quiet"], capsys)
+    line = one_line(err)
+    assert code == 2 and "m0" in line
+    assert not out.exists() and not list(tmp_path.glob(".o*"))
+
+
+def test_a_test_without_decay_is_named_one_line_nothing_written(recordings, tmp_path, capsys):
+    """A file of pure noise among the tests: one line naming that test, nothing written."""
+    import numpy as np
+
+    paths, _ = recordings
+    t = np.arange(0, 20, 0.01)
+    noise = np.random.default_rng(3).normal(0, 0.05, (t.size, 3))
+    rec = dampfit.Recording(t, noise, axes=("x", "y", "z"))
+    flat = sim.write_phyphox_csv(rec, tmp_path / "noise.csv")
+    out = tmp_path / "o"
+    code, _, err = run(["analyze", paths[0], paths[1], flat, "--mass", "1", "--out", out,
+                        "--quiet"], capsys)
+    line = one_line(err)
+    assert code == 2 and "test 3" in line and "noise.csv" in line
+    assert not out.exists() and not list(tmp_path.glob(".o*"))
