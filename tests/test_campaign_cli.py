@@ -431,3 +431,14 @@ def test_a_test_without_decay_is_named_one_line_nothing_written(recordings, tmp_
     line = one_line(err)
     assert code == 2 and "test 3" in line and "noise.csv" in line
     assert not out.exists() and not list(tmp_path.glob(".o*"))
+
+
+def test_verify_of_a_campaign_folder_says_what_to_do(tmp_path, capsys):
+    """verify compares one recording with its FEM model: a campaign folder gets one line
+    saying so, not a missing-file message."""
+    out = tmp_path / "camp"
+    out.mkdir()
+    (out / "summary.json").write_text(json.dumps(hand_summary()))
+    code, _, err = run(["verify", out], capsys)
+    line = one_line(err)
+    assert code == 2 and "campaign of 3 tests" in line and "single-recording" in line

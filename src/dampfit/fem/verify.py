@@ -46,6 +46,7 @@ from dampfit.fem import timestep
 from dampfit.fem import response as compare
 from dampfit.fem import sdof as sdof_mod
 from dampfit.fem.sanitize import shown
+from dampfit.result.schema import is_campaign
 from dampfit.result.folder import SIGNAL_KEYS as SIGNAL_KEYS
 from dampfit.result.folder import load_signals as load_signals
 from dampfit.result.schema import folder_of
@@ -67,6 +68,7 @@ def run(folder: str | Path | Any, dt: float | None = None) -> dict[str, Any]:
     from dampfit.fem import opensees
 
     folder, summary = sdof_mod.read_summary(folder_of(folder))
+    _refuse_campaign(folder, summary)
     ident = sdof_mod.load(folder, 0.5)
     p_id = sdof_mod.summary_quantile(summary, "p", 0.5, folder)  # checked before any work
     sig = load_signals(folder)
@@ -219,6 +221,15 @@ def table(rep: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def _refuse_campaign(folder: Path, summary: dict) -> None:
+    """One line for a campaign folder: verify compares one recording with its FEM model."""
+    if is_campaign(summary):
+        n = len(summary.get("tests") or [])
+        raise InputError(f"{shown(folder)} is a campaign of {n} tests: verify compares one "
+                         "recording with its FEM model; verify a single-recording result "
+                         "('dampfit analyze FILE --mass KG --out DIR', then 'dampfit verify DIR')")
+
+
 def verify(result: str | Path | Any, dt: float | None = None, out: str | Path | None = None,
            force: bool = False) -> dict[str, Any]:
     """Verify ``result`` (a result folder, or an analysis :func:`dampfit.load` read from one):
@@ -237,6 +248,7 @@ def verify(result: str | Path | Any, dt: float | None = None, out: str | Path | 
     if reason is not None:
         raise InputError(reason)
     folder = folder_of(result)
+    _refuse_campaign(*sdof_mod.read_summary(folder))
     if out:
         fig = check_output_file(out, force)
     else:
