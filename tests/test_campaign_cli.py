@@ -433,6 +433,7 @@ def test_a_test_without_decay_is_named_one_line_nothing_written(recordings, tmp_
     assert not out.exists() and not list(tmp_path.glob(".o*"))
 
 
+@pytest.mark.usefixtures("requires_opensees")  # without OpenSees, verify stops before reading
 def test_verify_of_a_campaign_folder_says_what_to_do(tmp_path, capsys):
     """verify compares one recording with its FEM model: a campaign folder gets one line
     saying so, not a missing-file message."""
