@@ -94,6 +94,19 @@ def _sim_config(args):
     return cfg
 
 
+def _write_failure(out, exc: Exception) -> InputError:
+    """One line for a failed write of ``out`` (an OSError, or a WriteError raised while writing
+    into the staging folder): nothing was written."""
+    from dampfit._files import _reason
+
+    if isinstance(exc, OSError):
+        reason = _reason(exc)
+    else:
+        cause = exc.__cause__
+        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
+    return InputError(f"cannot write {out}: {reason}; nothing was written")
+
+
 def command(args) -> int:
     """``dampfit simulate``: FILE.csv and FILE.truth.json, both or neither (a campaign:
     :func:`_campaign_command`).
@@ -142,12 +155,8 @@ def command(args) -> int:
             if not existed:  # both or neither
                 out.unlink(missing_ok=True)
             raise
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
-    except InputError as exc:  # a failed write in the staging folder
-        cause = exc.__cause__
-        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
-        raise InputError(f"cannot write {out}: {reason}; nothing was written") from None
+    except (OSError, InputError) as exc:
+        raise _write_failure(out, exc) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     print(f"wrote {out} ({rec.n_samples} samples, {rec.duration:.4g} s) and {truth_path}: "
@@ -230,12 +239,8 @@ def _campaign_command(args) -> int:
             sim.write_phyphox_csv(rec, stage / path.name, dialect=args.dialect)
         sim.write_truth(truth, stage / truth_path.name)
         _publish(stage, [*csvs, truth_path])
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
-    except InputError as exc:  # a failed write in the staging folder
-        cause = exc.__cause__
-        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
-        raise InputError(f"cannot write {out}: {reason}; nothing was written") from None
+    except (OSError, InputError) as exc:
+        raise _write_failure(out, exc) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
     print(f"wrote {csvs[0]} … {csvs[-1]} ({n} tests, {recs[0].duration:.4g} s each) and "

@@ -13,7 +13,7 @@ same text and figures as the live analysis:
   population band and the (wider) predictive band for a new test;
 * :func:`added_mass_figure` (``added_mass.png``, added-mass mode only) — 1/ω_n² against the added
   mass Δm with the fitted line 1/ω_n² = (m₀ + Δm)/k, which crosses zero at Δm = −m₀;
-* :func:`save_figures` writes both (atomically, :func:`dampfit._files.atomic_write`).
+* :func:`save_figures` writes both (atomically, :func:`dampfit.output.figures.save_png`).
 
 matplotlib is imported inside the figure functions only. Digits of a value with a 90 %
 interval follow the interval's width (:func:`dampfit.output.text.interval`).
@@ -26,7 +26,6 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dampfit._files import atomic_write
 from dampfit.output.text import interval
 from dampfit.physics import UNITS
 
@@ -320,6 +319,8 @@ def save_figures(s: dict[str, Any], outdir: str | os.PathLike, *, dpi: int = 110
     """Write ``forest.png`` and (added-mass design) ``added_mass.png`` of campaign summary
     ``s`` into ``outdir`` (atomically); a figure that does not apply is not written and an
     older file of its name is removed. Returns ``{name: path}`` of the files written."""
+    from dampfit.output.figures import save_png
+
     outdir = Path(outdir)
     written: dict[str, Path] = {}
     for name, draw in _DRAW.items():
@@ -328,9 +329,6 @@ def save_figures(s: dict[str, Any], outdir: str | os.PathLike, *, dpi: int = 110
         if fig is None:
             path.unlink(missing_ok=True)  # never leave a stale figure of an earlier run
             continue
-        try:
-            atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), suffix=".png")
-        finally:
-            fig.clear()
+        save_png(fig, path, dpi)
         written[name] = path
     return written

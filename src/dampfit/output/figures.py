@@ -713,12 +713,19 @@ def render(an: Any, names, outdir: str | os.PathLike, dpi: int = 110) -> dict[st
             path.unlink(missing_ok=True)  # never leave a stale figure of an earlier run
             written[name] = None
             continue
-        try:
-            atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), suffix=".png")
-        finally:
-            fig.clear()
+        save_png(fig, path, dpi)
         written[name] = path
     return written
+
+
+def save_png(fig: "Figure", path: str | os.PathLike, dpi: int = 110) -> Path:
+    """Write ``fig`` as PNG to ``path`` atomically (:func:`dampfit._files.atomic_write`), then
+    release its artists."""
+    try:
+        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"),
+                            suffix=".png")
+    finally:
+        fig.clear()
 
 
 def save_figures(an: "Analysis", outdir: str | os.PathLike, *, dpi: int = 110,

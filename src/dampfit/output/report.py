@@ -304,6 +304,28 @@ def _is_demo(s: dict, directory: Path) -> bool:
         and Path(path).name == DEMO_MARKER.replace(".truth.json", ".csv")
 
 
+def _mass_flags(m) -> list[str]:
+    """``--mass KG [--mass-sd KG]`` of a summary's mass entry (nothing if there is no mass)."""
+    if not (isinstance(m, dict) and _finite(m.get("value"))):
+        return []
+    parts = ["--mass", repr(float(m["value"]))]
+    if _finite(m.get("sd")) and m["sd"] > 0:
+        parts += ["--mass-sd", repr(float(m["sd"]))]
+    return parts
+
+
+def _signal_flags(opts: dict) -> list[str]:
+    """``--axis``, ``--window`` and ``--band`` as the recorded options gave them."""
+    parts = []
+    if isinstance(opts.get("axis"), str) and opts["axis"] != "auto":
+        parts += ["--axis", shlex.quote(opts["axis"])]
+    for key in ("window", "band"):
+        v = opts.get(key)
+        if isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v):
+            parts += [f"--{key}", repr(float(v[0])), repr(float(v[1]))]
+    return parts
+
+
 def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     """The shell command that re-creates the result folder ``directory`` from its input."""
     directory = Path(os.path.abspath(directory))
@@ -316,17 +338,7 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     opts = opts if isinstance(opts, dict) else {}
     path = _get(s, "input", "path")
     parts = ["dampfit", "analyze", q(path) if isinstance(path, str) else "FILE"]
-    m = s.get("mass") if isinstance(s.get("mass"), dict) else {}
-    if _finite(m.get("value")):
-        parts += ["--mass", repr(float(m["value"]))]
-        if _finite(m.get("sd")) and m["sd"] > 0:
-            parts += ["--mass-sd", repr(float(m["sd"]))]
-    if isinstance(opts.get("axis"), str) and opts["axis"] != "auto":
-        parts += ["--axis", q(opts["axis"])]
-    for key in ("window", "band"):
-        v = opts.get(key)
-        if isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v):
-            parts += [f"--{key}", repr(float(v[0])), repr(float(v[1]))]
+    parts += _mass_flags(s.get("mass")) + _signal_flags(opts)
     if isinstance(opts.get("model"), str) and opts["model"] != "auto":
         parts += ["--model", q(opts["model"])]
     if _finite(opts.get("amplitude")):
@@ -936,18 +948,10 @@ def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
         parts += ["--added-mass"] + [repr(float(v)) if _finite(v) else "KG" for v in am["values"]]
         if _finite(am.get("sd")) and am["sd"] > 0:
             parts += ["--added-mass-sd", repr(float(am["sd"]))]
-    elif isinstance(m, dict) and _finite(m.get("value")):
-        parts += ["--mass", repr(float(m["value"]))]
-        if _finite(m.get("sd")) and m["sd"] > 0:
-            parts += ["--mass-sd", repr(float(m["sd"]))]
+    else:
+        parts += _mass_flags(m)
     opts = _get(s, "provenance", "options")
-    opts = opts if isinstance(opts, dict) else {}
-    if isinstance(opts.get("axis"), str) and opts["axis"] != "auto":
-        parts += ["--axis", q(opts["axis"])]
-    for key in ("window", "band"):
-        v = opts.get(key)
-        if isinstance(v, list) and len(v) == 2 and all(_finite(x) for x in v):
-            parts += [f"--{key}", repr(float(v[0])), repr(float(v[1]))]
+    parts += _signal_flags(opts if isinstance(opts, dict) else {})
     seed = _get(s, "provenance", "seed")
     seed = seed if isinstance(seed, int) and not isinstance(seed, bool) else 0
     return " ".join(parts + ["--seed", str(seed), "--out", q(str(directory))])
