@@ -9,9 +9,12 @@ Stages
    (:func:`dampfit.inference.noise.estimate`), and the Laplace expansion of the tempered
    profiled likelihood ℓ_i (eqs. C1, C2 of :mod:`dampfit.campaign.model`).
 2. **Refusals** before any sampling (:mod:`dampfit.campaign.checks`).
-3. **Hyper-posterior** of φ (eqs. C3–C5) sampled with emcee
-   (differential-evolution moves, see :func:`_ensemble`, and the stopping rule of :func:`dampfit.inference.posterior.run_adaptive`: ≥ 50
-   autocorrelation times, R-hat < 1.01, bulk ESS ≥ ``min_ess``, or ``max_steps``).
+3. **Hyper-posterior** of φ (eqs. C3–C5) sampled with emcee (differential-evolution moves,
+   see :func:`_ensemble`, and the stopping rule of
+   :func:`dampfit.inference.posterior.run_adaptive`: ≥ 50 autocorrelation times, R-hat < 1.01,
+   bulk ESS ≥ ``min_ess``, or ``max_steps``), once for each frequency model (M₁: τ_ω free;
+   M₀: τ_ω = 0, the tests share one frequency law); their posterior probabilities come from
+   the Savage–Dickey ratio (C7) and the result is their mixture (:func:`_sample`).
 4. **Per-test values and the exact likelihood**: for every draw of φ, each test's
    ψ_i = (ln p_i, ln ω_n,i) is drawn from its Gaussian conditional, and the joint draw gets
    the importance weight
@@ -126,6 +129,10 @@ class CampaignSampling:
     diagnostics: dict[str, dict[str, float]]
     warnings: tuple[str, ...] = ()
     seconds: float = float("nan")
+    #: posterior probability [1] that the tests share one frequency law (τ_ω = 0), eq. (C7)
+    p_shared_frequency: float = float("nan")
+    #: ln B₀₁ [1] of (C7) with the exact-likelihood correction
+    log_bayes_factor_shared: float = float("nan")
 
 
 @dataclass
@@ -398,49 +405,128 @@ def _start(data, added: bool, rng, n_walkers: int) -> np.ndarray:
     return np.concatenate([loc, ln_tau], axis=1)
 
 
-def _sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
-            min_ess) -> CampaignSampling:
+@dataclass(frozen=True)
+class _ModelRun:
+    """One model's sampled, importance-resampled draws: φ (N, k) with ln τ_ω = −inf under M₀,
+    ψ (N, n, 2), the chain layout, ln of the mean importance weight (C6) and the run facts."""
+
+    phi: np.ndarray
+    psi: np.ndarray
+    n_draw: int
+    n_walk: int
+    log_mean_weight: float
+    ess_fraction: float
+    run: Any
+    burn: int
+    thin: int
+    acceptance: float
+    m1_draws: np.ndarray | None = None
+    last: np.ndarray | None = None
+
+
+def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
+               start=None) -> _ModelRun:
+    """Sample one model's hyper-posterior (M₀ ``shared``: τ_ω = 0; else M₁) from ``start``
+    (walkers, k) or :func:`_start`, draw each test's ψ given φ and resample by the
+    exact-likelihood weights (C6)."""
     import jax.numpy as jnp
 
     from dampfit.campaign import model
     from dampfit.inference import posterior
 
-    rng = np.random.default_rng(seed)
-    names = model.hyper_names(added)
-    ndim = len(names)
+    ndim = len(model.hyper_names(added)) - (1 if shared else 0)
+    target = model.log_posterior_shared if shared else model.log_posterior
 
     def log_prob(phis: np.ndarray) -> np.ndarray:  # inside jax.enable_x64(True)
-        return np.asarray(model.log_posterior(jnp.asarray(phis, dtype=jnp.float64), data))
+        return np.asarray(target(jnp.asarray(phis, dtype=jnp.float64), data))
 
     sampler = _ensemble(ndim, log_prob, rng)
-    start = _start(data, added, rng, sampler.nwalkers)
+    if start is None:
+        start = _start(data, added, rng, sampler.nwalkers)
+    start = start[:, :ndim]
     bar = posterior._progress(max_steps, progress)
     try:
         run = posterior.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
                                      bar=bar, x64=True)
     finally:
         bar.close()
-    warns: list[str] = []
-    if not run.converged:
-        warns.append(f"campaign posterior NOT converged after {run.steps} steps: {run.reason}")
     burn, thin = posterior.burn_thin(run.tau)
     chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, k)
     n_draw, n_walk, _ = chain.shape
     phi = chain.reshape(-1, ndim)
+    if shared:
+        phi = np.concatenate([phi, np.full((phi.shape[0], 1), -np.inf)], axis=1)
     psi = model.conditional(phi, data, rng)  # (N, n, 2)
     logw = _importance_log_weights(tests, psi, data)
+    finite = logw[np.isfinite(logw)]
+    log_mean = (float(finite.max() + np.log(np.sum(np.exp(finite - finite.max())) / logw.size))
+                if finite.size else -np.inf)
     ess_frac, idx = _resample(logw, n_draw, n_walk, rng)
-    phi, psi = phi[idx], psi[idx]
-    if ess_frac < MIN_IMPORTANCE_FRACTION:
-        warns.append(f"the exact per-test likelihoods differ from their Laplace forms: "
-                     f"importance ESS only {100 * ess_frac:.1f} % of the draws")
-    idata = _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng)
+    return _ModelRun(phi=phi[idx], psi=psi[idx], n_draw=n_draw, n_walk=n_walk,
+                     log_mean_weight=log_mean, ess_fraction=ess_frac, run=run, burn=burn,
+                     thin=thin, acceptance=float(np.mean(sampler.acceptance_fraction)),
+                     m1_draws=None if shared else phi, last=sampler.get_last_sample().coords)
+
+
+#: A model whose posterior probability is below this [1] need not have converged (its draws
+#: are at most this fraction of the result).
+NEGLIGIBLE_MODEL = 0.01
+
+
+def _sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
+            min_ess) -> CampaignSampling:
+    """Both frequency models (M₁: τ_ω free; M₀: τ_ω = 0, :mod:`dampfit.campaign.model`),
+    their posterior probabilities by (C7) with the exact-likelihood correction, and the
+    model-averaged draws: each (draw, walker) slot of the more probable model's layout holds
+    a draw of the other model with that model's probability."""
+    import jax
+
+    from dampfit.campaign import model
+
+    rng = np.random.default_rng(seed)
+    names = model.hyper_names(added)
+    with jax.enable_x64(True):
+        m1 = _run_model(tests, data, added, False, rng, progress, max_steps, min_ess)
+        # M₀ starts where M₁'s walkers ended (ln τ_ω dropped): already in the bulk, slightly
+        # overdispersed for the narrower M₀ (a walker started 100 posterior sd out in ln ω
+        # stayed there under the DE moves and spoiled the importance weights)
+        m0 = _run_model(tests, data, added, True, rng, progress, max_steps, min_ess,
+                        start=m1.last)
+        log_bf = model.log_bayes_factor_shared(m1.m1_draws, data, rng)
+    log_bf += m0.log_mean_weight - m1.log_mean_weight
+    prior_odds = np.log(model.P_SHARED_FREQUENCY / (1 - model.P_SHARED_FREQUENCY))
+    p_shared = (float(1.0 / (1.0 + np.exp(-(log_bf + prior_odds))))
+                if np.isfinite(log_bf) else 0.0)
+    warns: list[str] = []
+    converged = True
+    for label, r, weight in (("scatter", m1, 1 - p_shared), ("shared-frequency", m0, p_shared)):
+        if weight < NEGLIGIBLE_MODEL:
+            continue
+        if not r.run.converged:
+            converged = False
+            warns.append(f"campaign posterior ({label} model) NOT converged after "
+                         f"{r.run.steps} steps: {r.run.reason}")
+        if r.ess_fraction < MIN_IMPORTANCE_FRACTION:
+            converged = False
+            warns.append(f"the exact per-test likelihoods differ from their Laplace forms "
+                         f"({label} model): importance ESS only {100 * r.ess_fraction:.1f} % "
+                         "of the draws")
+    base, other, p_other = (m0, m1, 1 - p_shared) if p_shared >= 0.5 else (m1, m0, p_shared)
+    phi, psi = base.phi.copy(), base.psi.copy()
+    swap = rng.random(phi.shape[0]) < p_other
+    pick = rng.integers(other.phi.shape[0], size=int(swap.sum()))
+    phi[swap], psi[swap] = other.phi[pick], other.psi[pick]
+    idata = _to_idata(phi, psi, names, added, mass, mass_sd, dm, base.n_draw, base.n_walk, rng)
+    idata.posterior.attrs["p_shared_frequency"] = p_shared
     diag = _diagnostics(idata)
+    ess_frac = min(r.ess_fraction for r, w in ((m1, 1 - p_shared), (m0, p_shared))
+                   if w >= NEGLIGIBLE_MODEL)
     return CampaignSampling(
-        idata=idata, converged=bool(run.converged and ess_frac >= MIN_IMPORTANCE_FRACTION),
-        n_steps=run.steps, burn_in=burn, thin=thin, autocorr_time=np.asarray(run.tau),
-        acceptance=float(np.mean(sampler.acceptance_fraction)),
-        importance_ess_fraction=float(ess_frac), diagnostics=diag, warnings=tuple(warns))
+        idata=idata, converged=converged, n_steps=m1.run.steps + m0.run.steps,
+        burn_in=base.burn, thin=base.thin, autocorr_time=np.asarray(base.run.tau),
+        acceptance=base.acceptance, importance_ess_fraction=float(ess_frac),
+        diagnostics=diag, warnings=tuple(warns), p_shared_frequency=p_shared,
+        log_bayes_factor_shared=float(log_bf))
 
 
 def _ensemble(ndim: int, log_prob, rng):
@@ -580,7 +666,8 @@ def _diagnostics(idata) -> dict[str, dict[str, float]]:
     out = {}
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
-        scalars = [v for v, x in idata.posterior.data_vars.items() if x.ndim == 2]
+        scalars = [v for v, x in idata.posterior.data_vars.items()
+                   if x.ndim == 2 and np.all(np.isfinite(x.values))]  # ln τ_ω = −inf under M₀
         rhat = az.rhat(idata.posterior[scalars])
         ess = az.ess(idata.posterior[scalars], method="bulk")
     for v in scalars:
@@ -589,6 +676,11 @@ def _diagnostics(idata) -> dict[str, dict[str, float]]:
 
 
 # ----------------------------------------------------------------------------- summary
+def _p_shared(a: CampaignAnalysis) -> float:
+    """P(τ_ω = 0 | data) [1]: the tests share one frequency law (eq. C7)."""
+    return float(a.sampling.p_shared_frequency)
+
+
 def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
     from dampfit import pipeline
     from dampfit.campaign import checks, model
@@ -624,7 +716,8 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
         mass_entry = {"value": a.mass, "sd": a.mass_sd if a.mass is not None else None,
                       "unit": "kg"}
     spread = {"p": {k_: v for k_, v in q3(post["tau_p"], "1").items() if k_ != "sd"},
-              "omega": {k_: v for k_, v in q3(post["tau_omega"], "1").items() if k_ != "sd"}}
+              "omega": {**{k_: v for k_, v in q3(post["tau_omega"], "1").items() if k_ != "sd"},
+                        "p_zero": _p_shared(a)}}
     predictive = {}
     for name in ("c", "zeta", "f_n", "k"):
         key = f"predictive_{name}"
@@ -732,7 +825,8 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
                    "added_mass": ({"values": [float(x) for x in a.added_mass],
                                    "sd": a.added_mass_sd, "unit": "kg"} if added else None),
                    "priors": {"tau_p": f"half-normal, scale {model.TAU_P_SCALE}",
-                              "tau_omega": f"half-normal, scale {model.TAU_OMEGA_SCALE}",
+                              "tau_omega": f"0 with probability {model.P_SHARED_FREQUENCY}, "
+                                           f"else half-normal, scale {model.TAU_OMEGA_SCALE}",
                               "locations": f"normal, sd {model.LOCATION_SD} about the "
                                            "least-squares values (log scale)"}},
         "parameters": params,
@@ -752,6 +846,7 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
                         "min_ess_bulk": min_ess, "n_steps": s.n_steps, "burn_in": s.burn_in,
                         "thin": s.thin, "acceptance_fraction": s.acceptance,
                         "importance_ess_fraction": s.importance_ess_fraction,
+                        "log_bayes_factor_shared_frequency": s.log_bayes_factor_shared,
                         "seconds": s.seconds, "warnings": list(s.warnings)},
         "warnings": list(a.warnings),
         "provenance": {"seed": a.seed, "options": a.options, "date": a.date},
