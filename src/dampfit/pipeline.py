@@ -237,12 +237,9 @@ class Analysis:
         t = prep.grid[sel]
         tau = t - self.fit_data.t0
         a_cos, a_sin = self.true_quadratures()
-        import jax
-
-        with jax.enable_x64(True):
-            args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
-            accel_model = np.asarray(model.acceleration(*args), dtype=float)
-            disp_model = np.asarray(model.displacement(*args), dtype=float)
+        args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
+        accel_model = np.asarray(model.acceleration(*args, xp=np), dtype=float)
+        disp_model = np.asarray(model.displacement(*args, xp=np), dtype=float)
         env = self.baselines.get("envelope_pipeline")
         disp = np.full(t.size, np.nan)
         if env is not None and np.size(env.details.get("displacement", [])) == t.size:

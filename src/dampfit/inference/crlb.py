@@ -164,11 +164,9 @@ def _inverse(f: np.ndarray) -> np.ndarray:
 _DERIVED = ("p", "omega_d", "zeta", "f_n", "u0", "c", "k")
 
 
-@functools.lru_cache(maxsize=1)
-def _derived_jacobian():
-    """One jitted function (x = (p, ω_d, A, B), m) → (g, ∂g/∂x, ∂g/∂m) for every quantity g of
-    :data:`_DERIVED`, from :func:`dampfit.physics.quantities` (which takes JAX arrays):
-    traced and compiled once per process (and cached on disk with the compilation cache)."""
+def _derived(x, m):
+    """(g, ∂g/∂x, ∂g/∂m) at x = (p, ω_d, A, B), mass m for every quantity g of :data:`_DERIVED`,
+    from :func:`dampfit.physics.quantities` (which takes JAX arrays)."""
     import jax
     import jax.numpy as jnp
 
@@ -176,7 +174,16 @@ def _derived_jacobian():
         q = physics.quantities(x[0], x[1], m, accel_amplitude=jnp.sqrt(x[2] ** 2 + x[3] ** 2))
         return jnp.stack([q[name] for name in _DERIVED])
 
-    return jax.jit(lambda x, m: (g(x, m), *jax.jacfwd(g, argnums=(0, 1))(x, m)))
+    return (g(x, m), *jax.jacfwd(g, argnums=(0, 1))(x, m))
+
+
+@functools.lru_cache(maxsize=1)
+def _derived_jacobian():
+    """:func:`_derived` as one compiled kernel: traced and compiled once per process, or loaded
+    compiled from disk under the CLI (:mod:`dampfit.inference.executables`)."""
+    from dampfit.inference.executables import Kernel
+
+    return Kernel(_derived)
 
 
 def bound(

@@ -48,6 +48,7 @@ import jax
 import numpy as np
 from scipy import optimize
 
+from dampfit.inference.executables import kernel
 from dampfit.inference.least_squares import amplitude_gain
 from dampfit.model import laws as models
 from dampfit.model import profile as _profile
@@ -98,7 +99,7 @@ class Data:
 BATCH = 8
 
 
-@functools.partial(jax.jit, static_argnums=0)
+@kernel(static_argnums=(0,))
 def _profile_kernel(law, thetas, samples):
     def one(th):
         pr = _profile.profile(law, th, samples.tau, samples.y, samples.drift, samples.mask)

@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from dampfit.inference.executables import kernel
 from dampfit.model import profile
 from dampfit.model.viscous import M1 as _M1
 from dampfit.signal.filters import filtfilt_gain
@@ -96,33 +97,43 @@ def amplitude_gain(fd: FitData, p: float, omega_d: float) -> complex:
     return filtfilt_gain(fd.lowpass_sos, fd.fs_filter, p, omega_d)
 
 
-# Module-level jitted kernels on padded inputs (FitData.padded): they compile once per shape
-# bucket and are reused by every later fit of that bucket (a study compiles a handful of times).
-# All go through the one profile of dampfit.model.profile with the (M1) columns.
-@jax.jit
+# One kernel on padded inputs (FitData.padded) does the whole fit: coarse grid, Levenberg–
+# Marquardt, profile, residuals and Jacobian. It compiles once per shape bucket and is reused by
+# every later fit of that bucket (a study compiles a handful of times); under the CLI its
+# executable is kept on disk (dampfit.inference.executables), so a fresh process neither traces
+# nor lowers the optimistix loop. All goes through the one profile of dampfit.model.profile with
+# the (M1) columns.
 def _projected_residual(theta, args):
     tau, y, drift, mask = args
     return profile.profile(_M1, theta, tau, y, drift, mask).residual
 
 
-@jax.jit
-def _grid_rss(thetas, tau, y, drift, mask):
-    return jax.vmap(lambda th: profile.profile(_M1, th, tau, y, drift, mask).rss)(thetas)
-
-
-@jax.jit
-def _full_model(phi, tau, drift, mask):
-    return profile.predict(_M1, phi, tau, drift, mask)
-
-
-@jax.jit
-def _profile(theta, tau, y, drift, mask):
-    pr = profile.profile(_M1, theta, tau, y, drift, mask)
-    return pr.beta, pr.rss
-
-
-_jacobian = jax.jit(jax.jacfwd(_full_model))
 _SOLVER = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
+
+
+@kernel(static_argnums=(0,))
+def _fit(max_steps, grid, tau, y, drift, mask):
+    """(θ̂, β̂ (padded), RSS, residuals (padded), Jacobian (padded rows, all columns), solver
+    result code, steps) of the fit started at the best point of ``grid`` (rows θ)."""
+    arrays = (tau, y, drift, mask)
+    rss = jax.vmap(lambda th: profile.profile(_M1, th, tau, y, drift, mask).rss)(grid)
+    theta0 = grid[jnp.nanargmin(rss)]
+    sol = optx.least_squares(_projected_residual, _SOLVER, theta0, args=arrays,
+                             max_steps=max_steps, throw=False)
+    pr = profile.profile(_M1, sol.value, tau, y, drift, mask)
+    phi = jnp.concatenate([sol.value, pr.beta])
+    resid = y - profile.predict(_M1, phi, tau, drift, mask)
+    jac = jax.jacfwd(lambda ph: profile.predict(_M1, ph, tau, drift, mask))(phi)
+    steps = sol.stats.get("num_steps", jnp.asarray(-1))
+    return sol.value, pr.beta, pr.rss, resid, jac, sol.result._value, steps
+
+
+def _solver_message(code: int) -> str:
+    """optimistix's text for a result code (its RESULTS table)."""
+    try:
+        return optx.RESULTS._index_to_message[code].split("\n")[0]
+    except (AttributeError, IndexError, TypeError):
+        return f"result code {code}"
 
 
 def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) -> LeastSquaresResult:
@@ -130,7 +141,8 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
     pad = fd.padded
     n, nq = pad.n, pad.q  # real samples; real linear coefficients (A, B, drift)
     with jax.enable_x64(True):
-        arrays = tuple(jnp.asarray(a) for a in (pad.tau, pad.y, pad.drift, pad.mask))
+        arrays = tuple(np.asarray(a, dtype=np.float64) for a in (pad.tau, pad.y, pad.drift))
+        arrays += (np.asarray(pad.mask),)
         span = float(fd.tau[-1] - fd.tau[0])
         w0 = 2 * np.pi * f0
         p0 = float(np.clip(p0, 1e-6 * w0, 0.5 * w0)) if np.isfinite(p0) and p0 > 0 else 1e-3 * w0
@@ -139,20 +151,13 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
         ws = np.where(ws > 0, ws, w0)
         ps = p0 * np.array([0.2, 0.5, 1.0, 2.0, 5.0])
         grid = np.log(np.array([[pp, ww] for pp in ps for ww in ws]))
-        rss = np.asarray(_grid_rss(jnp.asarray(grid), *arrays))
-        theta0 = jnp.asarray(grid[int(np.nanargmin(rss))])
-
-        sol = optx.least_squares(
-            _projected_residual, _SOLVER, theta0, args=arrays, max_steps=max_steps, throw=False,
-        )
-        ok = bool(sol.result == optx.RESULTS.successful)
-        theta = np.asarray(sol.value)
-        beta_pad, rss_v = _profile(sol.value, *arrays)
-        beta_pad = np.asarray(beta_pad)
-        phi = jnp.concatenate([sol.value, jnp.asarray(beta_pad)])
-        resid = np.asarray(arrays[1] - _full_model(phi, arrays[0], arrays[2], arrays[3]))[:n]
+        out = [np.asarray(v) for v in _fit(int(max_steps), grid, *arrays)]
+        theta, beta_pad, rss_v, resid_pad, jac_pad, code, steps = out
+        code = int(code)
+        ok = code == 0
+        resid = resid_pad[:n]
         # Jacobian of the real rows and the real columns (θ, A, B, drift_0..drift_degree)
-        jac = np.asarray(_jacobian(phi, arrays[0], arrays[2], arrays[3]))[:n, : 2 + nq]
+        jac = jac_pad[:n, : 2 + nq]
         beta = beta_pad[:nq]
         k = 2 + nq
         s2 = float(rss_v) / max(n - k, 1)
@@ -162,10 +167,10 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
             cov = np.full((k, k), np.nan)
             ok = False
         finite = np.all(np.isfinite(theta)) and np.all(np.isfinite(cov))
-        message = "converged" if ok else f"optimistix: {sol.result}"
+        message = "converged" if ok else f"optimistix: {_solver_message(code)}"
         if ok and not finite:
             ok, message = False, "singular Jacobian at the optimum"
-        steps = int(sol.stats.get("num_steps", -1)) if hasattr(sol, "stats") else -1
+        steps = int(steps)
         p, wd = float(np.exp(theta[0])), float(np.exp(theta[1]))
         y, drift = fd.y, fd.drift
         return LeastSquaresResult(

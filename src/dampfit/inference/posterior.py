@@ -126,8 +126,9 @@ def _batched_log_prob(thetas, tau, y, drift, mask, n, q, temper, bounds):
 
 def _padded_args(fd: FitData):
     pad = fd.padded
-    arrays = tuple(jnp.asarray(a) for a in (pad.tau, pad.y, pad.drift, pad.mask))
-    return arrays + (jnp.float64(pad.n), jnp.float64(pad.q))
+    # device_put, not jnp.asarray / jnp.float64: those each compile an eager op in a new process
+    arrays = tuple(np.asarray(a) for a in (pad.tau, pad.y, pad.drift, pad.mask))
+    return jax.device_put(arrays + (np.float64(pad.n), np.float64(pad.q)))
 
 
 #: Per-draw emcee blob: conditional mean and covariance of the quadratures (A, B) given θ.
@@ -142,11 +143,11 @@ def _make_log_prob(fd: FitData, band: tuple[float, float], temper: float):
     """
     with jax.enable_x64(True):
         args = _padded_args(fd)
-        bounds = jnp.asarray([np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])])
-        temper_ = jnp.float64(temper)
+        bounds, temper_ = jax.device_put((np.log(2 * np.pi * np.asarray(band, np.float64)),
+                                          np.float64(temper)))
 
     def log_prob(thetas: np.ndarray) -> np.ndarray:  # called inside jax.enable_x64(True)
-        lp, moments = _batched_log_prob(jnp.asarray(thetas, dtype=jnp.float64), *args,
+        lp, moments = _batched_log_prob(np.asarray(thetas, dtype=np.float64), *args,
                                         temper_, bounds)
         return np.column_stack([np.asarray(lp), np.asarray(moments)])
 

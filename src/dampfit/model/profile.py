@@ -63,6 +63,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
+import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
@@ -103,8 +104,8 @@ class Samples(NamedTuple):
         tp[:n] = tau
         yp, qp, mp = np.zeros(n_pad), np.zeros((n_pad, d_pad)), np.zeros(n_pad)
         yp[:n], qp[:n, :d], mp[:n] = y, drift, 1.0
-        return cls(*(jnp.asarray(a, dtype=jnp.float64) for a in (tp, yp, qp, mp)),
-                   jnp.float64(n), jnp.float64(d))
+        # device_put, not jnp.asarray / jnp.float64 (each of those compiles an eager op)
+        return cls(*jax.device_put((tp, yp, qp, mp, np.float64(n), np.float64(d))))
 
 
 class Profile(NamedTuple):

@@ -54,14 +54,15 @@ __all__ = [
 ]
 
 
-def acceleration(tau, p, omega_d, a_cos, a_sin):
+def acceleration(tau, p, omega_d, a_cos, a_sin, xp=jnp):
     """Acceleration (M1) [m/s²] at times ``tau`` [s] after the window start.
 
     ``p`` decay rate [1/s], ``omega_d`` damped angular frequency [rad/s],
-    ``a_cos``, ``a_sin`` acceleration quadratures at τ = 0 [m/s²].
+    ``a_cos``, ``a_sin`` acceleration quadratures at τ = 0 [m/s²]; ``xp`` jax.numpy (traceable)
+    or numpy (plain evaluation, no JAX dispatch).
     """
     ph = omega_d * tau
-    return jnp.exp(-p * tau) * (a_cos * jnp.cos(ph) + a_sin * jnp.sin(ph))
+    return xp.exp(-p * tau) * (a_cos * xp.cos(ph) + a_sin * xp.sin(ph))
 
 
 def _complex_amplitude(p, omega_d, a_cos, a_sin, power):
@@ -70,16 +71,16 @@ def _complex_amplitude(p, omega_d, a_cos, a_sin, power):
     return (a_cos - 1j * a_sin) / s**power, s
 
 
-def velocity(tau, p, omega_d, a_cos, a_sin):
-    """Velocity [m/s] of the free decay whose acceleration is (M1)."""
+def velocity(tau, p, omega_d, a_cos, a_sin, xp=jnp):
+    """Velocity [m/s] of the free decay whose acceleration is (M1) (``xp`` as above)."""
     cc, s = _complex_amplitude(p, omega_d, a_cos, a_sin, 1)
-    return jnp.real(cc * jnp.exp(s * tau))
+    return xp.real(cc * xp.exp(s * tau))
 
 
-def displacement(tau, p, omega_d, a_cos, a_sin):
-    """Displacement [m] of the free decay whose acceleration is (M1)."""
+def displacement(tau, p, omega_d, a_cos, a_sin, xp=jnp):
+    """Displacement [m] of the free decay whose acceleration is (M1) (``xp`` as above)."""
     cc, s = _complex_amplitude(p, omega_d, a_cos, a_sin, 2)
-    return jnp.real(cc * jnp.exp(s * tau))
+    return xp.real(cc * xp.exp(s * tau))
 
 
 def drift_basis(tau: np.ndarray, degree: int, at: np.ndarray | None = None) -> np.ndarray:
