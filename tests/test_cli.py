@@ -230,7 +230,8 @@ def test_compile_cache_is_private_optional_and_used(tmp_path, monkeypatch):
     code = ("import os; os.environ.pop('JAX_COMPILATION_CACHE_DIR', None); "
             f"os.environ['DAMPFIT_JAX_CACHE'] = {str(tmp_path / 'fresh')!r}; "
             "from dampfit import cli; cli._compile_cache(); "
-            "import jax, jax.numpy as jnp; jax.jit(lambda x: jnp.sin(x) * 2)(jnp.ones(3))")
+            "import jax.numpy as jnp; from dampfit.inference.executables import Kernel; "
+            "Kernel(lambda x: jnp.sin(x) * 2)(jnp.ones(3))")
     subprocess.run([sys.executable, "-c", code], check=True, capture_output=True)
     folder = tmp_path / "fresh"
     assert stat.S_IMODE(folder.stat().st_mode) == 0o700

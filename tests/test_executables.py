@@ -2,8 +2,9 @@
 
 A second process must load what the first compiled (no tracing, same numbers), including a
 kernel that calls LAPACK (a loaded executable once crashed the process there); a damaged or
-foreign entry must be recompiled, never trusted; without JAX's persistent cache nothing is
-written.
+foreign entry must be recompiled, never trusted; without the store nothing is written; a
+copy of an executable that JAX itself loaded from its own cache (which serialises without its
+fused code) must never be stored.
 """
 
 from __future__ import annotations
@@ -43,8 +44,9 @@ SCRIPT = textwrap.dedent("""
 def _run(tmp_path: Path, cache: Path | None) -> dict:
     env = dict(os.environ)
     env.pop("JAX_COMPILATION_CACHE_DIR", None)
+    env.pop("DAMPFIT_EXECUTABLE_CACHE", None)
     if cache is not None:
-        env["JAX_COMPILATION_CACHE_DIR"] = str(cache)
+        env["DAMPFIT_EXECUTABLE_CACHE"] = str(cache)
     script = tmp_path / "kernel_script.py"
     script.write_text(SCRIPT)
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env,
@@ -54,8 +56,7 @@ def _run(tmp_path: Path, cache: Path | None) -> dict:
 
 
 def _entries(cache: Path) -> list[Path]:
-    folder = cache / "dampfit-executables"
-    return sorted(folder.glob("*.bin")) if folder.exists() else []
+    return sorted(cache.glob("*.bin")) if cache.exists() else []
 
 
 def test_second_process_loads_what_the_first_compiled(tmp_path):
@@ -89,7 +90,7 @@ def test_damaged_or_foreign_entry_is_recompiled(tmp_path):
     assert (fourth["compiled"], fourth["loaded"]) == (0, 1)
 
 
-def test_without_the_persistent_cache_nothing_is_written(tmp_path):
+def test_without_the_store_nothing_is_written(tmp_path):
     out = _run(tmp_path, None)
     assert (out["compiled"], out["loaded"]) == (0, 0)  # plain jax.jit
     assert not list(tmp_path.rglob("*.bin"))
@@ -107,3 +108,25 @@ def test_source_edit_changes_the_key(monkeypatch):
     finally:
         monkeypatch.undo()
         executables._environment.cache_clear()
+
+
+def test_copy_of_a_jax_cache_hit_is_not_stored(tmp_path):
+    """Under a user's own JAX persistent cache, a kernel JAX loaded from it serialises without
+    its fused code; the check before storing must refuse it, and the kernel still works."""
+    env = dict(os.environ)
+    env.pop("DAMPFIT_EXECUTABLE_CACHE", None)
+    env.update(JAX_COMPILATION_CACHE_DIR=str(tmp_path / "jax"),
+               JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0",
+               JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES="-1")
+    script = tmp_path / "kernel_script.py"
+    script.write_text(SCRIPT)
+    outs = []
+    for i in range(3):  # 1: JAX cache filled; 2: cache hit, its copy refused; 3: still works
+        env["DAMPFIT_EXECUTABLE_CACHE"] = str(tmp_path / f"store{i}")
+        run = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                             env=env, timeout=300)
+        assert run.returncode == 0, run.stderr[-2000:]
+        outs.append(json.loads(run.stdout.strip().splitlines()[-1]))
+    assert len(_entries(tmp_path / "store0")) == 1
+    assert _entries(tmp_path / "store1") == []
+    assert outs[1]["x"] == outs[0]["x"] and outs[2]["x"] == outs[0]["x"]

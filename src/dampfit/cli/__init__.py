@@ -137,23 +137,28 @@ def _unsafe_cache(path: Path, created: Sequence[Path]) -> str | None:
 
 
 def _compile_cache() -> Path | None:
-    """Switch on JAX's persistent compilation cache for this run and its child processes.
+    """Switch on dampfit's store of compiled kernels for this run and its child processes.
 
-    A fresh process otherwise compiles every kernel again (least squares, CRLB, sampler: ≈ 6 s
-    of a 60 s recording's ≈ 16 s CLI run); with the cache a second run loads them from disk.
+    A fresh process otherwise traces, lowers and compiles every kernel again (least squares,
+    damping-law profiles, CRLB, sampler: ≈ 6 s of a 60 s recording's CLI run); with the store a
+    second run loads them, compiled, in milliseconds (:mod:`dampfit.inference.executables`).
     Location: ``$DAMPFIT_JAX_CACHE``, else ``$XDG_CACHE_HOME/dampfit/jax`` (``~/.cache/…``);
     ``DAMPFIT_JAX_CACHE=off`` switches it off, and a ``JAX_COMPILATION_CACHE_DIR`` the user
-    set is left alone. The directory (and every parent created for it) is private (0700): JAX
-    trusts what it loads from it, so a cache folder that is writable by group or others, is
-    not owned by the user, or lies under a folder everyone may rename things in (no sticky
-    bit) is not used: one warning line on stderr, and the run continues without the cache.
-    Set through environment variables so that Dask workers of ``dampfit study`` inherit it;
-    it takes effect only if nothing was compiled yet in this process (as in a CLI run).
-    Size: ≈ 1 MB per shape bucket of recordings (:class:`dampfit.signal.prepare.Padded`); entries
-    of other JAX or dampfit versions are never read again, so deleting the folder is safe.
+    set is left alone (JAX's own cache then serves, and dampfit stores nothing). The directory
+    (and every parent created for it) is private (0700): executables loaded from it run as
+    code, so a cache folder that is writable by group or others, is not owned by the user, or
+    lies under a folder everyone may rename things in (no sticky bit) is not used: one warning
+    line on stderr, and the run continues without the cache. Set through an environment
+    variable so that Dask workers of ``dampfit study`` inherit it. Size: ≈ 1 MB per kernel and
+    shape bucket of recordings (:class:`dampfit.signal.prepare.Padded`); entries of other JAX
+    or dampfit versions (or an edited source) are never read again, so deleting the folder is
+    safe.
     """
+    from dampfit.inference.executables import ENV
+
     choice = os.environ.get(CACHE_ENV, "")
     if choice.lower() in ("off", "0", "no", "false") or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+        os.environ.pop(ENV, None)
         return None
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     path = Path(os.path.abspath(Path(choice) if choice else base / "dampfit" / "jax"))
@@ -165,17 +170,9 @@ def _compile_cache() -> Path | None:
     if problem is not None:
         _DEFERRED.append(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
                          "cache off")
+        os.environ.pop(ENV, None)
         return None
-    settings = {"JAX_COMPILATION_CACHE_DIR": str(path),
-                "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",  # many small kernels add up
-                "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "-1"}
-    os.environ.update(settings)
-    if "jax" in sys.modules:  # imported with the package: configure it directly as well
-        import jax
-
-        for key, value in settings.items():
-            jax.config.update(key.lower(), int(value) if key.endswith("_BYTES")
-                              else float(value) if key.endswith("_SECS") else value)
+    os.environ[ENV] = str(path)
     return path
 
 

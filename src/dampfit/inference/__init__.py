@@ -5,5 +5,6 @@
 * :mod:`~dampfit.inference.posterior` — emcee over θ, mass draws, arviz ``InferenceData``;
 * :mod:`~dampfit.inference.law_fit` / :mod:`~dampfit.inference.law_sampler` — fits, Laplace
   evidence and posterior draws of every damping law;
-* :mod:`~dampfit.inference.crlb` — the Cramér–Rao bound of a recording design.
+* :mod:`~dampfit.inference.crlb` — the Cramér–Rao bound of a recording design;
+* :mod:`~dampfit.inference.executables` — compiled kernels kept on disk between CLI runs.
 """

@@ -12,11 +12,17 @@ and later processes load it in a few milliseconds, with no tracing or lowering a
 
 When it is used
 ---------------
-Only where JAX's persistent cache is switched on (``jax_compilation_cache_dir`` set, as the
-CLI does after checking that the folder is private); the executables go to its sub-folder
-``dampfit-executables``. Otherwise a :class:`Kernel` is exactly ``jax.jit``. Any failure to
-read, write or load an entry (a foreign, truncated or stale file) falls back to compiling, and
-the entry is rewritten (atomically).
+Only where the environment variable :data:`ENV` names a folder (the CLI sets it after checking
+that the folder is private, :mod:`dampfit.cli`); otherwise a :class:`Kernel` is exactly
+``jax.jit``. Any failure to read, write or load an entry (a foreign, truncated or stale file)
+falls back to compiling, and the entry is rewritten (atomically).
+
+This store *replaces* JAX's own persistent compilation cache in CLI runs, it does not sit on
+top of it: an executable that JAX loaded from its cache serialises without the code of its
+fused functions (jaxlib 0.10 CPU; the copy fails with "Function …_fusion not found" when
+called). Every executable is therefore checked before it is stored — loaded back and called on
+the arguments it was compiled for, its outputs compared bit for bit — and stored only if it
+passes; under a user's own ``JAX_COMPILATION_CACHE_DIR`` a kernel may then simply not be stored.
 
 Keys
 ----
@@ -46,8 +52,8 @@ from typing import Any, Callable
 
 __all__ = ["Kernel", "kernel", "source_digest", "store_dir"]
 
-#: Sub-folder of JAX's persistent compilation cache that holds the executables.
-SUBDIR = "dampfit-executables"
+#: Environment variable naming the folder of stored executables (set by the CLI; unset: off).
+ENV = "DAMPFIT_EXECUTABLE_CACHE"
 
 
 @functools.lru_cache(maxsize=1)
@@ -65,13 +71,9 @@ def source_digest() -> str:
 
 
 def store_dir() -> Path | None:
-    """The executables' folder, or None when JAX's persistent cache is off."""
-    import jax
-
-    base = jax.config.jax_compilation_cache_dir
-    if not base:
-        return None
-    return Path(base) / SUBDIR
+    """The executables' folder (``$DAMPFIT_EXECUTABLE_CACHE``), or None when unset."""
+    base = os.environ.get(ENV)
+    return Path(base) if base else None
 
 
 @functools.lru_cache(maxsize=1)
@@ -147,10 +149,20 @@ class Kernel:
         signature = json.dumps([self._name, static, str(tree), avals,
                                 bool(jax.config.jax_enable_x64)])
         exe = self._memory.get(signature)
-        if exe is None:
-            exe = self._load_or_compile(folder, signature, args)
-            self._memory[signature] = exe
-        return exe(*dynamic)
+        if exe is not None:
+            return exe(*dynamic)
+        exe, loaded = self._load_or_compile(folder, signature, args)
+        if loaded:
+            try:  # the first call of a loaded executable: a bad one raises here, not later
+                out = exe(*dynamic)
+            except Exception:  # noqa: BLE001 - fall back to compiling, never to a crash
+                exe = self._jit.lower(*args).compile()
+                self.compiled += 1
+                out = exe(*dynamic)
+        else:
+            out = exe(*dynamic)
+        self._memory[signature] = exe
+        return out
 
     def _load_or_compile(self, folder: Path, signature: str, args):
         import jax
@@ -169,7 +181,7 @@ class Kernel:
                     exe = serialize_executable.deserialize_and_load(
                         payload, in_tree, _tree(meta["out"]))
                     self.loaded += 1
-                    return exe
+                    return exe, True
         except Exception:  # noqa: BLE001 - missing, foreign or stale entry: compile instead
             pass
         lowered = self._jit.lower(*args)
@@ -178,7 +190,8 @@ class Kernel:
         try:
             payload, _, out_tree = serialize_executable.serialize(compiled)
             skeleton = _skeleton(out_tree)
-            if skeleton is not None and _loadable(lowered.as_text()):
+            if (skeleton is not None and _loadable(lowered.as_text())
+                    and _reloads(payload, in_tree, out_tree, compiled, dynamic)):
                 meta = {"signature": signature, "environment": _environment(), "out": skeleton,
                         "payload_sha256": hashlib.sha256(payload).hexdigest()}
                 folder.mkdir(mode=0o700, parents=True, exist_ok=True)
@@ -186,7 +199,25 @@ class Kernel:
                 _atomic(stem.with_suffix(".json"), json.dumps(meta).encode())
         except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
             pass
-        return compiled
+        return compiled, False
+
+
+def _reloads(payload: bytes, in_tree, out_tree, compiled, dynamic) -> bool:
+    """The serialised executable loads and computes exactly what ``compiled`` computes on the
+    arguments ``dynamic`` (module docstring: a copy of a cache-loaded executable does not)."""
+    import jax
+    import numpy as np
+    from jax.experimental import serialize_executable
+
+    try:
+        _prepare_lapack()
+        copy = serialize_executable.deserialize_and_load(payload, in_tree, out_tree)
+        got = jax.tree_util.tree_leaves(copy(*dynamic))
+        want = jax.tree_util.tree_leaves(compiled(*dynamic))
+    except Exception:  # noqa: BLE001
+        return False
+    return len(got) == len(want) and all(
+        np.array_equal(np.asarray(a), np.asarray(b), equal_nan=True) for a, b in zip(got, want))
 
 
 #: Custom calls an executable may make and still be stored: jaxlib's LAPACK kernels, whose
