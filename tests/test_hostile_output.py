@@ -23,6 +23,7 @@ import pytest
 
 from dampfit import cli
 from dampfit import simulate as sim
+from dampfit.cli import staging as cli_staging
 from dampfit._files import MARKER
 
 from .hostile import assert_one_line_error, assert_unchanged, run, snapshot
@@ -469,12 +470,12 @@ def test_old_demo_folder_recognised_only_by_its_own_files(tmp_path):
     folder.mkdir()
     for name in ("paper-preset.csv", "paper-preset.truth.json", "summary.json", "fit.png"):
         (folder / name).write_text("x")
-    assert cli._old_demo_folder(folder)
+    assert cli_staging.old_demo_folder(folder)
     (folder / "thesis.tex").write_text("mine")
-    assert not cli._old_demo_folder(folder)
+    assert not cli_staging.old_demo_folder(folder)
     (folder / "thesis.tex").unlink()
     (folder / "sub").mkdir()
-    assert not cli._old_demo_folder(folder)
+    assert not cli_staging.old_demo_folder(folder)
 
 
 # ------------------------------------------------------------------------ compile cache

@@ -29,6 +29,7 @@ import pytest
 import dampfit
 from dampfit.output import document as _document
 from dampfit import cli
+from dampfit._files import DEMO_MARKER
 from dampfit.output import figures as plots
 from dampfit.output import text as render
 from dampfit.output import report
@@ -289,7 +290,7 @@ def test_data_strings_are_escaped(summary):
 def test_demo_folder_shows_truth_and_demo_command(summary, tmp_path):
     s = copy.deepcopy(summary)
     s["input"]["path"] = str(tmp_path / "paper-preset.csv")
-    (tmp_path / cli.DEMO_MARKER).write_text(json.dumps({"c": 0.2, "zeta": 0.00175, "f_n": 1.72,
+    (tmp_path / DEMO_MARKER).write_text(json.dumps({"c": 0.2, "zeta": 0.00175, "f_n": 1.72,
                                                         "p": 0.0189}))
     html, md = _render(s, tmp_path)
     assert "truth (simulated input)" in md and f"dampfit demo --seed {s['provenance']['seed']}" in md

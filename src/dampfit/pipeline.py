@@ -262,34 +262,38 @@ class Analysis:
 
 # --------------------------------------------------------------------- the job
 @dataclass(frozen=True)
-class ViscousStages:
-    """The stages of the viscous analysis of one prepared signal (:func:`viscous_stages`)."""
+class FitStages:
+    """The stages before the posterior of one prepared signal (:func:`fit_stages`)."""
 
     baselines: dict[str, Any]  # name → baselines.BaselineResult | None
     fit_data: preprocess.FitData
     least_squares: fit.LeastSquaresResult
     noise: noise.NoiseModel
-    sampling: posterior.PosteriorResult
     warnings: list[str]
-    posterior_seconds: float  # wall time [s] of the posterior stage
 
 
-def viscous_stages(prep: preprocess.Prepared, mass: float | None, mass_sd: float, *,
-                   seed: int = 0, progress: bool = False, max_steps: int = 20000,
-                   min_ess: float = 1000.0) -> ViscousStages:
-    """Baselines, least squares, noise calibration and the viscous posterior of one prepared
-    signal: the stages :func:`analyze` and the ``bayes`` estimator share (``mass`` [kg] and
-    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`). Refuses (one-line
-    :class:`~dampfit.errors.InputError`) a window with no free decay and a noise-free record."""
+@dataclass(frozen=True)
+class ViscousStages(FitStages):
+    """The stages of the viscous analysis of one prepared signal (:func:`viscous_stages`)."""
+
+    sampling: posterior.PosteriorResult = None
+    posterior_seconds: float = float("nan")  # wall time [s] of the posterior stage
+
+
+def fit_stages(prep: preprocess.Prepared, mass: float | None) -> FitStages:
+    """Baselines, least squares and noise calibration of one prepared signal: the stages
+    :func:`analyze`, the ``bayes`` estimator and each test of a campaign
+    (:mod:`dampfit.campaign`) share (``mass`` [kg] or None, for the baselines' c). Refuses
+    (one-line :class:`~dampfit.errors.InputError`) a window with no free decay and a
+    noise-free record."""
     warns: list[str] = []
-    m, sd = mass, mass_sd
     # baselines on the uniform grid inside the window (also the initial guess)
     sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
     base: dict[str, baselines.BaselineResult | None] = {}
     for name, fn in (("log_decrement", baselines.log_decrement),
                      ("envelope_pipeline", baselines.envelope_pipeline)):
         try:
-            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=m)
+            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=mass)
         except InputError as exc:
             base[name] = None
             warns.append(f"baseline {name} not computed: {exc}")
@@ -315,14 +319,26 @@ def viscous_stages(prep: preprocess.Prepared, mass: float | None, mass_sd: float
     # r floored at its white-noise value on this path: intervals only widen (dampfit.inference.noise)
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
                         white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
+    return FitStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, warnings=warns)
+
+
+def viscous_stages(prep: preprocess.Prepared, mass: float | None, mass_sd: float, *,
+                   seed: int = 0, progress: bool = False, max_steps: int = 20000,
+                   min_ess: float = 1000.0) -> ViscousStages:
+    """:func:`fit_stages` and the viscous posterior of one prepared signal: the stages
+    :func:`analyze` and the ``bayes`` estimator share (``mass`` [kg] and ``mass_sd`` [kg] as
+    checked by :func:`dampfit.physics.check_mass`)."""
+    st = fit_stages(prep, mass)
     started = time.monotonic()
     post = posterior.sample(
-        fd, ls, band=prep.band, temper=1.0 / nm.psd_ratio, mass=m, mass_sd=sd, seed=seed,
-        progress=progress, max_steps=max_steps, min_ess=min_ess,
+        st.fit_data, st.least_squares, band=prep.band, temper=1.0 / st.noise.psd_ratio,
+        mass=mass, mass_sd=mass_sd, seed=seed, progress=progress, max_steps=max_steps,
+        min_ess=min_ess,
     )
-    warns.extend(post.warnings)
-    return ViscousStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, sampling=post,
-                         warnings=warns, posterior_seconds=time.monotonic() - started)
+    return ViscousStages(baselines=st.baselines, fit_data=st.fit_data,
+                         least_squares=st.least_squares, noise=st.noise,
+                         warnings=st.warnings + list(post.warnings), sampling=post,
+                         posterior_seconds=time.monotonic() - started)
 
 
 def analyze(

@@ -290,9 +290,6 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
 
     from dampfit import pipeline
     from dampfit.campaign import model
-    from dampfit.estimators import baselines
-    from dampfit.inference import least_squares as fit
-    from dampfit.inference import noise
     from dampfit.signal import prepare as preprocess
 
     warns: list[str] = []
@@ -300,29 +297,9 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
     prep = preprocess.prepare(rec, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
     warns.extend(pipeline.unit_plausibility(rec, prep, mass))
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
-    base = {}
-    for name, fn in (("log_decrement", baselines.log_decrement),
-                     ("envelope_pipeline", baselines.envelope_pipeline)):
-        try:
-            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=mass)
-        except InputError:
-            base[name] = None
-    p0 = pipeline._initial_decay_rate(base)
-    fd = preprocess.fit_data(prep)
-    ls = fit.least_squares(fd, p0, prep.f0)
-    if ls.explained < pipeline.MIN_EXPLAINED:
-        raise InputError(
-            f"no free decay found: a damped oscillation explains only {100 * ls.explained:.0f} "
-            f"% of the signal in {prep.window[0]:.3g}–{prep.window[1]:.3g} s; check the file, "
-            "the axis or the window")
-    if ls.rss_drift > 0 and ls.rss < pipeline.NOISE_FREE_POWER * ls.rss_drift:
-        raise InputError("the recording is free of noise to numerical precision (a simulation "
-                         "without sensor noise?); a posterior needs measurement noise")
-    if not ls.converged:
-        warns.append(f"least squares did not converge ({ls.message})")
-    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
-                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
+    st = pipeline.fit_stages(prep, mass)
+    warns.extend(st.warnings)
+    fd, ls, nm = st.fit_data, st.least_squares, st.noise
     temper = 1.0 / nm.psd_ratio
     with jax.enable_x64(True):
         from dampfit.model.profile import Samples

@@ -44,22 +44,13 @@ import warnings
 from pathlib import Path
 from collections.abc import Sequence
 
-from dampfit._files import DEMO_MARKER as DEMO_MARKER
 from dampfit.cli import analyze as _analyze
 from dampfit.cli import export as _export
 from dampfit.cli import report as _report
 from dampfit.cli import simulate as _simulate
 from dampfit.cli import study as _study
 from dampfit.cli import verify as _verify
-from dampfit.cli.analyze import DEMO_MASS_SD as DEMO_MASS_SD
-from dampfit.cli.options import MAX_MASS as MAX_MASS
-from dampfit.cli.options import MAX_SIM_SAMPLES as MAX_SIM_SAMPLES
-from dampfit.cli.options import MAX_STEPS as MAX_STEPS
-from dampfit.cli.options import SEED_LIMIT as SEED_LIMIT
 from dampfit.cli.options import Parser as _Parser
-from dampfit.cli.options import float_arg as float_arg
-from dampfit.cli.options import seed_arg as seed_arg
-from dampfit.cli.staging import old_demo_folder as _old_demo_folder
 from dampfit.errors import DampfitError, InputError
 
 __all__ = ["main", "run", "get_parser"]

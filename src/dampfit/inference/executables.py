@@ -86,6 +86,14 @@ def _environment() -> str:
                        getattr(dev, "device_kind", ""), source_digest()])
 
 
+def _quick_aval(x) -> tuple:
+    """(type, shape, dtype, weak type) of an argument, without JAX's abstraction machinery."""
+    shape = getattr(x, "shape", None)
+    if shape is None:  # a Python scalar: weakly typed, its type decides the dtype
+        return (type(x),)
+    return (type(x), shape, str(x.dtype), bool(getattr(x, "weak_type", False)))
+
+
 def _skeleton(tree) -> Any:
     """A JSON form of an output structure made of tuples/lists and leaves (None if other)."""
     import jax
@@ -142,15 +150,17 @@ class Kernel:
         import jax
         from jax.api_util import shaped_abstractify
 
-        static = [repr(args[i]) for i in self._static]
+        static = tuple(args[i] for i in self._static)
         dynamic = tuple(a for i, a in enumerate(args) if i not in self._static)
         leaves, tree = jax.tree_util.tree_flatten(dynamic)
-        avals = [str(shaped_abstractify(x)) for x in leaves]
-        signature = json.dumps([self._name, static, str(tree), avals,
-                                bool(jax.config.jax_enable_x64)])
-        exe = self._memory.get(signature)
+        x64 = bool(jax.config.jax_enable_x64)
+        # the in-memory key: cheap to build on every call (a sampler calls thousands of times)
+        quick = (static, tree, x64, tuple(_quick_aval(x) for x in leaves))
+        exe = self._memory.get(quick)
         if exe is not None:
             return exe(*dynamic)
+        avals = [str(shaped_abstractify(x)) for x in leaves]
+        signature = json.dumps([self._name, [repr(a) for a in static], str(tree), avals, x64])
         exe, loaded = self._load_or_compile(folder, signature, args)
         if loaded:
             try:  # the first call of a loaded executable: a bad one raises here, not later
@@ -161,7 +171,7 @@ class Kernel:
                 out = exe(*dynamic)
         else:
             out = exe(*dynamic)
-        self._memory[signature] = exe
+        self._memory[quick] = exe
         return out
 
     def _load_or_compile(self, folder: Path, signature: str, args):

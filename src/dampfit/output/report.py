@@ -49,6 +49,7 @@ import shlex
 from pathlib import Path
 from typing import Any
 
+from dampfit import physics
 from dampfit.output.document import _MARK_HTML, _MARK_MD, Block, _png
 from dampfit.output.document import GENERATOR as GENERATOR
 from dampfit.output.document import PNG_MAGIC as PNG_MAGIC
@@ -68,8 +69,8 @@ __all__ = ["write_report", "load", "build", "render_html", "render_markdown", "G
 
 MAIN = ("c", "k", "u0", "zeta", "f_n")
 DERIVED = ("p", "f_d", "delta", "Q", "c_crit")
-UNITS = {"c": "N s/m", "k": "N/m", "u0": "m", "zeta": "1", "f_n": "Hz", "p": "1/s",
-         "f_d": "Hz", "delta": "1", "Q": "1", "c_crit": "N s/m", "mass": "kg"}
+#: Units of the reported quantities: :data:`dampfit.physics.UNITS`, the one table.
+UNITS = physics.UNITS
 NAMES = {"c": "c, damping coefficient", "k": "k, stiffness", "u0": "u₀, initial amplitude",
          "zeta": "ζ, damping ratio", "f_n": "f_n, natural frequency", "p": "p = c/(2m), decay rate",
          "f_d": "f_d, damped frequency", "delta": "δ, logarithmic decrement",
@@ -518,7 +519,8 @@ def _baseline_note(b: dict) -> str:
 def _methods(s: dict, directory: Path) -> list[Block]:
     """c, ζ, f_n, p per method: posterior, least squares, each baseline (and a demo's truth)."""
     params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
-    head = ["method", "c [N s/m]", "ζ [1]", "f_n [Hz]", "p [1/s]", "note"]
+    head = (["method"] + [f"{sym} [{UNITS[n]}]" for sym, n in
+                          (("c", "c"), ("ζ", "zeta"), ("f_n", "f_n"), ("p", "p"))] + ["note"])
     rows = [["posterior median"] + [_median(params[n]) if isinstance(params.get(n), dict) else "—"
                                     for n in ("c", "zeta", "f_n", "p")]
             + ["90 % intervals in the table above"]]
@@ -839,7 +841,7 @@ def _c_equivalent(s: dict) -> list[Block]:
     if not isinstance(ce, dict):
         return []
     items = []
-    for k, unit in (("c", "N s/m"), ("zeta", "1")):
+    for k, unit in (("c", UNITS["c"]), ("zeta", UNITS["zeta"])):
         if isinstance(ce.get(k), dict):
             items.append(f"{'c_eq' if k == 'c' else 'ζ_eq'} = "
                          f"{_with_interval(ce[k], ce[k].get('unit') or unit)}")
