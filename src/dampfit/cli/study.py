@@ -1,5 +1,5 @@
-"""``dampfit study CONFIG.toml``: a resumable simulation study comparing damping estimators
-(:func:`dampfit.study.run_study`)."""
+"""``dampfit study CONFIG.toml``: a resumable simulation study comparing damping estimators,
+or calibrating the joint analysis of test campaigns (:func:`dampfit.study.run_study`)."""
 
 from __future__ import annotations
 
@@ -32,7 +32,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "recording and compare them with the truth and the Cramér–Rao bound. Runs execute on "
         "Dask (local worker processes, or an existing cluster with --scheduler; workers need the "
         "same dampfit installed) and are stored as they finish: rerunning the same command "
-        "resumes an interrupted study. See examples/study_ranking.toml.")
+        "resumes an interrupted study. With a [campaign] table each run simulates a campaign "
+        "of several recordings of one damper and analyses it jointly; the tables then give "
+        "the coverage of its intervals. See examples/study_ranking.toml and "
+        "examples/study_campaign.toml.")
     parser.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
     parser.add_argument("--out", metavar="DIR",
                         help="study folder (default: CONFIG's name + '.study'); reused to resume")
@@ -44,7 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true",
                         help="discard stored runs in DIR (even of another configuration) and restart")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or status lines")
-    parser.add_argument("--no-figures", action="store_true", help="skip ranking.png and coverage.png")
+    parser.add_argument("--no-figures", action="store_true",
+                        help="skip ranking.png and coverage.png (a campaign study: coverage.png)")
 
 
 def command(args) -> int:

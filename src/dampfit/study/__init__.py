@@ -8,6 +8,10 @@ are stored as they finish (:mod:`dampfit.study.store`) so an interrupted study r
 end in tidy tables, a ranking and figures (:mod:`dampfit.study.tables`,
 :mod:`dampfit.study.figures`). The command line is :mod:`dampfit.cli.study`.
 
+A study with a ``[campaign]`` table simulates test campaigns (several recordings of one damper)
+instead and analyses each jointly (:func:`dampfit.campaign.analyze_campaign`); its tables give
+the coverage of the analysis' intervals (:mod:`dampfit.study.campaign`).
+
 Python use::
 
     from dampfit.study import load, run_study

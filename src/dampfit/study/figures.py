@@ -1,4 +1,5 @@
-"""Study figures: RMSE/CRLB and interval coverage per estimator (matplotlib, imported lazily)."""
+"""Study figures: RMSE/CRLB and interval coverage per estimator; for a campaign study the
+coverage of each check of the joint analysis (matplotlib, imported lazily)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import pandas as pd
 
 from dampfit._files import atomic_write
 
-__all__ = ["save_figures"]
+__all__ = ["save_campaign_figures", "save_figures"]
 
 
 def _save(fig, path: Path) -> None:
@@ -99,3 +100,49 @@ def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, 
     plt.close(fig)
     paths.append(out / "coverage.png")
     return paths
+
+
+def save_campaign_figures(agg: pd.DataFrame, out: str | os.PathLike, title: str) -> list[Path]:
+    """Write ``coverage.png`` of a campaign study into ``out``: per check (x) and scenario
+    (colour) the fraction of 90 % intervals holding the truth, with its 95 % Wilson interval
+    (:func:`dampfit.study.tables.campaign_aggregate`'s ``cover_*``/``n_cover_*``). A campaign
+    study has no bound, so there is no ranking.png."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    out = Path(out)
+    checks = [c for c in agg.columns if c.startswith(("cover_", "zero_spread_ok"))
+              and f"n_{c}" in agg and (agg[f"n_{c}"] > 0).any()]
+    names = [c.removeprefix("cover_") for c in checks]
+    labels = list(dict.fromkeys(agg["label"])) if len(agg) else []
+    fig, ax = plt.subplots(figsize=(7.5, 4.5), layout="constrained")
+    width = 0.5
+    for j, lab in enumerate(labels):
+        row = agg[agg["label"] == lab].iloc[0]
+        n = np.array([float(row[f"n_{c}"]) for c in checks])
+        y = np.array([float(row[c]) for c in checks])
+        keep = n > 0
+        x = np.arange(len(checks), dtype=float) + (j - (len(labels) - 1) / 2) * width / len(labels)
+        lo, hi = _wilson(np.round(y * n), n)
+        ax.errorbar(x[keep], y[keep], yerr=[(y - lo)[keep], (hi - y)[keep]], fmt="o",
+                    color=f"C{j % 10}", label=lab, ms=6, alpha=0.85, capsize=3)
+    ax.set_xticks(range(len(names)), names, rotation=25, ha="right")
+    ax.set_xlim(-0.6, max(len(names), 1) - 0.4)
+    if not checks:
+        ax.text(0.5, 0.5, "no campaign was analysed", ha="center", va="center",
+                transform=ax.transAxes, color="0.3")
+    if "zero_spread_ok" in checks:
+        ax.text(0.01, 0.01, "zero_spread_ok: zero spread called consistent with zero (ideal 1)",
+                fontsize=8, va="bottom", ha="left", transform=ax.transAxes, color="0.3")
+    ax.axhline(0.9, color="k", lw=1, ls="--")
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_ylabel("fraction of 90 % intervals holding the truth [1]")
+    ax.set_title(f"{title}: campaign coverage (bars: 95 % Wilson interval)", fontsize=10,
+                 parse_math=False)  # a '$' in the name is text
+    ax.grid(True, axis="y", alpha=0.3)
+    _legend(ax)
+    _save(fig, out / "coverage.png")
+    plt.close(fig)
+    return [out / "coverage.png"]

@@ -168,7 +168,8 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
         result = write_outputs(cfg, records, store.root, figures=figures, version=__version__)
     finally:
         store.close()
-    print(tables.text(result["ranking"]), file=stdout, end="")
+    head = tables.coverage_view(result["ranking"]) if cfg.is_campaign else result["ranking"]
+    print(tables.text(head), file=stdout, end="")
     print(f"\n  {len(records)} runs ({len(todo)} new); tables, summary.md"
           f"{' and figures' if figures else ''} in {store.root}/", file=stdout)
     return {**result, "n_new": len(todo), "n_stored": len(done)}
@@ -177,10 +178,16 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
 def write_outputs(cfg: StudyConfig, records: list[dict], out: Path, *, figures: bool,
                   version: str) -> dict[str, Any]:
     """Write runs.csv (+ runs.parquet if pyarrow is present), aggregate.csv, ranking.csv,
-    summary.md and the figures into ``out``; return the three tables."""
+    summary.md and the figures into ``out``; return the three tables. For a campaign study
+    aggregate.csv holds the coverage per scenario and ranking.csv pooled over all scenarios
+    (:func:`dampfit.study.tables.campaign_aggregate`); its one figure is coverage.png."""
     runs = tables.runs_frame(cfg, records)
-    agg = tables.aggregate(runs, cfg.target, keys=cfg.varying)
-    rank = tables.ranking(agg)
+    if cfg.is_campaign:
+        agg = tables.campaign_aggregate(runs, cfg.target, keys=cfg.varying)
+        rank = tables.campaign_aggregate(runs, cfg.target, pooled=True)
+    else:
+        agg = tables.aggregate(runs, cfg.target, keys=cfg.varying)
+        rank = tables.ranking(agg)
     atomic_write_text(out / "runs.csv", runs.to_csv(index=False))
     if importlib.util.find_spec("pyarrow") is None:
         (out / "runs.parquet").unlink(missing_ok=True)
@@ -188,8 +195,14 @@ def write_outputs(cfg: StudyConfig, records: list[dict], out: Path, *, figures: 
         _atomic_parquet(runs, out / "runs.parquet")
     atomic_write_text(out / "aggregate.csv", agg.to_csv(index=False))
     atomic_write_text(out / "ranking.csv", rank.to_csv(index=False))
-    atomic_write_text(out / "summary.md", _summary_md(cfg, runs, agg, rank, version, figures))
-    if figures:
+    summary = (_campaign_summary_md if cfg.is_campaign else _summary_md)(cfg, runs, agg, rank,
+                                                                          version, figures)
+    atomic_write_text(out / "summary.md", summary)
+    if figures and cfg.is_campaign:
+        from dampfit.study.figures import save_campaign_figures
+
+        save_campaign_figures(agg, out, cfg.name)
+    elif figures:
         from dampfit.study.figures import save_figures
 
         save_figures(agg, rank, out, cfg.name)
@@ -239,7 +252,52 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
     ]
     if figures:
         parts.append("![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n")
+    parts += _configuration_md(cfg)
+    return "\n".join(parts)
+
+
+def _configuration_md(cfg: StudyConfig) -> list[str]:
     # a fence longer than any backtick run of the file, so its text cannot end the code block
     fence = "`" * max(3, 1 + max((len(r) for r in re.findall(r"`+", cfg.source)), default=0))
-    parts += ["## Configuration\n", f"{fence}toml\n" + cfg.source.rstrip() + f"\n{fence}\n"]
+    return ["## Configuration\n", f"{fence}toml\n" + cfg.source.rstrip() + f"\n{fence}\n"]
+
+
+def _campaign_summary_md(cfg: StudyConfig, runs, agg, pooled, version: str, figures: bool) -> str:
+    q = cfg.target
+    if cfg.added_mass_design:
+        design = (f"added-mass design: the analysis gets the added masses and estimates the "
+                  f"simulated bare mass m0 = {cfg.sim_mass:g} kg")
+    elif cfg.mass is not None:
+        design = f"known-mass design: the analysis gets m = {cfg.mass:g} kg"
+    else:
+        design = "no mass is given, so the analysis reports ζ (not c)"
+    parts = [
+        f"# Campaign study: {tables.md_escape(cfg.name)}\n",
+        (f"dampfit {version}; {len(cfg.scenarios())} scenario(s) × {cfg.replicates} simulated "
+         f"campaign(s), {len(runs)} runs; study seed {cfg.seed}; {design}. Each campaign is "
+         "analysed jointly (`dampfit.campaign.analyze_campaign`); population median compared: "
+         f"**{q}** [{_UNITS[q]}].\n"),
+        "## Coverage, all scenarios\n",
+        ("Each cell: runs whose 90 % interval holds the truth / runs where the check is defined "
+         "(fraction); a calibrated analysis covers about 0.9 (binomial sd √(0.09/n)). "
+         "`zero_spread_ok`: campaigns simulated without spread whose spread the analysis calls "
+         "consistent with zero (should be near 1). Refused campaigns (an overdamped draw, a "
+         "design the analysis refuses) are results, counted apart; runs that did not converge "
+         "are counted in the coverage and in `not_converged`.\n"),
+        tables.markdown(tables.coverage_view(pooled)),
+        "## Per scenario\n",
+        tables.markdown(tables.coverage_view(agg)),
+        "## Definitions\n",
+        ("c, k: the population damper (median c of the log-normal population of tests, the "
+         "fixed k); m0: the effective mass (added-mass design); zeta: the bare system's ζ; "
+         "predictive_c (predictive_zeta): the predictive interval of a new test against one "
+         "new test drawn from the true population; spread: the interval of τ_p, the between-"
+         "test sd of ln p, against the simulated c_spread (only when it is > 0). rel_bias: "
+         f"mean(median − truth)/truth of {q} over the analysed runs. Full numbers: "
+         "aggregate.csv (per scenario), ranking.csv (pooled), runs.csv (one row per "
+         "campaign).\n"),
+    ]
+    if figures:
+        parts.append("![coverage](coverage.png)\n")
+    parts += _configuration_md(cfg)
     return "\n".join(parts)

@@ -11,6 +11,17 @@ holds θ, and the median runtime [s]. Failed runs (``ok`` false or no estimate) 
 in ``n_failed`` and left out of the error statistics. The ranking pools the scenarios per
 estimator: geometric mean and worst RMSE/CRLB, median relative bias, pooled coverage,
 failure fraction and median runtime, sorted by the geometric mean.
+
+A campaign study (:mod:`dampfit.study.campaign`) has no bound and one "estimator", the joint
+analysis: :func:`campaign_aggregate` gives per scenario (and pooled over all of them, in the
+place of the ranking) the number of runs ``n``, refused (``n_refused``), crashed
+(``n_failed``) and not converged (``n_not_converged``) runs, the bias, relative bias and
+RMSE of the population median of the target over the analysed runs, and for each check of
+:data:`dampfit.study.campaign.CHECKS` the fraction ``cover_<check>`` of the analysed runs
+where it is defined whose 90 % interval holds the truth, with that number of runs
+``n_cover_<check>`` (so covered = fraction × n), and the same for ``zero_spread_ok`` (zero
+true spread recognised). Runs that did not converge are counted in the coverages (and in
+``n_not_converged``). :func:`coverage_view` shows them as "covered/n (fraction)".
 """
 
 from __future__ import annotations
@@ -25,7 +36,8 @@ import pandas as pd
 
 from dampfit.study.config import StudyConfig
 
-__all__ = ["aggregate", "markdown", "ranking", "runs_frame", "scenario_labels"]
+__all__ = ["aggregate", "campaign_aggregate", "coverage_view", "markdown", "ranking", "runs_frame",
+           "scenario_labels"]
 
 
 def scenario_labels(cfg: StudyConfig) -> dict[str, str]:
@@ -68,8 +80,8 @@ def runs_frame(cfg: StudyConfig, records: list[dict[str, Any]]) -> pd.DataFrame:
                          "e": df["estimator"].map(lambda e: est_order.get(e, len(est_order)))})
     df = df.loc[keys.sort_values(["s", "r", "e"], kind="stable").index].reset_index(drop=True)
     for col in df.columns:  # None → NaN in numeric columns; booleans with gaps stay objects
-        if col.startswith(("est_", "true_", "crlb_", "err_")) or col.endswith(("_lo", "_hi")) \
-                or col == "runtime_s":
+        if col.startswith(("est_", "true_", "crlb_", "err_", "spread_q")) \
+                or col.endswith(("_lo", "_hi")) or col == "runtime_s":
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
     return df
 
@@ -145,6 +157,86 @@ def ranking(agg: pd.DataFrame) -> pd.DataFrame:
     out = out.sort_values("rmse_crlb_gmean", na_position="last", kind="stable").reset_index(drop=True)
     out.insert(0, "rank", np.arange(1, len(out) + 1))
     return out
+
+
+# -- campaign studies ----------------------------------------------------------------------
+
+def _campaign_checks() -> list[tuple[str, str]]:
+    """(run flag, table column) of each campaign check: ``covers_<c>`` → ``cover_<c>``, and
+    ``spread_zero_ok`` → ``zero_spread_ok``."""
+    from dampfit.study.campaign import CHECKS
+
+    return [(f"covers_{c}", f"cover_{c}") for c in CHECKS] + [("spread_zero_ok", "zero_spread_ok")]
+
+
+def _flag_fraction(g: pd.DataFrame, col: str) -> tuple[float, int]:
+    """(fraction true, number defined) of a column of flags with gaps."""
+    if col not in g:
+        return math.nan, 0
+    x = g[col].dropna().astype(bool)
+    return (float(x.mean()) if len(x) else math.nan), len(x)
+
+
+def _campaign_stats(g: pd.DataFrame, q: str) -> dict[str, Any]:
+    ok = g["ok"].astype(bool)
+    refused = g["refused"].fillna("").astype(str).ne("")
+    ran = g.loc[ok]
+    conv = ran["converged"].fillna(False).astype(bool)
+    err = ran[f"err_{q}"].astype(float).dropna()
+    true = float(g[f"true_{q}"].astype(float).mean())
+    bias = float(err.mean()) if len(err) else math.nan
+    runtime = g["runtime_s"].astype(float).dropna()
+    out: dict[str, Any] = {
+        "n": len(g),
+        "n_refused": int(refused.sum()),
+        "n_failed": int((~ok & ~refused).sum()),
+        "n_not_converged": int((~conv).sum()),
+        "true": true,
+        "bias": bias,
+        "rel_bias": bias / true if true else math.nan,
+        "rmse": math.sqrt(float((err**2).mean())) if len(err) else math.nan,
+    }
+    for flag, col in _campaign_checks():
+        out[col], out[f"n_{col}"] = _flag_fraction(ran, flag)
+    out["median_runtime_s"] = float(runtime.median()) if len(runtime) else math.nan
+    return out
+
+
+def campaign_aggregate(runs: pd.DataFrame, target: str, keys: list[str] | None = None, *,
+                       pooled: bool = False) -> pd.DataFrame:
+    """Coverage table of a campaign study (module docstring): per scenario (``keys``: extra
+    per-scenario columns to carry along), or with ``pooled`` one row over all scenarios
+    (label "all"). Columns: ``scenario``, ``label``, keys…, ``estimator``, ``quantity``,
+    ``n``, ``n_refused``, ``n_failed``, ``n_not_converged``, ``true``, ``bias``,
+    ``rel_bias``, ``rmse``, ``cover_<check>`` and ``n_cover_<check>`` for each check,
+    ``zero_spread_ok``, ``n_zero_spread_ok``, ``median_runtime_s``."""
+    if pooled:
+        runs = runs.assign(scenario="all", label="all")
+        keys = []
+    keys = [k for k in (keys or []) if k in runs.columns and k not in ("scenario", "label")]
+    group = ["scenario", "label", *keys, "estimator"]
+    parts = [{**dict(zip(group, name)), "quantity": target, **_campaign_stats(g, target)}
+             for name, g in runs.groupby(group, sort=False, dropna=False)]
+    out = pd.DataFrame(parts)
+    for col in out.columns:
+        if col == "n" or col.startswith("n_"):
+            out[col] = out[col].astype(int)
+    return out
+
+
+def coverage_view(agg: pd.DataFrame) -> pd.DataFrame:
+    """A campaign aggregate for reading: label, runs, refused/failed/not converged, bias of
+    the target's median, and "covered/n (fraction)" for each check any run defines."""
+    cols = ["label", "n", "n_refused", "n_failed", "n_not_converged", "rel_bias"]
+    view = agg[[c for c in cols if c in agg.columns]].copy()
+    for _, col in _campaign_checks():
+        if col not in agg or not (agg[f"n_{col}"] > 0).any():
+            continue
+        view[col.removeprefix("cover_")] = [
+            f"{round(f * n)}/{n} ({f:.2f})" if n else "–"
+            for f, n in zip(agg[col].astype(float), agg[f"n_{col}"].astype(int))]
+    return view.rename(columns={"n_refused": "refused", "n_failed": "failed",
+                                "n_not_converged": "not_converged"})
 
 
 def _fmt(v: Any) -> str:

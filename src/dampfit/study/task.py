@@ -1,5 +1,8 @@
 r"""One study run, executed on a Dask worker: simulate, estimate, bound. Pure: no file output.
 
+(A campaign study's run simulates a campaign and analyses it jointly instead:
+:func:`run_campaign_task`, scored by :mod:`dampfit.study.campaign`.)
+
 :func:`run_task` simulates one recording of a scenario, runs every estimator of the task on
 that same recording (:func:`dampfit.estimators.registry.run`, which never raises for a numerical
 failure) and computes the Cramér–Rao lower bound of the design (:func:`dampfit.inference.crlb.bound`).
@@ -32,7 +35,7 @@ import numpy as np
 
 from dampfit.study.config import Task, sim_config
 
-__all__ = ["QUANTITIES", "crlb_design", "run_task", "worker_info"]
+__all__ = ["QUANTITIES", "crlb_design", "run_campaign_task", "run_task", "worker_info"]
 
 #: Quantities compared with the truth, with the bound's key for each.
 QUANTITIES = ("p", "f_n", "zeta", "c")
@@ -139,7 +142,10 @@ def run_task(task: Task) -> dict[str, Any]:
     truth) for p [1/s], f_n [Hz], ζ [1] and c [N·s/m], the 90 % intervals ``c_lo``…``zeta_hi``
     with ``covers_c``/``covers_zeta``, ``runtime_s``, ``ok`` and ``message``. A simulation or
     recording the estimators cannot use becomes rows with ``ok = False`` (data, not an error).
+    A campaign study's task goes to :func:`run_campaign_task`.
     """
+    if task.campaign is not None:
+        return run_campaign_task(task)
     from dampfit.estimators import registry as estimators
     from dampfit import simulate as sim
 
@@ -158,5 +164,51 @@ def run_task(task: Task) -> dict[str, Any]:
         record["rows"] = [_row(e, truth, sd, task.mass_known) for e in results]
     except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
         record["rows"] = _failed_rows(task, truth, f"run failed: {type(exc).__name__}: {exc}")
+    record["elapsed"] = time.time() - started
+    return record
+
+
+def _header(task: Task, started: float) -> dict[str, Any]:
+    return {"scenario": task.scenario, "replicate": task.replicate, "seed": task.seed,
+            "pid": os.getpid(), "host": socket.gethostname(), "started": started,
+            "crlb_note": ""}
+
+
+def run_campaign_task(task: Task) -> dict[str, Any]:
+    """Simulate ``task``'s campaign, analyse it jointly, score it; return a JSON-safe record.
+
+    The record has the keys of :func:`run_task` (``crlb_note`` is "no bound for a campaign"),
+    with one row, estimator ``campaign``: the truth (``true_c`` [N·s/m], ``true_k`` [N/m],
+    ``true_m0`` [kg], ``true_zeta`` [1], ``true_spread`` [1], the new test's ``true_new_c``),
+    the population medians ``est_*`` with their 90 % intervals ``*_lo``/``*_hi``, the
+    coverage flags ``covers_*``, the spread ``spread_q05``…``spread_q95``,
+    ``spread_zero_consistent`` and ``spread_zero_ok``, the diagnostics (``converged``,
+    ``n_steps``, ``max_r_hat``, ``min_ess_bulk``), ``verdict``, ``runtime_s`` [s], ``ok``,
+    ``refused`` (the refusal of the simulator or the analysis: a result, not a crash) and
+    ``message`` (:mod:`dampfit.study.campaign`). The recordings use the run's seed, the
+    sampler and the new test's draw a separate stream of it
+    (:func:`dampfit.study.campaign.streams`): the same task gives the same record.
+    """
+    from dampfit.study import campaign
+
+    started = time.time()
+    record = _header(task, started)
+    record["crlb_note"] = "no bound for a campaign"
+    settings = task.campaign or {}
+    n, spread, dm, u0 = campaign.per_test(task.params, task.mass)
+    analysis_seed, z_new = campaign.streams(task.seed)
+    base = sim_config(task.params, task.mass, seed=0)  # validated with the configuration
+    try:
+        row = campaign.run(base, n_tests=n, c_spread=spread, added_mass=dm, amplitudes=u0,
+                           mass_known=task.mass_known, mass_sd=settings.get("mass_sd", 0.0),
+                           added_mass_sd=settings.get("added_mass_sd", 0.0), sim_seed=task.seed,
+                           analysis_seed=analysis_seed, z_new=z_new,
+                           max_steps=settings.get("max_steps", 20000),
+                           min_ess=settings.get("min_ess", 1000.0))
+    except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
+        true = campaign.truth(base, task.mass_known, dm is not None)
+        row = {**campaign.empty_row(n, dm is not None, true, spread, z_new),
+               "message": f"run failed: {type(exc).__name__}: {exc}"}
+    record["rows"] = [row]
     record["elapsed"] = time.time() - started
     return record
