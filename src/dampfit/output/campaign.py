@@ -169,6 +169,10 @@ def text(s: dict[str, Any]) -> str:
         if _q(spread.get(key)) is not None:
             lines.append(f"  {words[key]:17s} {_iv(spread[key]):>34s}   (between-test sd of ln "
                          f"{'p' if key == 'p' else 'ω_n'}, relative)")
+    shared = spread.get("omega", {}).get("p_zero") if isinstance(spread.get("omega"), dict) else None
+    if _real(shared):
+        lines.append(f"  {'one frequency law':17s} {'P = ' + format(shared, '.3g'):>34s}   "
+                     "(τ_ω = 0 against scatter, Bayes factor)")
     if zero is not None:
         lines.append("  between-test spread " + ("consistent with zero: the tests agree within "
                                                  "their own uncertainty" if zero else
@@ -220,10 +224,9 @@ def text(s: dict[str, Any]) -> str:
 
 
 # ----------------------------------------------------------------------------- figures
-def _new_figure(width: float, height: float) -> "Figure":
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(width, height), layout="constrained")
+# Fixed layouts with the layout helpers of the analysis figures (:mod:`dampfit.output.figures`,
+# imported as ``L``): margins [in] from the measured tick labels, titles and legend, no layout
+# engine.
 
 
 def forest_figure(s: dict[str, Any]) -> "Figure | None":
@@ -236,7 +239,9 @@ def forest_figure(s: dict[str, Any]) -> "Figure | None":
     what = _shown_quantity(s)
     sym = {"c": "c", "zeta": "ζ"}[what]
     unit = _UNITS[what].replace(" ", "·")
-    fig = _new_figure(8.0, 1.8 + 0.45 * len(tests))
+    from dampfit.output import figures as L
+
+    fig = L._new_figure(8.0, 1.8 + 0.45 * len(tests))
     ax = fig.add_subplot()
     pred = _q(_get(s, "population", "predictive", what))
     pop = _q(_get(s, "parameters", what))
@@ -265,9 +270,13 @@ def forest_figure(s: dict[str, Any]) -> "Figure | None":
     ax.set_yticks(range(len(tests) - 1, -1, -1), ticks, fontsize=8)
     ax.set_ylim(-0.8, len(tests) - 0.2)
     ax.set_xlabel(f"{sym} [{unit}]" if unit != "1" else sym)
-    ax.set_title(f"{sym} of each test, population and predictive interval", fontsize=10)
+    L._title(ax, f"{sym} of each test, population and predictive interval")
     ax.grid(axis="x", alpha=0.3)
-    fig.legend(fontsize=7, loc="outside lower center", ncols=4)
+    leg = fig.legend(fontsize=7, loc="lower center", ncols=4)  # below the axes
+    rows = -(-len(leg.texts) // 4)
+    legend = rows * L._line(7) + (0.5 * (rows - 1) + 1.3) * 7 * L._PT if rows else 0.0
+    L._place(L._gridspec(ax), left=L._EDGE + L._TICK + max(L._text_width(t, 8) for t in ticks),
+             right=0.25, top=L._EDGE + L._above(ax), bottom=L._x_room() + legend)
     return fig
 
 
@@ -281,7 +290,9 @@ def added_mass_figure(s: dict[str, Any]) -> "Figure | None":
            and _real(p.get("added_mass_kg")) and _real(p.get("omega_n2")) and p["omega_n2"] > 0]
     if not pts:
         return None
-    fig = _new_figure(6.0, 4.2)
+    from dampfit.output import figures as L
+
+    fig = L._new_figure(6.0, 4.2)
     ax = fig.add_subplot()
     x = [p["added_mass_kg"] for p in pts]
     y = [1.0 / p["omega_n2"] for p in pts]
@@ -304,9 +315,11 @@ def added_mass_figure(s: dict[str, Any]) -> "Figure | None":
     ax.axhline(0.0, color="grey", lw=0.6)
     ax.set_xlabel("added mass Δm [kg]")
     ax.set_ylabel("1/ω_n² [s²]")
-    ax.set_title("Added-mass method", fontsize=10)
+    L._title(ax, "Added-mass method")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
+    L._place(L._gridspec(ax), left=L._y_room([ax]), right=0.25, top=L._EDGE + L._above(ax),
+             bottom=L._x_room())
     return fig
 
 
