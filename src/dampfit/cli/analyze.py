@@ -152,8 +152,14 @@ def _read_options(args) -> dict:
 
 def command(args) -> int:
     """``dampfit analyze FILE …``: read, analyse, write the result folder; exit code 0."""
+    import gc
+
     from dampfit.pipeline import analyze
     from dampfit.io.readers import read
+
+    # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects that
+    # every full garbage collection would walk again: move them out of its reach
+    gc.freeze()
 
     files = [args.file, *(getattr(args, "more_files", None) or [])]
     _check_analysis_options(args)
@@ -173,6 +179,7 @@ def command(args) -> int:
                      band=tuple(args.band) if args.band else None, seed=args.seed,
                      progress=not args.quiet and sys.stderr.isatty(), max_steps=args.max_steps,
                      model=args.model, amplitude=args.amplitude)
+        gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
         write_outputs(an, folder, not args.no_figures)
         folder.publish()
         if args.report:
