@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from dampfit.errors import InputError
+from dampfit.study.task import _finite
 
 __all__ = ["CHECKS", "added_masses", "check_scenario", "empty_row", "per_test", "run",
            "score", "streams", "truth"]
@@ -102,14 +103,6 @@ def streams(seed: int) -> tuple[int, float]:
     analysis_seed = int(ss.generate_state(1, dtype=np.uint32)[0])
     z_new = float(np.random.default_rng(ss.spawn(1)[0]).standard_normal())
     return analysis_seed, z_new
-
-
-def _finite(x) -> float | None:
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
 
 
 def _inside(entry: dict | None, x: float | None) -> bool | None:
