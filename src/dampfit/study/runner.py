@@ -46,11 +46,20 @@ def _client(workers: int, scheduler: str | None):
     from distributed import Client, LocalCluster
 
     if scheduler:
+        from distributed.comm.addressing import parse_address
+        from distributed.comm.registry import get_backend
+
+        try:  # a malformed address is refused before a Client exists (a failed Client lingers
+            # and blocks the interpreter's exit for 30 s trying to close itself)
+            get_backend(parse_address(scheduler)[0])
+        except ValueError as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
+                             "with 'dask scheduler' or drop --scheduler") from None
         try:
-            client = Client(scheduler, timeout="15s")
+            # not the process-wide default: a failed Client would otherwise stay dask's global
+            # scheduler, and every later dask use in this process (xarray writing NetCDF) fails
+            client = Client(scheduler, timeout="15s", set_as_default=False)
         except (OSError, TimeoutError, ValueError) as exc:
-            # a failed Client has already made itself dask's global scheduler: undo that, or
-            # every later dask computation in this process (xarray/arviz loads) tries to reach it
             dask.config.config.pop("scheduler", None)
             dask.config.config.pop("shuffle", None)
             raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
@@ -59,7 +68,7 @@ def _client(workers: int, scheduler: str | None):
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
+        client = Client(cluster, set_as_default=False)
     try:
         yield client
     finally:
