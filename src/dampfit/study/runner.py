@@ -56,10 +56,10 @@ def _client(workers: int, scheduler: str | None):
             raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
                              "with 'dask scheduler' or drop --scheduler") from None
         try:
-            # not the process-wide default: a failed Client would otherwise stay dask's global
-            # scheduler, and every later dask use in this process (xarray writing NetCDF) fails
-            client = Client(scheduler, timeout="15s", set_as_default=False)
+            client = Client(scheduler, timeout="15s")
         except (OSError, TimeoutError, ValueError) as exc:
+            # a failed Client has already made itself dask's global scheduler: undo that, or
+            # every later dask computation in this process (xarray/arviz loads) tries to reach it
             dask.config.config.pop("scheduler", None)
             dask.config.config.pop("shuffle", None)
             raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
@@ -68,7 +68,7 @@ def _client(workers: int, scheduler: str | None):
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster, set_as_default=False)
+        client = Client(cluster)
     try:
         yield client
     finally:
