@@ -54,9 +54,8 @@ RUN_CMD = [sys.executable, "-c", "import sys; from dampfit.cli import main; sys.
 TIMING = ["runtime_s"]
 
 
-def base(**over) -> dict:
-    d = {"study": {"replicates": 2, "estimators": ["hilbert"], "mass": 1.0},
-         "grid": {"zeta": [0.01]}, "fixed": {"f_n": 2.0, "duration": 10.0}}
+def with_overrides(d: dict, over: dict) -> dict:
+    """``d`` (a study table) with ``table__key=value`` overrides; ``_DELETE`` removes a key."""
     for dotted, value in over.items():
         table, key = dotted.split("__")
         if value is _DELETE:
@@ -64,6 +63,12 @@ def base(**over) -> dict:
         else:
             d.setdefault(table, {})[key] = value
     return d
+
+
+def base(**over) -> dict:
+    return with_overrides({"study": {"replicates": 2, "estimators": ["hilbert"], "mass": 1.0},
+                           "grid": {"zeta": [0.01]}, "fixed": {"f_n": 2.0, "duration": 10.0}},
+                          over)
 
 
 _DELETE = object()

@@ -19,7 +19,7 @@ from dampfit.study import config as sconfig
 from dampfit.study import tables
 from dampfit.study.runner import write_outputs
 from dampfit.study.task import run_task
-from tests.test_study import AVAILABLE, one_error_line
+from tests.test_study import _DELETE, AVAILABLE, one_error_line, with_overrides
 
 # 2 scenarios × 2 replicates of 2-test campaigns, 10 s at 50 Hz, a short sampler: fast, not
 # converged (the tables count that), but every number is the analysis' own.
@@ -49,20 +49,11 @@ noise_density = 300
 
 def cbase(**over) -> dict:
     """A valid campaign study table; ``table__key=value`` overrides, ``_DELETE`` removes."""
-    d = {"study": {"replicates": 2, "mass": 1.0, "seed": 1},
+    return with_overrides(
+        {"study": {"replicates": 2, "mass": 1.0, "seed": 1},
          "grid": {"c_spread": [0.0, 0.1]},
          "campaign": {"tests": 3, "max_steps": 200, "min_ess": 20},
-         "fixed": {"f_n": 3.0, "zeta": 0.02, "duration": 10.0, "sample_rate": 50.0}}
-    for dotted, value in over.items():
-        table, key = dotted.split("__")
-        if value is _DELETE:
-            d[table].pop(key, None)
-        else:
-            d.setdefault(table, {})[key] = value
-    return d
-
-
-_DELETE = object()
+         "fixed": {"f_n": 3.0, "zeta": 0.02, "duration": 10.0, "sample_rate": 50.0}}, over)
 
 
 # -- configuration ------------------------------------------------------------------------
