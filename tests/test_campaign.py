@@ -97,7 +97,8 @@ def test_zero_spread_is_consistent_with_zero():
 
 def test_added_mass_recovers_m0_and_k():
     dm = [0.0, 0.3, 0.6, 1.0]
-    recs, truth = _campaign(n_tests=4, c_spread=0.05, seed=5, added_mass=dm)
+    recs, truth = _campaign(n_tests=4, c_spread=0.05, seed=5, added_mass=dm, added_mass_sd=0.005)
+    assert truth["added_mass_true"] != dm  # the scale's error is simulated, as analysed
     s = analyze_campaign(recs, added_mass=dm, added_mass_sd=0.005, seed=3, **FAST).summary()
     assert s["design"]["model"] == "added-mass"
     assert _inside(s["parameters"]["m0"], truth["mass"])
@@ -106,6 +107,33 @@ def test_added_mass_recovers_m0_and_k():
     am = s["added_mass"]
     assert len(am["points"]) == 4 and am["line"]["slope"] > 0
     assert s["mass"]["value"] == pytest.approx(s["parameters"]["m0"]["q50"])
+
+
+def test_bare_system_added_mass_is_exact_in_the_model():
+    """Only the non-zero added masses carry the scale's sd: the bare test's scatter T has no
+    Δm term, the others (s/M_i)²·[[1, ½], [½, ¼]] (campaign.model, eq. C4)."""
+    import jax
+    import jax.numpy as jnp
+
+    from dampfit.campaign import analysis, model
+
+    class Fit:  # the two fields _campaign_data reads of a TestFit
+        def __init__(self, psi):
+            self.psi_hat, self.sigma_psi = np.array(psi), np.diag([1e-4, 1e-8])
+
+    m0, k, dm = 1.0, 1000.0, np.array([0.0, 0.5, 1.0])
+    w = np.sqrt(k / (m0 + dm))
+    tests = [Fit([np.log(0.2 / (m0 + d)), np.log(x)]) for d, x in zip(dm, w)]
+    data, _ = analysis._campaign_data(tests, dm, 0.01)
+    np.testing.assert_array_equal(np.asarray(data.dm_sd), [0.0, 0.01, 0.01])
+    with jax.enable_x64(True):
+        phi = jnp.array([np.log(0.1), np.log(np.sqrt(k / m0)), 0.0, np.log(0.1), np.log(0.01)])
+        _, t = model.means_and_scatter(phi, data)
+    t = np.asarray(t)
+    np.testing.assert_allclose(t[0], np.diag([0.1**2, 0.01**2]), rtol=1e-12)
+    extra = t[2] - np.diag([0.1**2, 0.01**2])
+    np.testing.assert_allclose(extra, (0.01 / 2.0) ** 2 * np.array([[1, 0.5], [0.5, 0.25]]),
+                               rtol=1e-12)
 
 
 # ----------------------------------------------------------------------------- refusals

@@ -107,6 +107,26 @@ def test_seeds_are_deterministic_and_spread_only_scales_the_draws():
     assert te["seeds"] == ta["seeds"]  # base.seed is ignored
 
 
+def test_added_mass_sd_perturbs_the_simulated_masses_but_not_the_bare_one_or_the_noise():
+    dm = [0.0, 1.0, 3.0, 5.0]
+    a, ta = sim.campaign(base(), n_tests=4, added_mass=dm, seed=5)
+    b, tb = sim.campaign(base(), n_tests=4, added_mass=dm, added_mass_sd=0.05, seed=5)
+    assert ta["added_mass_true"] == dm and ta["added_mass_sd"] == 0.0
+    assert tb["added_mass"] == dm and tb["added_mass_sd"] == 0.05
+    err = np.asarray(tb["added_mass_true"]) - dm
+    assert err[0] == 0.0 and np.all(err[1:] != 0.0) and np.all(np.abs(err[1:]) < 5 * 0.05)
+    m0 = base().mass
+    np.testing.assert_allclose(tb["mass_tests"], m0 + np.asarray(tb["added_mass_true"]))
+    assert tb["seeds"] == ta["seeds"] and tb["c_tests"] == ta["c_tests"]
+    _, tc = sim.campaign(base(), n_tests=4, added_mass=dm, added_mass_sd=0.10, seed=5)
+    np.testing.assert_allclose(np.asarray(tc["added_mass_true"]) - dm, 2 * err, rtol=1e-12)
+    with pytest.raises(InputError, match="added_mass_sd needs added masses"):
+        sim.campaign(base(), n_tests=2, added_mass_sd=0.1, seed=5)
+    with pytest.raises(InputError, match="is negative; give a smaller added_mass_sd"):
+        sim.campaign(base(), n_tests=4, added_mass=[0.0, 1e-6, 2e-6, 3e-6], added_mass_sd=1.0,
+                     seed=5)
+
+
 def test_amplitudes_set_the_release_displacement():
     cfg = base(noise_density=0.0, drift=0.0, quantization=0.0, bias=0.0, tilt_deg=0.0, jitter=0.0)
     recs, truth = sim.campaign(cfg, n_tests=2, amplitudes=[0.01, 0.05], seed=3)
@@ -132,6 +152,8 @@ def test_amplitudes_set_the_release_displacement():
     (dict(n_tests=2, amplitudes=[0.01]), "amplitudes gives 1 value.s. for 2 test"),
     (dict(n_tests=2, amplitudes=[0.01, 200.0]), r"amplitudes\[1\] must be a number in \[0, 100\] m"),
     (dict(n_tests=2, amplitudes=[0.01, None]), r"amplitudes\[1\] must be a number"),
+    (dict(n_tests=2, added_mass=[0.0, 1.0], added_mass_sd=-0.1), "added_mass_sd must be a"),
+    (dict(n_tests=2, added_mass=[0.0, 1.0], added_mass_sd=float("nan")), "added_mass_sd must"),
     (dict(n_tests=2, seed=-1), "seed must be a non-negative integer"),
     (dict(n_tests=2, seed=1.5), "seed must be a non-negative integer"),
 ])
@@ -205,6 +227,8 @@ def test_cli_without_tests_is_one_recording_as_before(tmp_path):
     (["--tests", "2", "--amplitudes", "0.01"], "--amplitudes gives 1 value.s. for 2 tests"),
     (["--added-mass", "0"], "--added-mass gives 1 value: a campaign needs at least 2 tests"),
     (["--c-spread", "0.1"], "--c-spread needs a campaign"),
+    (["--tests", "2", "--added-mass-sd", "0.1"], "--added-mass-sd needs --added-mass"),
+    (["--added-mass", "0", "1", "--added-mass-sd", "-1"], "--added-mass-sd: must be a standard"),
     (["--tests", "2", "--c-spread", "-1"], "--c-spread: must be a spread in"),
     (["--tests", "2", "--c-spread", "nan"], "--c-spread: must be a spread in"),
     (["--tests", "2", "--added-mass", "0", "-1"], "--added-mass: must be a mass in"),

@@ -585,6 +585,7 @@ def campaign(
     c_spread: float = 0.0,
     added_mass: Sequence[float] | None = None,
     amplitudes: Sequence[float] | None = None,
+    added_mass_sd: float = 0.0,
     seed: int = 0,
 ) -> tuple[list[Recording], dict[str, Any]]:
     """A simulated test campaign: ``n_tests`` recordings of one damper, and its truth.
@@ -593,7 +594,10 @@ def campaign(
 
     * the same stiffness ``k = base.k`` [N/m];
     * mass ``m_i = base.mass + Δm_i`` [kg], ``Δm_i = added_mass[i-1]`` (0 when not given):
-      the added-mass method, ``ω_i² = k/(m0 + Δm_i)`` with ``m0 = base.mass``;
+      the added-mass method, ``ω_i² = k/(m0 + Δm_i)`` with ``m0 = base.mass``; with
+      ``added_mass_sd`` = s [kg] > 0 the stated masses are what a scale read: the mass
+      actually added is ``Δm_i + s·e_i``, ``e_i`` standard normal (a stated 0, the bare
+      system, stays exactly 0) — the error model the campaign analysis assumes;
     * damping ``c_i = base.c·exp(c_spread·z_i)`` [N·s/m], ``z_i`` standard normal: log-normal
       with median ``base.c`` and between-test sd ``c_spread`` of ``ln c`` (≈ the relative sd
       for small spreads); k and m_i are fixed, so ``c_spread`` is also the sd of ``ln p``;
@@ -601,15 +605,16 @@ def campaign(
     * its own noise seed.
 
     All randomness comes from ``numpy.random.SeedSequence(seed)`` (``base.seed`` is ignored):
-    its first child draws the ``z_i``, the next ``n_tests`` children seed the tests, so
-    changing ``c_spread``, the masses or the amplitudes changes neither the noise nor the
-    standardised draws.
+    its first child draws the ``z_i``, the next ``n_tests`` children seed the tests and the
+    last draws the ``e_i``, so changing ``c_spread``, the masses, their sd or the amplitudes
+    changes neither the noise nor the standardised draws.
 
     Returns the recordings and a JSON-safe truth dict: the population ``c`` (median) [N·s/m],
     ``k`` [N/m], ``mass`` (m0) [kg], ``zeta`` and ``f_n`` [Hz] of the bare system, the
     per-test lists ``c_tests``, ``added_mass``, ``mass_tests``, ``u0_tests``, ``zeta_tests``,
-    ``f_n_tests``, ``p_tests``, ``seeds``, the spread ``c_spread`` (= ``tau_p``, the true
-    between-test sd of ln p; ``tau_omega`` = 0: k and the masses are fixed), ``line``: the
+    ``f_n_tests``, ``p_tests``, ``seeds`` (``added_mass`` the stated masses,
+    ``added_mass_true`` those simulated, ``added_mass_sd`` s), the spread ``c_spread``
+    (= ``tau_p``, the true between-test sd of ln p; ``tau_omega`` = 0: k and the masses are fixed), ``line``: the
     added-mass line ``1/ω_n² = (m0 + Δm)/k`` as ``intercept`` = m0/k [s²] and ``slope`` = 1/k
     [s²/kg], ``predictive_c`` = [q05, q95] of the true population of c [N·s/m] (and
     ``predictive_zeta`` without added masses, else None), ``tests`` (each test's
@@ -623,16 +628,23 @@ def campaign(
     seed = _check_seed(seed)
     dm = _per_test("added_mass", added_mass, n, 0.0, lo=0.0, hi=MAX_MASS, unit="kg")
     u0 = _per_test("amplitudes", amplitudes, n, base.u0, lo=0.0, hi=MAX_U0, unit="m")
+    dm_sd = _check_added_mass_sd(added_mass_sd, added_mass is not None)
     total = n * base.duration * base.sample_rate
     if total > MAX_SIM_SAMPLES:
         raise InputError(f"{n} tests of {base.duration:g} s at {base.sample_rate:g} Hz would be "
                          f"{total:.3g} samples; at most {MAX_SIM_SAMPLES:g} are simulated")
 
-    children = np.random.SeedSequence(seed).spawn(n + 1)
+    children = np.random.SeedSequence(seed).spawn(n + 2)
     z = np.random.default_rng(children[0]).standard_normal(n)
     c_tests = [float(base.c * math.exp(spread * zi)) for zi in z]
-    seeds = [int(child.generate_state(1, dtype=np.uint32)[0]) for child in children[1:]]
-    configs = [_test_config(base, i, c_tests[i], dm[i], u0[i], seeds[i], spread)
+    seeds = [int(child.generate_state(1, dtype=np.uint32)[0]) for child in children[1:n + 1]]
+    e = np.random.default_rng(children[n + 1]).standard_normal(n)
+    dm_true = [x + dm_sd * ei if x > 0 else 0.0 for x, ei in zip(dm, e)]
+    for i, x in enumerate(dm_true):
+        if x < 0:
+            raise InputError(f"test {i + 1}: the simulated added mass {dm[i]:g} kg "
+                             f"{dm_sd * e[i]:+.3g} kg is negative; give a smaller added_mass_sd")
+    configs = [_test_config(base, i, c_tests[i], dm_true[i], u0[i], seeds[i], spread)
                for i in range(n)]
     for cfg in configs:
         check_limits(cfg)
@@ -644,7 +656,19 @@ def campaign(
                 f"c_spread {spread:g}, campaign seed {seed}")
         recordings.append(dataclasses.replace(rec, notes=rec.notes + (note,)))
         truths.append(truth)
-    return recordings, _campaign_truth(base, spread, seed, dm, added_mass is not None, truths)
+    out = _campaign_truth(base, spread, seed, dm, added_mass is not None, truths)
+    return recordings, {**out, "added_mass_true": [float(x) for x in dm_true],
+                        "added_mass_sd": dm_sd}
+
+
+def _check_added_mass_sd(sd: Any, added: bool) -> float:
+    """``added_mass_sd`` [kg] as a finite float in [0, MAX_MASS]; > 0 needs added masses."""
+    if (isinstance(sd, bool) or not isinstance(sd, (int, float, np.integer, np.floating))
+            or not math.isfinite(sd) or not 0 <= sd <= MAX_MASS):
+        raise InputError(f"added_mass_sd must be a number in [0, {MAX_MASS:g}] kg, got {sd!r}")
+    if sd > 0 and not added:
+        raise InputError("added_mass_sd needs added masses (added_mass)")
+    return float(sd)
 
 
 def _check_count(n_tests: Any) -> int:

@@ -358,11 +358,13 @@ def _campaign_data(tests: list[TestFit], dm, dm_sd):
         centre = np.array([psi[:, 0].mean(), psi[:, 1].mean()])
         dm_arr = np.zeros(len(tests))
     else:
-        centre = np.array(checks.check_added_mass_design(psi, sigma, dm, dm_sd))
         dm_arr = np.asarray(dm, float)
+    sd_arr = np.where(dm_arr > 0, dm_sd, 0.0)  # the bare system's Δm = 0 is exact
+    if dm is not None:
+        centre = np.array(checks.check_added_mass_design(psi, sigma, dm_arr, sd_arr))
     with jax.enable_x64(True):
         data = model.CampaignData(jnp.asarray(psi), jnp.asarray(sigma), jnp.asarray(dm_arr),
-                                  jnp.float64(dm_sd), jnp.asarray(centre),
+                                  jnp.asarray(sd_arr), jnp.asarray(centre),
                                   jnp.float64(1.0 if dm is not None else 0.0))
     return data, centre
 
@@ -380,6 +382,44 @@ def _start(data, added: bool, rng, n_walkers: int) -> np.ndarray:
     loc = centre[None] + rng.standard_normal((n_walkers, centre.size)) * loc_sd[None]
     ln_tau = np.log(tau0)[None] + 0.3 * rng.standard_normal((n_walkers, 2))
     return np.concatenate([loc, ln_tau], axis=1)
+
+
+def _laplace_start(target, data, candidates: np.ndarray, rng) -> np.ndarray:
+    """Walkers (len(candidates), k) drawn from the Laplace approximation N(φ*, −H⁻¹) of the
+    log posterior ``target`` (a batched model function of :mod:`dampfit.campaign.model`),
+    φ* its mode found by a trust-region Newton search (exact JAX gradient and Hessian) from
+    the best of ``candidates`` (walkers, k). If the search fails or the Hessian at its end is
+    not negative definite, ``candidates`` themselves are returned."""
+    import jax
+    import jax.numpy as jnp
+    from scipy import optimize
+
+    lp = np.asarray(target(jnp.asarray(candidates), data))
+    if not np.any(np.isfinite(lp)):
+        return candidates
+    x0 = candidates[int(np.nanargmax(np.where(np.isfinite(lp), lp, -np.inf)))]
+
+    def neg(x):
+        return -target(x[None], data)[0]
+
+    value_grad = jax.jit(jax.value_and_grad(neg))
+    hess = jax.jit(jax.hessian(neg))
+
+    def fun(x):
+        v, g = value_grad(jnp.asarray(x))
+        return float(v), np.asarray(g, dtype=float)
+
+    try:
+        res = optimize.minimize(fun, x0, jac=True, hess=lambda x: np.asarray(hess(jnp.asarray(x))),
+                                method="trust-exact", options={"maxiter": 200})
+        h = np.asarray(hess(jnp.asarray(res.x)), dtype=float)
+        chol = np.linalg.cholesky(np.linalg.inv(0.5 * (h + h.T)))
+    except (ValueError, np.linalg.LinAlgError):
+        return candidates
+    if not (np.all(np.isfinite(res.x)) and np.isfinite(res.fun) and res.fun <= -np.max(lp)
+            and np.all(np.isfinite(chol))):
+        return candidates
+    return res.x[None] + rng.standard_normal(candidates.shape) @ chol.T
 
 
 @dataclass(frozen=True)
@@ -464,11 +504,13 @@ def _sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
     names = model.hyper_names(added)
     with jax.enable_x64(True):
         m1 = _run_model(tests, data, added, False, rng, progress, max_steps, min_ess)
-        # M₀ starts where M₁'s walkers ended (ln τ_ω dropped): already in the bulk, slightly
-        # overdispersed for the narrower M₀ (a walker started 100 posterior sd out in ln ω
-        # stayed there under the DE moves and spoiled the importance weights)
+        # M₀ starts from its own Laplace approximation, found from M₁'s last walkers (ln τ_ω
+        # dropped): M₀ can be far narrower than M₁ — with an exact bare mass, the bare test
+        # pins ω₀ to its own 1e-5 — and a walker left 100 posterior sd out stays there under
+        # the DE moves and spoils the importance weights (measured: importance ESS 0.006 %)
         m0 = _run_model(tests, data, added, True, rng, progress, max_steps, min_ess,
-                        start=m1.last)
+                        start=_laplace_start(model.log_posterior_shared, data,
+                                             m1.last[:, :-1], rng))
         log_bf = model.log_bayes_factor_shared(m1.m1_draws, data, rng)
     log_bf += m0.log_mean_weight - m1.log_mean_weight
     prior_odds = np.log(model.P_SHARED_FREQUENCY / (1 - model.P_SHARED_FREQUENCY))

@@ -121,7 +121,7 @@ def check_same_system(f0: Sequence[float], names: Sequence[str]) -> None:
 
 
 def check_added_mass_design(psi_hat: np.ndarray, sigma: np.ndarray, dm: np.ndarray,
-                            dm_sd: float) -> tuple[float, float, float]:
+                            dm_sd: float | np.ndarray) -> tuple[float, float, float]:
     """Refuse designs that cannot identify m₀ (module docstring); return least-squares
     starting values (ln p₀, ln ω₀, ln m₀) of :mod:`dampfit.campaign.model` from the line 1/ω_n² = (m₀ + Δm)/k and c = 2·M·p."""
     w2 = np.exp(2 * psi_hat[:, 1])

@@ -37,8 +37,9 @@ i.e. ω_n,i² = k/M_i and c = 2·M_i·p_i up to between-test scatter. It is samp
 ω₀ = √(k/m₀) [rad/s], so ln p_i = ln p₀ − ln(1 + Δm_i/m₀) and
 ln ω_n,i = ln ω₀ − ½·ln(1 + Δm_i/m₀): the bare test pins (p₀, ω₀) and the fall of the
 frequency with Δm pins m₀, far less correlated than (ln c, ln k, ln m₀). The added-mass uncertainty
-enters linearised: δ ln M_i = δΔm_i/M_i with sd s_Δm/M_i moves (ln p_i, ln ω_n,i) by
-(−1, −½)·δ ln M_i, a covariance (s_Δm/M_i)²·[[1, ½], [½, ¼]] added to the scatter.
+enters linearised: δ ln M_i = δΔm_i/M_i with sd s_i/M_i moves (ln p_i, ln ω_n,i) by
+(−1, −½)·δ ln M_i, a covariance (s_i/M_i)²·[[1, ½], [½, ¼]] added to the scatter; s_i = s_Δm
+for every added mass and s_i = 0 for the bare system (Δm_i = 0: nothing was put on a scale).
 
 Marginal over the z's
 ---------------------
@@ -122,7 +123,8 @@ class CampaignData(NamedTuple):
     """Per-test Laplace summaries and the design, as float64 arrays.
 
     ``psi_hat`` (n, 2) = (ln p̂_i, ln ω̂_n,i); ``sigma`` (n, 2, 2) Σ_i of (C2); ``dm`` (n,) Δm_i
-    [kg] (zeros in the known-mass design); ``dm_sd`` [kg]; ``centre`` (k,) prior centres of
+    [kg] (zeros in the known-mass design); ``dm_sd`` (n,) their sds s_i [kg] (0 for the bare
+    system); ``centre`` (k,) prior centres of
     the location parameters; ``added`` 1.0 in the added-mass design, else 0.0."""
 
     psi_hat: jnp.ndarray
@@ -260,7 +262,7 @@ def conditional(phi: np.ndarray, data: CampaignData, rng: np.random.Generator) -
     docstring), stable as T → 0."""
     phi = np.asarray(phi, dtype=float)
     psi_hat, sigma = np.asarray(data.psi_hat), np.asarray(data.sigma)
-    dm, dm_sd = np.asarray(data.dm), float(np.asarray(data.dm_sd))
+    dm, dm_sd = np.asarray(data.dm), np.asarray(data.dm_sd)
     n = psi_hat.shape[0]
     tau_p, tau_w = np.exp(phi[:, -2]), np.exp(phi[:, -1])
     t = np.zeros((phi.shape[0], n, 2, 2))

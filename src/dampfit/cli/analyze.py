@@ -61,7 +61,8 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                                       "effective mass m0 and k are estimated (not with --mass)")
     c.add_argument("--added-mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
                    metavar="KG", default=None,
-                   help="standard deviation of each added mass [kg] (default 0)")
+                   help="standard deviation of each added mass [kg] (default 0; a 0 "
+                   "for the bare system is exact)")
     g = a.add_argument_group("reading (generic CSV/NPY, MATLAB)")
     g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
     g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")

@@ -60,6 +60,10 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
                                               lambda v: 0 <= v <= MAX_MASS),
                    nargs="+", metavar="KG", help="known added mass of each test [kg] (0 for the "
                    "bare system); sets N when --tests is not given")
+    g.add_argument("--added-mass-sd", type=_real(f"a standard deviation in [0, {MAX_MASS:g}] kg",
+                                                 lambda v: 0 <= v <= MAX_MASS),
+                   metavar="KG", help="scale error of each added mass [kg]: the mass simulated "
+                   "is the stated one plus a normal error of this sd (0 stays exact; default 0)")
     g.add_argument("--amplitudes", type=_real("a displacement in [0, 100] m",
                                               lambda v: 0 <= v <= 100),
                    nargs="+", metavar="M", help="release displacement u0 of each test [m]")
@@ -177,6 +181,8 @@ def _campaign_size(args) -> int | None:
     lists = [(opt, getattr(args, name, None)) for opt, name in
              (("--added-mass", "added_mass"), ("--amplitudes", "amplitudes"))]
     given = [(opt, v) for opt, v in lists if v is not None]
+    if getattr(args, "added_mass_sd", None) is not None and getattr(args, "added_mass", None) is None:
+        raise InputError("--added-mass-sd needs --added-mass (one value per test)")
     n = getattr(args, "tests", None)
     if n is None and given:
         n = len(given[0][1])
@@ -229,7 +235,7 @@ def _campaign_command(args) -> int:
     sim.check_limits(base)
     recs, truth = sim.campaign(base, n_tests=n, c_spread=args.c_spread or 0.0,
                                added_mass=args.added_mass, amplitudes=args.amplitudes,
-                               seed=args.seed)
+                               added_mass_sd=args.added_mass_sd or 0.0, seed=args.seed)
     try:
         stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
     except OSError as exc:

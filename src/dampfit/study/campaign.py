@@ -10,7 +10,9 @@ Design
 ------
 The added masses are either listed (``added_mass``, one per test) or a fraction f [1] of
 the simulated bare mass m₀ [kg], evenly spaced over the n tests:
-Δm_i = f·m₀·i/(n − 1), i = 0 … n − 1 (the first test is the bare system).
+Δm_i = f·m₀·i/(n − 1), i = 0 … n − 1 (the first test is the bare system). These are the
+masses the analysis is told; with ``added_mass_sd`` s [kg] the simulated masses are
+Δm_i + s·e_i, e_i ~ N(0, 1) (a stated 0 stays exact): the error the analysis assumes.
 
 Scoring (:func:`score`), each a flag that is None where it is not defined
 ------------------------------------------------------------------------
@@ -196,7 +198,9 @@ def run(base, *, n_tests: int, c_spread: float = 0.0, added_mass: list[float] | 
     mass the bare m₀ [kg]), analyse it jointly and score it: one JSON-safe row.
 
     Without ``added_mass`` the analysis gets the mass (``mass_known``; sd ``mass_sd`` [kg]),
-    with it the added masses [kg] (sd ``added_mass_sd`` [kg]) and estimates m₀ itself.
+    with it the added masses [kg] (sd ``added_mass_sd`` [kg]) and estimates m₀ itself; the
+    masses simulated are the stated ones plus a normal error of that sd (the bare system's 0
+    exact), as the analysis assumes.
     ``sim_seed`` seeds the recordings, ``analysis_seed`` the sampler, ``z_new`` is the new
     test's draw (:func:`streams`). A refusal (:class:`InputError` of the simulator or the
     analysis) is a row with ``refused`` set and ``ok`` False; other exceptions propagate.
@@ -208,7 +212,8 @@ def run(base, *, n_tests: int, c_spread: float = 0.0, added_mass: list[float] | 
     row = empty_row(n_tests, added, truth(base, mass_known, added), c_spread, z_new)
     try:
         recs, _ = sim.campaign(base, n_tests=n_tests, c_spread=c_spread, added_mass=added_mass,
-                               amplitudes=amplitudes, seed=sim_seed)
+                               amplitudes=amplitudes, seed=sim_seed,
+                               added_mass_sd=added_mass_sd if added else 0.0)
     except InputError as exc:
         return {**row, "refused": f"simulation refused: {exc}", "message": str(exc)}
     started = time.perf_counter()
