@@ -324,11 +324,14 @@ def fit_stages(prep: preprocess.Prepared, mass: float | None) -> FitStages:
 
 def viscous_stages(prep: preprocess.Prepared, mass: float | None, mass_sd: float, *,
                    seed: int = 0, progress: bool = False, max_steps: int = 20000,
-                   min_ess: float = 1000.0) -> ViscousStages:
+                   min_ess: float = 1000.0, on_fit=None) -> ViscousStages:
     """:func:`fit_stages` and the viscous posterior of one prepared signal: the stages
     :func:`analyze` and the ``bayes`` estimator share (``mass`` [kg] and ``mass_sd`` [kg] as
-    checked by :func:`dampfit.physics.check_mass`)."""
+    checked by :func:`dampfit.physics.check_mass`). ``on_fit(stages)`` is called with the
+    :class:`FitStages` before the posterior is sampled."""
     st = fit_stages(prep, mass)
+    if on_fit is not None:
+        on_fit(st)
     started = time.monotonic()
     post = posterior.sample(
         st.fit_data, st.least_squares, band=prep.band, temper=1.0 / st.noise.psd_ratio,
@@ -355,6 +358,7 @@ def analyze(
     min_ess: float = 1000.0,
     model: str = "auto",
     amplitude: float | None = None,
+    on_stage=None,
 ) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
 
@@ -369,6 +373,13 @@ def analyze(
     The viscous posterior under ``parameters`` is always computed. ``amplitude`` [m] is the
     displacement amplitude at which a non-viscous law's equivalent viscous c is reported
     (default: the geometric mean of the first and last amplitudes of the window).
+
+    ``on_stage(name, fields)``, when given, is called as stages finish with the
+    :class:`Analysis` fields they produced: ``"fit"`` (recording, prepared, fit_data,
+    least_squares, noise, baselines, mass, mass_sd, seed) before the posterior is sampled and
+    ``"posterior"`` (sampling) before the damping laws are assessed — the CLI draws figures
+    from them in a second process meanwhile (:mod:`dampfit.output.figure_process`). Not used
+    for several recordings.
     """
     if isinstance(recording, (list, tuple)):  # several recordings of one damper (issue 12)
         from dampfit.campaign import analyze_campaign
@@ -386,10 +397,19 @@ def analyze(
     warns.extend(prep.warnings)
     warns.extend(unit_plausibility(recording, prep, m))
 
+    def fitted(st: FitStages) -> None:
+        if on_stage is not None:
+            on_stage("fit", {"recording": recording, "prepared": prep, "fit_data": st.fit_data,
+                             "least_squares": st.least_squares, "noise": st.noise,
+                             "baselines": st.baselines, "mass": m, "mass_sd": sd,
+                             "seed": int(seed)})
+
     stages = viscous_stages(prep, m, sd, seed=seed, progress=progress, max_steps=max_steps,
-                            min_ess=min_ess)
+                            min_ess=min_ess, on_fit=fitted)
     base, fd, ls, nm, post = (stages.baselines, stages.fit_data, stages.least_squares,
                               stages.noise, stages.sampling)
+    if on_stage is not None:
+        on_stage("posterior", {"sampling": post})
     warns.extend(stages.warnings)
     bound = _crlb(prep, fd, ls, nm, m, sd, warns)
     viscous_seconds = stages.posterior_seconds

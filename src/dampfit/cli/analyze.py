@@ -151,16 +151,29 @@ def _read_options(args) -> dict:
             if getattr(args, k) is not None}
 
 
+def _figure_process(args):
+    """The figure-drawing process (:mod:`dampfit.output.figure_process`) as a context, started
+    now so that its imports overlap this process's; None inside with ``--no-figures``."""
+    import contextlib
+
+    if args.no_figures:
+        return contextlib.nullcontext(None)
+    from dampfit.output.figure_process import FigureProcess
+
+    return FigureProcess.start()
+
+
+def _stopped_first(figs):
+    """Stops the figure process on leaving (before an enclosing result folder removes its
+    staging folder after a failure, so that nothing is still being written into it)."""
+    import contextlib
+
+    return contextlib.nullcontext() if figs is None else contextlib.closing(figs)
+
+
 def command(args) -> int:
     """``dampfit analyze FILE …``: read, analyse, write the result folder; exit code 0."""
     import gc
-
-    from dampfit.pipeline import analyze
-    from dampfit.io.readers import read
-
-    # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects that
-    # every full garbage collection would walk again: move them out of its reach
-    gc.freeze()
 
     files = [args.file, *(getattr(args, "more_files", None) or [])]
     _check_analysis_options(args)
@@ -173,18 +186,29 @@ def command(args) -> int:
     path = files[0]
     out = Path(args.out) if args.out else Path(Path(path).name + ".dampfit")
     opts = _read_options(args)
-    with result_folder(out, "analyze", args.force, inputs=[path]) as folder:
-        rec = read(path, **opts)
-        an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                     window=tuple(args.window) if args.window else None,
-                     band=tuple(args.band) if args.band else None, seed=args.seed,
-                     progress=not args.quiet and sys.stderr.isatty(), max_steps=args.max_steps,
-                     model=args.model, amplitude=args.amplitude)
-        gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
-        write_outputs(an, folder, not args.no_figures)
-        folder.publish()
-        if args.report:
-            write_report(out)
+    with _figure_process(args) as figs:  # before the scientific stack is imported
+        from dampfit.io.readers import read
+        from dampfit.pipeline import analyze
+
+        # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects
+        # that every full garbage collection would walk again: move them out of its reach
+        gc.freeze()
+        with result_folder(out, "analyze", args.force, inputs=[path]) as folder, \
+                _stopped_first(figs):
+            if figs is not None:
+                figs.target(folder.stage)
+            rec = read(path, **opts)
+            an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
+                         window=tuple(args.window) if args.window else None,
+                         band=tuple(args.band) if args.band else None, seed=args.seed,
+                         progress=not args.quiet and sys.stderr.isatty(),
+                         max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
+                         on_stage=None if figs is None else figs.send)
+            gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
+            write_outputs(an, folder, not args.no_figures, figs)
+            folder.publish()
+            if args.report:
+                write_report(out)
     _print_result(an, out, args.json)
     return 0
 
@@ -281,8 +305,11 @@ def demo(args) -> int:
     cfg = sim.preset("paper", seed=args.seed)
     # a previous demo's own folder (marker of kind "demo", or an old one recognised by its
     # files) is regenerated freely; an analyze result only with --force; anything else never
-    with result_folder(out, "demo", args.force, free_kinds=("demo",),
-                       legacy=old_demo_folder) as folder:
+    with _figure_process(args) as figs, \
+            result_folder(out, "demo", args.force, free_kinds=("demo",),
+                          legacy=old_demo_folder) as folder, _stopped_first(figs):
+        if figs is not None:
+            figs.target(folder.stage)
         print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
               f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at "
               f"{cfg.sample_rate:g} Hz) as a phyphox CSV, then analysing it\n")
@@ -295,8 +322,9 @@ def demo(args) -> int:
         # the recording is read from the staging folder but lives at its final path
         rec = dataclasses.replace(read(csv), path=str(folder.target / csv.name))
         an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
-                     progress=not args.quiet and sys.stderr.isatty())
-        write_outputs(an, folder, not args.no_figures)
+                     progress=not args.quiet and sys.stderr.isatty(),
+                     on_stage=None if figs is None else figs.send)
+        write_outputs(an, folder, not args.no_figures, figs)
         folder.publish()
         if args.report:
             write_report(out)

@@ -52,14 +52,18 @@ def result_folder(out: Path, kind: str, force: bool, inputs=(), **kw) -> ResultF
                         version=__version__, **kw)
 
 
-def write_outputs(an, folder: ResultFolder, figures: bool) -> None:
-    """summary.json, posterior.nc, signals.npz and the figures into the staging folder."""
+def write_outputs(an, folder: ResultFolder, figures: bool, figure_process=None) -> None:
+    """summary.json, posterior.nc, signals.npz and the figures into the staging folder; the
+    figures by ``figure_process`` (:class:`dampfit.output.figure_process.FigureProcess`, which
+    has drawn the early ones during the analysis) when given, else here."""
     stage = folder.stage
     with folder.writing():
         an.to_json(stage / "summary.json")
         an.to_netcdf(stage / "posterior.nc")
         an.to_signals(stage / "signals.npz")
-        if figures:
+        if figures and figure_process is not None:
+            figure_process.finish(an, stage)
+        elif figures:
             from dampfit.output.figures import save_figures
 
             save_figures(an, stage)

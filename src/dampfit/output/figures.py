@@ -1012,6 +1012,19 @@ FIGURES: dict[str, Callable[["Analysis"], Any]] = {
     "trace": trace_figure,
 }
 
+#: The :class:`~dampfit.pipeline.Analysis` fields each figure reads (``amplitude``: the one
+#: :func:`save_figures` adds): a figure can be drawn as soon as its stage has produced them
+#: (:mod:`dampfit.output.figure_process` draws the early ones while the posterior is sampled).
+NEEDS: dict[str, frozenset[str]] = {
+    "signal": frozenset({"recording", "prepared"}),
+    "spectrum": frozenset({"prepared"}),
+    "fit": frozenset({"prepared", "fit_data", "least_squares", "noise", "mass"}),
+    "displacement": frozenset({"prepared", "fit_data", "least_squares", "baselines", "mass"}),
+    "posterior": frozenset({"sampling", "least_squares", "mass", "mass_sd", "seed"}),
+    "trace": frozenset({"sampling"}),
+    "amplitude": frozenset({"damping", "least_squares", "mass"}),
+}
+
 
 def render(an: Any, names, outdir: str | os.PathLike, dpi: int = 110) -> dict[str, Path | None]:
     """Draw the figures ``names`` of :data:`FIGURES` and write each as ``<name>.png`` into

@@ -1,0 +1,274 @@
+"""The figures of ``dampfit analyze`` drawn in a second process while the analysis goes on.
+
+Drawing the seven figures is the largest part of a warm ``dampfit analyze --report`` after
+the analysis itself (≈ 1.2 s of ≈ 5 s on the 60 s / 500 Hz paper recording), and most of
+them need only the early stages: the signal and spectrum figures the prepared signal, the
+fit and displacement figures the least squares and baselines, the posterior and trace
+figures the viscous posterior, the amplitude figure the damping-law assessment
+(:data:`dampfit.output.figures.NEEDS`). While this process samples the posterior — mostly one
+core — a second Python process draws what is ready on the other core:
+
+1. :meth:`FigureProcess.start` starts ``python -m dampfit.output.figure_process`` before the
+   analysis; it imports matplotlib, the figure module and what unpickling an analysis needs
+   (overlapping this process's own imports), then waits on its standard input;
+2. :meth:`FigureProcess.target` names the folder to write into (the result folder's staging
+   folder), :meth:`FigureProcess.send` passes each stage's fields as they appear
+   (``dampfit.analyze(..., on_stage=…)``), and the process draws every figure whose fields
+   have all arrived;
+3. :meth:`FigureProcess.finish` passes the finished :class:`~dampfit.pipeline.Analysis`,
+   waits for the last figures and returns the files written.
+
+Messages are pickles, each preceded by its length (8 bytes, big-endian), written to the
+process's standard input; the process answers with one JSON line on its standard output and
+exits. It is only an accelerator: the figures are those :func:`dampfit.output.figures.save_figures`
+draws, and if the process cannot be started, dies, answers anything but success or does not
+answer within :data:`TIMEOUT_S`, :meth:`finish` draws them all here instead (an error of the
+drawing itself then surfaces here as it would without the process). It is not used with fewer
+than two usable cores, or when ``DAMPFIT_FIGURE_PROCESS=0``. The pickles never leave the
+pipe between this process and its own child.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import queue
+import struct
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+__all__ = ["FigureProcess", "TIMEOUT_S", "main"]
+
+#: Longest wait [s] for the process's answer after the finished analysis was sent; then it
+#: is stopped and the figures are drawn here.
+TIMEOUT_S = 120.0
+#: Environment variable that switches the process off (``0``).
+ENV = "DAMPFIT_FIGURE_PROCESS"
+_HEADER = struct.Struct(">Q")
+
+
+def _usable_cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - platforms without affinity
+        return os.cpu_count() or 1
+
+
+class FigureProcess:
+    """Handle of the drawing process (module docstring). Use as a context manager, or call
+    :meth:`close`: a process still running is stopped."""
+
+    def __init__(self, proc: subprocess.Popen | None, dpi: int = 110):
+        self._proc = proc
+        self._dpi = dpi
+        self._broken = proc is None
+        # messages are written by a thread: the process reads its input only once its own
+        # imports are done, and a pipe holds 64 KiB, so writing here would block the analysis
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._writer: threading.Thread | None = None
+        if proc is not None:
+            self._writer = threading.Thread(target=self._write_loop, name="dampfit-figures",
+                                            daemon=True)
+            self._writer.start()
+        #: Where the figures of the last :meth:`finish` came from: "process" or "here".
+        self.drawn_by: str | None = None
+
+    # ------------------------------------------------------------------ life cycle
+    @classmethod
+    def start(cls, dpi: int = 110) -> "FigureProcess":
+        """Start the drawing process (a handle that draws here when it cannot be used)."""
+        if os.environ.get(ENV, "1").strip() == "0" or _usable_cores() < 2:
+            return cls(None, dpi)
+        import dampfit
+
+        env = dict(os.environ)
+        root = str(Path(dampfit.__file__).resolve().parent.parent)  # this very dampfit
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+        try:
+            proc = subprocess.Popen([sys.executable, "-m", "dampfit.output.figure_process"],
+                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                    stderr=subprocess.DEVNULL, env=env, close_fds=True)
+        except OSError:
+            proc = None
+        return cls(proc, dpi)
+
+    def __enter__(self) -> "FigureProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the process if it still runs (an analysis that failed: nothing more is drawn)."""
+        proc, self._proc = self._proc, None
+        if proc is None:
+            return
+        self._broken = True
+        self._queue.put(None)
+        if proc.poll() is None:
+            proc.kill()  # first: a write blocked on the full pipe then fails and lets go
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:  # pragma: no cover - a process that ignores SIGKILL
+            pass
+        if self._writer is not None:
+            self._writer.join(10)
+        for stream in (proc.stdin, proc.stdout):
+            try:
+                stream.close()
+            except (OSError, ValueError):
+                pass
+
+    # ------------------------------------------------------------------ messages
+    def _write(self, message: dict[str, Any]) -> None:
+        """Queue ``message`` pickled now (the objects may change later) for the writer."""
+        if self._broken or self._proc is None:
+            return
+        try:
+            data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception:  # noqa: BLE001 - any failure: draw here at the end
+            self._broken = True
+            return
+        self._queue.put(_HEADER.pack(len(data)) + data)
+
+    def _write_loop(self) -> None:
+        stdin = self._proc.stdin
+        while True:
+            data = self._queue.get()
+            if data is None:
+                return
+            try:
+                stdin.write(data)
+                stdin.flush()
+            except Exception:  # noqa: BLE001 - the process is gone: draw here at the end
+                self._broken = True
+                return
+
+    def _drain(self, timeout: float) -> bool:
+        """Let the writer pass every queued message on; False if it could not."""
+        if self._writer is None:
+            return False
+        self._queue.put(None)
+        self._writer.join(timeout)
+        return not self._writer.is_alive() and not self._broken
+
+    def target(self, outdir: str | os.PathLike) -> None:
+        """The folder the figures are written into."""
+        self._write({"outdir": str(outdir), "dpi": self._dpi})
+
+    def send(self, stage: str, fields: dict[str, Any]) -> None:
+        """Fields of :class:`~dampfit.pipeline.Analysis` that the stage ``stage`` produced
+        (the ``on_stage`` callback of :func:`dampfit.analyze`)."""
+        self._write({"fields": dict(fields)})
+
+    def finish(self, an, outdir: str | os.PathLike) -> dict[str, Path]:
+        """The finished analysis ``an``: wait for the process to write every figure into
+        ``outdir`` (or draw them here, module docstring); ``{name: path}`` written."""
+        import dataclasses
+
+        if not self._broken and self._proc is not None:
+            fields = {f.name: getattr(an, f.name) for f in dataclasses.fields(an) if f.init}
+            self._write({"outdir": str(outdir), "dpi": self._dpi, "fields": fields,
+                         "end": True})
+            written = self._answer() if self._drain(TIMEOUT_S) else None
+            if written is not None:
+                self.drawn_by = "process"
+                return {name: Path(outdir) / f"{name}.png" for name in written}
+        self.close()
+        from dampfit.output.figures import save_figures
+
+        self.drawn_by = "here"
+        return save_figures(an, outdir, dpi=self._dpi)
+
+    def _answer(self) -> list[str] | None:
+        proc = self._proc
+        try:
+            out, _ = proc.communicate(timeout=TIMEOUT_S)  # closes its input: the last message
+        except (OSError, ValueError, subprocess.TimeoutExpired):
+            return None
+        finally:
+            self.close()
+        try:
+            answer = json.loads(out.decode("utf-8").strip().splitlines()[-1])
+        except (ValueError, IndexError, UnicodeDecodeError):
+            return None
+        if proc.returncode != 0 or not isinstance(answer, dict) or answer.get("ok") is not True:
+            return None
+        written = answer.get("written")
+        if not isinstance(written, list) or not all(isinstance(n, str) for n in written):
+            return None
+        return written
+
+
+# ---------------------------------------------------------------------- the process itself
+def _read(stream) -> dict[str, Any] | None:
+    """The next message, or None at the end of the input (the parent closed it or died)."""
+    head = stream.read(_HEADER.size)
+    if len(head) < _HEADER.size:
+        return None
+    (size,) = _HEADER.unpack(head)
+    data = stream.read(size)
+    if len(data) < size:
+        return None
+    return pickle.loads(data)  # noqa: S301 - written by our own parent over a private pipe
+
+
+def main() -> int:
+    """The drawing process: import, then draw each figure once its fields have arrived."""
+    import gc
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from dampfit import pipeline  # noqa: F401 - unpickling an analysis needs it
+    from dampfit.inference import posterior  # noqa: F401
+    from dampfit.output import figures
+
+    figures._text_width("0")  # font cache and text measurement: first-use costs paid now
+    gc.freeze()
+    stdin = sys.stdin.buffer
+    fields: dict[str, Any] = {}
+    outdir, dpi, done = None, 110, {}
+    try:
+        while True:
+            msg = _read(stdin)
+            if msg is None:
+                return 0  # the parent gave up: nothing to report
+            outdir = msg.get("outdir", outdir)
+            dpi = msg.get("dpi", dpi)
+            fields.update(msg.get("fields", {}))
+            end = bool(msg.get("end"))
+            if outdir is None:
+                continue
+            if end:
+                an = pipeline.Analysis(**fields)
+                written = figures.save_figures(an, outdir, dpi=dpi, skip=tuple(done))
+                names = sorted({n for n, p in done.items() if p is not None} | set(written))
+                sys.stdout.write(json.dumps({"ok": True, "written": names}) + "\n")
+                sys.stdout.flush()
+                return 0
+            ready = [n for n in figures.FIGURES
+                     if n not in done and figures.NEEDS[n] <= fields.keys()]
+            if ready:
+                an = pipeline.Analysis(**{**_EMPTY, **fields})
+                done.update(figures.render(an, ready, outdir, dpi))
+    except Exception as exc:  # noqa: BLE001 - reported; the parent draws the figures itself
+        text = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
+        sys.stdout.write(json.dumps({"ok": False, "error": text}) + "\n")
+        sys.stdout.flush()
+        return 1
+
+
+#: An analysis's fields before their stages have run (a partial analysis for early figures).
+_EMPTY: dict[str, Any] = {"recording": None, "prepared": None, "fit_data": None,
+                          "least_squares": None, "noise": None, "sampling": None,
+                          "baselines": None, "crlb": None, "mass": None, "mass_sd": 0.0,
+                          "seed": 0, "options": {}}
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
