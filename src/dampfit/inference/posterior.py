@@ -115,11 +115,9 @@ class PosteriorResult:
 def _batched_log_prob(thetas, tau, y, drift, mask, n, q, temper, bounds):
     """(log posterior, conditional moments of (A, B)) for a batch of θ; see
     :func:`dampfit.model.profile.marginal_and_amplitudes` (the viscous (M1) columns)."""
-    lw_lo, lw_hi = bounds[0], bounds[1]
-
     def one(theta):
-        lnp, lnw = theta[0], theta[1]
-        inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(1e-6))
+        # the support of the viscous law's prior (its density is constant there: left out)
+        inside = jnp.isfinite(M1.log_prior_ln(theta, bounds[0], bounds[1], xp=jnp))
         samples = profile.Samples(tau, y, drift, mask, n, q - 2)
         ll, ab, cov = profile.marginal_and_amplitudes(M1, theta, samples, temper)
         moments = jnp.stack([ab[0], ab[1], cov[0, 0], cov[0, 1], cov[1, 1]])

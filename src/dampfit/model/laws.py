@@ -191,11 +191,17 @@ class Law:
         parameter uniform on :attr:`shape_prior`; phase terms flat (a constant common to every
         law, so it cancels in comparisons).
         """
-        th = theta if xp is not np else np.asarray(theta, dtype=float)
         lw_lo, lw_hi = np.log(2 * np.pi * band[0]), np.log(2 * np.pi * band[1])
+        return self.log_prior_ln(theta, lw_lo, lw_hi, xp)
+
+    def log_prior_ln(self, theta, lw_lo, lw_hi, xp=np):
+        """:meth:`log_prior` with the pass band as ln ω bounds [ln(rad/s)], which may be JAX
+        values (the posterior kernel passes them as arguments: one compilation for every
+        band)."""
+        th = theta if xp is not np else np.asarray(theta, dtype=float)
         lnw, lnp = th[..., self.omega_index], th[..., 0]
         inside = (lnw > lw_lo) & (lnw < lw_hi) & (lnp < lnw) & (lnp > lnw + np.log(P_RANGE))
-        lp = -np.log(lw_hi - lw_lo) - np.log(-np.log(P_RANGE)) + xp.zeros_like(lnw)
+        lp = -xp.log(lw_hi - lw_lo) - np.log(-np.log(P_RANGE)) + xp.zeros_like(lnw)
         if self.shape_prior is not None:
             lo, hi = self.shape_prior
             inside = inside & (th[..., 1] >= lo) & (th[..., 1] <= hi)
