@@ -95,6 +95,18 @@ def test_zero_spread_is_consistent_with_zero():
     assert _inside(s["parameters"]["c"], truth["c"])
 
 
+def test_added_mass_scale_error_is_not_called_scatter():
+    """Quiet tests (decay rates known to ≈ 0.1 %) with added masses known to ± 0.5 % of m₀ and
+    no true spread: the per-test c = 2·(m₀ + Δm)·p differ by the masses' errors, which the
+    spread check must count as uncertainty, not as between-test scatter."""
+    dm = [0.0, 0.3, 0.6, 1.0]
+    base = sim.from_modal(1.0, 5.0, 0.01, duration=20.0, sample_rate=100.0, noise_density=30.0)
+    recs, truth = sim.campaign(base, n_tests=4, added_mass=dm, added_mass_sd=0.005, seed=21)
+    s = analyze_campaign(recs, added_mass=dm, added_mass_sd=0.005, seed=3, **FAST).summary()
+    assert s["population"]["spread_consistent_with_zero"], s["checks"]
+    assert _inside(s["parameters"]["m0"], truth["mass"])
+
+
 def test_added_mass_recovers_m0_and_k():
     dm = [0.0, 0.3, 0.6, 1.0]
     recs, truth = _campaign(n_tests=4, c_spread=0.05, seed=5, added_mass=dm, added_mass_sd=0.005)

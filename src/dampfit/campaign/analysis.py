@@ -81,7 +81,8 @@ class TestFit:
 
     ``theta_hat`` (ln p, ln ω_d) at the maximum of ℓ_i, ``cov_theta`` its Laplace covariance,
     ``ll_max`` ℓ_i(θ̂) [1], ``psi_hat`` (ln p, ln ω_n) and ``sigma_psi`` Σ_i (C2),
-    ``temper`` 1/r_i, ``amplitude_m`` the initial displacement amplitude of the window [m]."""
+    ``temper`` 1/r_i, ``amplitude_m`` the displacement amplitude at the release [m] (the least-squares
+    amplitude at the window start carried back to :func:`dampfit.signal.window.release_time`)."""
 
     index: int
     recording: Any
@@ -310,7 +311,14 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
     if not (np.all(np.isfinite(theta)) and np.isfinite(ll_max)):
         raise InputError("its likelihood could not be evaluated at the least-squares decay")
     psi, sigma = model.to_population(theta, cov)
-    amp = float(pipeline.ls_quantities(ls)["u0"])
+    # the displacement amplitude at the release: the least-squares u₀ at the window start
+    # carried back over the decay the window skipped (window.release_time), so that it does
+    # not depend on the test's own decay rate (it did: tests that merely scatter were called
+    # "amplitude-dependent" in 23 of 100 simulated campaigns)
+    from dampfit.signal.window import release_time
+
+    skipped = max(fd.t0 - release_time(prep.grid, prep.envelope, prep.window[0], prep.f0), 0.0)
+    amp = float(pipeline.ls_quantities(ls)["u0"] * np.exp(ls.p * skipped))
     verdict = _damping_verdict(prep, fd, ls, nm, mass, warns)
     return TestFit(index=i, recording=rec, prepared=prep, fit_data=fd, least_squares=ls,
                    noise=nm, temper=temper, theta_hat=theta, cov_theta=cov, ll_max=ll_max,
@@ -779,13 +787,17 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
             "noise_psd_ratio": t.noise.psd_ratio,
             "damping_verdict": t.damping_verdict,
             "own": own, "pooled": pooled, "outlier": False})
-        # the verdicts' y: own ln p (ln c in added-mass mode, at the posterior m0)
+        # the verdicts' y: own ln p (ln c in added-mass mode, at the posterior m0); an added
+        # mass known to ± sd [kg] (the bare system's 0 exactly) moves ln M_i by sd/M_i: ln c
+        # by as much, the bare system's ln ω_n by half (model eq. C4)
+        dm_sd = a.added_mass_sd if added and t.added_mass_kg > 0 else 0.0
+        rel = dm_sd / (m0_med + t.added_mass_kg) if added else 0.0
         y = t.psi_hat[0] + (np.log(2 * (m0_med + t.added_mass_kg)) if added else 0.0)
         y_own.append(y)
-        s_own.append(np.sqrt(t.sigma_psi[0, 0]))
+        s_own.append(np.sqrt(t.sigma_psi[0, 0] + rel**2))
         # frequencies: own ln ω_n (of the bare system in added-mass mode)
         yw_own.append(t.psi_hat[1] + (0.5 * np.log1p(t.added_mass_kg / m0_med) if added else 0.0))
-        sw_own.append(np.sqrt(t.sigma_psi[1, 1]))
+        sw_own.append(np.sqrt(t.sigma_psi[1, 1] + (0.5 * rel) ** 2))
     y_own, s_own = np.array(y_own), np.array(s_own)
     yw_own, sw_own = np.array(yw_own), np.array(sw_own)
     _, p_het = checks.heterogeneity(y_own, s_own)

@@ -19,7 +19,7 @@ from scipy import ndimage
 from dampfit.signal.spectrum import noise_density
 
 __all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "envelope_drops", "detect_window",
-           "noise_floor", "impacts"]
+           "noise_floor", "impacts", "release_time"]
 
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
@@ -168,3 +168,24 @@ def detect_window(
             notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
             break
     return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
+
+
+def release_time(grid: np.ndarray, env: np.ndarray, start: float, f0: float) -> float:
+    """Time [s] the oscillation was released, for a decay window starting at ``start`` [s].
+
+    An automatic window starts after the envelope maximum plus a guard (half a period at
+    least), so the decay between the release and ``start`` depends on the decay rate: two
+    tests released alike start their windows at amplitudes that differ by e^{−Δp·(start −
+    release)}. The release is taken where the envelope ``env`` [m/s²] (on ``grid`` [s]) last
+    rose through half its maximum before ``start``; when the envelope is below half only in
+    the first period of the recording (1/``f0``, ``f0`` [Hz]) — the band-pass filter's edge,
+    a recording that starts at the release, as a simulation does — the release is the first
+    grid time."""
+    grid, env = np.asarray(grid, float), np.asarray(env, float)
+    i_start = int(np.searchsorted(grid, start, side="right"))
+    before = env[:max(i_start, 1)]
+    i_peak = int(np.argmax(before))
+    low = np.flatnonzero(before[:i_peak + 1] < 0.5 * before[i_peak])
+    if not low.size or grid[low[-1]] - grid[0] < 1.0 / f0 and low.size == low[-1] + 1:
+        return float(grid[0])
+    return float(grid[low[-1] + 1])
