@@ -30,6 +30,7 @@ from dampfit._json import jsonable
 from dampfit._files import atomic_write, atomic_write_text
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
+from dampfit.result.views import ResultViews
 
 __all__ = ["Analysis", "analyze", "PARAMETER_UNITS"]
 
@@ -56,7 +57,7 @@ def _check_mass(mass: float | None, mass_sd: float | None) -> tuple[float | None
 
 
 @dataclass
-class Analysis:
+class Analysis(ResultViews):
     """Everything :func:`analyze` computed. ``summary()`` is the plain-data view of it.
 
     The same class is what :func:`dampfit.load` returns for a result folder: then
@@ -89,18 +90,9 @@ class Analysis:
     _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
 
     # --------------------------------------------------------------- views
-    @property
-    def posterior(self):
-        """The posterior as arviz ``InferenceData`` (of a loaded result: posterior.nc)."""
-        if self._loaded is not None:
-            return self._loaded.posterior()
-        return self.sampling.idata
-
-    @property
-    def converged(self) -> bool:
-        """Least squares and posterior both converged (of a loaded result: its summary says so)."""
-        if self._loaded is not None:
-            return self._loaded.converged()
+    # posterior, converged: dampfit.result.views.ResultViews
+    def _live_converged(self) -> bool:
+        """Least squares and posterior both converged."""
         return bool(self.least_squares.converged and self.sampling.converged)
 
     def draws(self, name: str) -> np.ndarray:

@@ -55,6 +55,7 @@ import numpy as np
 from dampfit._files import atomic_write, atomic_write_text
 from dampfit._json import jsonable
 from dampfit.errors import DampfitError, InputError
+from dampfit.result.views import ResultViews
 
 __all__ = ["CampaignAnalysis", "TestFit", "analyze_campaign", "SUMMARY_KEYS",
            "MIN_IMPORTANCE_FRACTION"]
@@ -137,7 +138,7 @@ class CampaignSampling:
 
 
 @dataclass
-class CampaignAnalysis:
+class CampaignAnalysis(ResultViews):
     """Everything :func:`analyze_campaign` computed; :meth:`summary` is its plain-data view.
 
     Loaded back from a result folder (:func:`dampfit.load`), ``summary()`` is the stored
@@ -162,18 +163,9 @@ class CampaignAnalysis:
         """"hierarchical" (known or no mass) or "added-mass"."""
         return "added-mass" if self.added_mass is not None else "hierarchical"
 
-    @property
-    def posterior(self):
-        """The joint posterior as arviz ``InferenceData`` (variables named as in the summary)."""
-        if self._loaded is not None:
-            return self._loaded.posterior()
-        return self.sampling.idata
-
-    @property
-    def converged(self) -> bool:
+    # posterior (variables named as in the summary), converged: result.views.ResultViews
+    def _live_converged(self) -> bool:
         """The hyper-posterior met its stopping rule and the importance weights are healthy."""
-        if self._loaded is not None:
-            return bool(self._loaded.converged())
         return bool(self.sampling.converged)
 
     def draws(self, name: str) -> np.ndarray:
