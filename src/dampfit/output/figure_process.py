@@ -8,8 +8,8 @@ figures the viscous posterior, the amplitude figure the damping-law assessment
 (:data:`dampfit.output.figures.NEEDS`). While this process samples the posterior — mostly one
 core — a second Python process draws what is ready on the other core:
 
-1. :meth:`FigureProcess.start` starts ``python -m dampfit.output.figure_process`` before the
-   analysis; it imports matplotlib, the figure module and what unpickling an analysis needs
+1. :meth:`FigureProcess.start` starts a Python running :func:`main` (with this process's import
+   path) before the analysis; it imports matplotlib, the figure module and what unpickling an analysis needs
    (overlapping this process's own imports), then waits on its standard input;
 2. :meth:`FigureProcess.target` names the folder to write into (the result folder's staging
    folder), :meth:`FigureProcess.send` passes each stage's fields as they appear
@@ -49,6 +49,9 @@ TIMEOUT_S = 120.0
 #: Environment variable that switches the process off (``0``).
 ENV = "DAMPFIT_FIGURE_PROCESS"
 _HEADER = struct.Struct(">Q")
+#: The process's program: the parent's import path, then :func:`main`.
+_BOOT = ("import json, sys; sys.path[:] = json.loads(sys.argv[1]); "
+         "from dampfit.output.figure_process import main; raise SystemExit(main())")
 
 
 def _usable_cores() -> int:
@@ -83,15 +86,12 @@ class FigureProcess:
         """Start the drawing process (a handle that draws here when it cannot be used)."""
         if os.environ.get(ENV, "1").strip() == "0" or _usable_cores() < 2:
             return cls(None, dpi)
-        import dampfit
-
-        env = dict(os.environ)
-        root = str(Path(dampfit.__file__).resolve().parent.parent)  # this very dampfit
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH")) if p)
+        # the process imports from this process's sys.path: this very dampfit and its
+        # libraries, whatever put them there (an editable install, a script's path edits)
         try:
-            proc = subprocess.Popen([sys.executable, "-m", "dampfit.output.figure_process"],
+            proc = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(sys.path)],
                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                    stderr=subprocess.DEVNULL, env=env, close_fds=True)
+                                    stderr=subprocess.DEVNULL, close_fds=True)
         except OSError:
             proc = None
         return cls(proc, dpi)
