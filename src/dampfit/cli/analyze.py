@@ -23,6 +23,7 @@ is named in its one error line. ``--window``/``--band``/``--axis`` apply to ever
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import os
 import sys
@@ -152,23 +153,13 @@ def _read_options(args) -> dict:
 
 
 def _figure_process(args):
-    """The figure-drawing process (:mod:`dampfit.output.figure_process`) as a context, started
-    now so that its imports overlap this process's; None inside with ``--no-figures``."""
-    import contextlib
-
-    if args.no_figures:
-        return contextlib.nullcontext(None)
+    """The figure-drawing process (:mod:`dampfit.output.figure_process`), started now so that
+    its imports overlap this process's; with ``--no-figures`` a handle that starts nothing.
+    Use it as a context, and ``contextlib.closing`` it inside the result folder's context:
+    it is then stopped before a failed folder's staging folder is removed."""
     from dampfit.output.figure_process import FigureProcess
 
-    return FigureProcess.start()
-
-
-def _stopped_first(figs):
-    """Stops the figure process on leaving (before an enclosing result folder removes its
-    staging folder after a failure, so that nothing is still being written into it)."""
-    import contextlib
-
-    return contextlib.nullcontext() if figs is None else contextlib.closing(figs)
+    return FigureProcess(None) if args.no_figures else FigureProcess.start()
 
 
 def command(args) -> int:
@@ -178,6 +169,9 @@ def command(args) -> int:
     files = [args.file, *(getattr(args, "more_files", None) or [])]
     _check_analysis_options(args)
     if len(files) > 1:
+        import dampfit.pipeline  # noqa: F401 - the stack, then out of the collector's reach
+
+        gc.freeze()
         return campaign_command(args, files)
     for option in ("added_mass", "added_mass_sd"):
         if getattr(args, option, None) is not None:
@@ -194,16 +188,15 @@ def command(args) -> int:
         # that every full garbage collection would walk again: move them out of its reach
         gc.freeze()
         with result_folder(out, "analyze", args.force, inputs=[path]) as folder, \
-                _stopped_first(figs):
-            if figs is not None:
-                figs.target(folder.stage)
+                contextlib.closing(figs):
+            figs.target(folder.stage)
             rec = read(path, **opts)
             an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
                          window=tuple(args.window) if args.window else None,
                          band=tuple(args.band) if args.band else None, seed=args.seed,
                          progress=not args.quiet and sys.stderr.isatty(),
                          max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
-                         on_stage=None if figs is None else figs.send)
+                         on_stage=figs.send)
             gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
             write_outputs(an, folder, not args.no_figures, figs)
             folder.publish()
@@ -307,9 +300,8 @@ def demo(args) -> int:
     # files) is regenerated freely; an analyze result only with --force; anything else never
     with _figure_process(args) as figs, \
             result_folder(out, "demo", args.force, free_kinds=("demo",),
-                          legacy=old_demo_folder) as folder, _stopped_first(figs):
-        if figs is not None:
-            figs.target(folder.stage)
+                          legacy=old_demo_folder) as folder, contextlib.closing(figs):
+        figs.target(folder.stage)
         print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
               f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at "
               f"{cfg.sample_rate:g} Hz) as a phyphox CSV, then analysing it\n")
@@ -323,7 +315,7 @@ def demo(args) -> int:
         rec = dataclasses.replace(read(csv), path=str(folder.target / csv.name))
         an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
                      progress=not args.quiet and sys.stderr.isatty(),
-                     on_stage=None if figs is None else figs.send)
+                     on_stage=figs.send)
         write_outputs(an, folder, not args.no_figures, figs)
         folder.publish()
         if args.report:
