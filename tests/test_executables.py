@@ -255,3 +255,24 @@ def test_entries_are_not_trusted_without_their_key(tmp_path):
         _recompiled(tmp_path, cache, first)
         assert not key.is_symlink() and key.stat().st_size == 32
     assert planted.read_bytes() == b"k" * 32
+
+
+def test_the_cli_passes_on_only_a_folder_it_checked(tmp_path, monkeypatch):
+    """DAMPFIT_EXECUTABLE_CACHE set from outside never reaches the kernels of a CLI run: the
+    CLI replaces it with its own checked folder, or removes it."""
+    from dampfit import cli
+    from dampfit.inference import executables
+
+    planted = tmp_path / "planted"
+    planted.mkdir()
+    planted.chmod(0o777)
+    monkeypatch.delenv("JAX_COMPILATION_CACHE_DIR", raising=False)
+    monkeypatch.setenv(executables.ENV, str(planted))
+    monkeypatch.setenv(cli.CACHE_ENV, "off")
+    assert cli._compile_cache() is None and executables.ENV not in os.environ
+    monkeypatch.setenv(executables.ENV, str(planted))
+    monkeypatch.setenv(cli.CACHE_ENV, str(tmp_path / "ours"))
+    assert cli._compile_cache() == tmp_path / "ours"
+    assert os.environ[executables.ENV] == str(tmp_path / "ours")
+    assert executables.store_dir() == tmp_path / "ours"
+    assert not any(planted.iterdir())
