@@ -36,7 +36,6 @@ import argparse
 import contextlib
 import os
 import signal
-import stat
 import sys
 import threading
 import traceback
@@ -94,34 +93,24 @@ CACHE_ENV = "DAMPFIT_JAX_CACHE"
 
 
 def _make_private(path: Path) -> list[Path]:
-    """Create ``path`` and its missing parents, each 0700; return the folders created."""
-    missing = [p for p in (path, *path.parents) if not os.path.lexists(p)]
-    created = []
-    for p in reversed(missing):
-        try:
-            os.mkdir(p, 0o700)
-        except FileExistsError:
-            continue
-        created.append(p)
-    return created
+    """Create ``path`` and its missing parents, each 0700, after checking every folder above
+    them (:func:`dampfit._private_store.open_store`); return the folders created."""
+    from dampfit._private_store import open_store
+
+    opened = open_store(path)
+    opened.close()
+    return opened.created
 
 
-def _unsafe_cache(path: Path, created: Sequence[Path]) -> str | None:
-    """Why the cache folder ``path`` must not be used (others could plant code in it), or None."""
-    uid = os.geteuid()
+def _unsafe_cache(path: Path, created: Sequence[Path] = ()) -> str | None:
+    """Why the cache folder ``path`` must not be used (others could plant code in it), or None
+    (the checks of :mod:`dampfit._private_store`; ``created`` is no longer needed)."""
+    from dampfit._private_store import UnsafeFolder, open_store
+
     try:
-        for p in {path, *created}:
-            st = os.stat(p)
-            if not stat.S_ISDIR(st.st_mode):
-                return f"{p} is not a directory"
-            if st.st_uid != uid:
-                return f"{p} belongs to another user (uid {st.st_uid})"
-            if st.st_mode & 0o022:
-                return f"{p} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o})"
-        for p in path.resolve().parents:  # a parent others may rename things in
-            st = os.stat(p)
-            if st.st_mode & 0o002 and not st.st_mode & stat.S_ISVTX:
-                return f"its parent {p} is writable by everyone"
+        open_store(path, create=False).close()
+    except UnsafeFolder as exc:
+        return str(exc)
     except OSError as exc:
         return f"cannot be checked ({exc.strerror or exc})"
     return None
@@ -135,36 +124,39 @@ def _compile_cache() -> Path | None:
     second run loads them, compiled, in milliseconds (:mod:`dampfit.inference.executables`).
     Location: ``$DAMPFIT_JAX_CACHE``, else ``$XDG_CACHE_HOME/dampfit/jax`` (``~/.cache/…``);
     ``DAMPFIT_JAX_CACHE=off`` switches it off, and a ``JAX_COMPILATION_CACHE_DIR`` the user
-    set is left alone (JAX's own cache then serves, and dampfit stores nothing). The directory
-    (and every parent created for it) is private (0700): executables loaded from it run as
-    code, so a cache folder that is writable by group or others, is not owned by the user, or
-    lies under a folder everyone may rename things in (no sticky bit) is not used: one warning
-    line on stderr, and the run continues without the cache. Set through an environment
-    variable so that Dask workers of ``dampfit study`` inherit it. Size: ≈ 1 MB per kernel and
-    shape bucket of recordings (:class:`dampfit.signal.prepare.Padded`); entries of other JAX
-    or dampfit versions (or an edited source) are never read again, so deleting the folder is
-    safe.
+    set is left alone (JAX's own cache then serves, and dampfit stores nothing). Executables
+    loaded from the folder run as code, so it is used only if it is private all the way down
+    (:mod:`dampfit._private_store`): every folder from ``/`` to it owned by the user or root
+    and not writable by group or others (unless sticky, like ``/tmp``), the folder itself the
+    user's own (created 0700 with its missing parents); each entry a 0600 file of the user,
+    authenticated with an HMAC under a key kept in the folder. Otherwise one warning line on
+    stderr after the command, and the run continues without the cache; a folder that cannot
+    be created (a read-only home) silently means no cache. Passed on through the environment
+    variable :data:`dampfit.inference.executables.ENV` so that Dask workers of ``dampfit
+    study`` use it too (they check it again); a value of that variable set from outside is
+    replaced. Size: ≈ 1 MB per kernel and shape bucket of recordings
+    (:class:`dampfit.signal.prepare.Padded`); entries of other JAX or dampfit versions, another
+    processor or an edited source are never read again, so deleting the folder is safe.
     """
-    from dampfit.inference.executables import ENV
+    from dampfit._private_store import UnsafeFolder
+    from dampfit.inference.executables import ENV, open_checked
 
+    os.environ.pop(ENV, None)  # only a folder checked here is passed on
     choice = os.environ.get(CACHE_ENV, "")
     if choice.lower() in ("off", "0", "no", "false") or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
-        os.environ.pop(ENV, None)
         return None
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     path = Path(os.path.abspath(Path(choice) if choice else base / "dampfit" / "jax"))
     try:
-        created = _make_private(path)
-    except OSError:
-        return None  # read-only home etc.: run without the cache, only slower
-    problem = _unsafe_cache(path, created)
-    if problem is not None:
+        opened = open_checked(str(path))
+    except UnsafeFolder as problem:
         _DEFERRED.append(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
                          "cache off")
-        os.environ.pop(ENV, None)
         return None
+    except OSError:
+        return None  # read-only home etc.: run without the cache, only slower
     os.environ[ENV] = str(path)
-    return path
+    return opened.path
 
 
 class _Terminated(KeyboardInterrupt):

@@ -26,11 +26,11 @@ import json
 import math
 import re
 import subprocess
-import sys
 from typing import Any
 
 import numpy as np
 
+from dampfit._child import command
 from dampfit.errors import InputError
 from dampfit.fem.sanitize import python_comment, python_literal
 from dampfit.fem.sdof import Sdof
@@ -56,7 +56,9 @@ def unavailable() -> str | None:
     and ``ctypes.util.find_library`` decides if the chain says nothing); another shared library
     missing; any other import failure.
 
-    The import is tried in a child process (:func:`_probe`, once per process): OpenSees'
+    The import is tried in a child process (:func:`_probe`, once per process; like the run
+    of :func:`free_decay` an isolated Python that imports nothing from the working folder,
+    :func:`dampfit._child.command`): OpenSees'
     native code prints "Process 0 Terminating" on the standard error at the exit of any
     process that imported it, which would break the CLI's one-line error contract.
     """
@@ -86,8 +88,8 @@ os._exit(0)
 def _probe() -> str | None:
     """Import OpenSeesPy in a child process: ``None`` if it works, else the one-line reason."""
     try:
-        proc = subprocess.run([sys.executable, "-c", _PROBE_CODE], capture_output=True,
-                              text=True, timeout=300, stdin=subprocess.DEVNULL)
+        proc = subprocess.run(command(_PROBE_CODE), capture_output=True, text=True,
+                              timeout=300, stdin=subprocess.DEVNULL)
     except (OSError, subprocess.SubprocessError) as exc:
         return f"OpenSeesPy could not be tried in a child process ({type(exc).__name__}: {exc})"
     if proc.returncode == 0:
@@ -150,7 +152,7 @@ def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt
         raise InputError(reason)
     params = {"mass": mass, "k": k, "c": c, "u_init": u_init, "v_init": v_init, "dt": dt,
               "n_steps": int(n_steps), "force": force}
-    proc = subprocess.run([sys.executable, "-c", _RUN_CODE], input=json.dumps(params).encode(),
+    proc = subprocess.run(command(_RUN_CODE), input=json.dumps(params).encode(),
                           capture_output=True, check=False)
     n = int(n_steps) + 1
     if proc.returncode != 0 or len(proc.stdout) != 3 * n * 8:

@@ -12,10 +12,21 @@ and later processes load it in a few milliseconds, with no tracing or lowering a
 
 When it is used
 ---------------
-Only where the environment variable :data:`ENV` names a folder (the CLI sets it after checking
-that the folder is private, :mod:`dampfit.cli`); otherwise a :class:`Kernel` is exactly
-``jax.jit``. Any failure to read, write or load an entry (a foreign, truncated or stale file)
-falls back to compiling, and the entry is rewritten (atomically).
+Only where the environment variable :data:`ENV` names a folder (the CLI sets it to its
+private cache folder, :mod:`dampfit.cli`; Dask workers of ``dampfit study`` inherit it) *and*
+that folder passes the checks of :mod:`dampfit._private_store` in this process: every folder
+from ``/`` down owned by the user or root and writable by nobody else (or sticky), the folder
+itself the user's own. Otherwise a :class:`Kernel` is exactly ``jax.jit`` (one warning, once
+per process, when the folder was named but is unsafe: :func:`store`).
+
+An entry is one file: its metadata (JSON) and the serialised executable, authenticated with
+an HMAC-SHA256 under a random key kept in the folder. It is read only if it is a regular file
+of the user with mode 0600 (opened with ``O_NOFOLLOW``, checked with ``fstat``) and its tag
+verifies; anything else — a symbolic link, another owner, a flipped bit, an entry from
+another account or machine — is deleted and the kernel compiled, and the executable is never
+deserialised (deserialising runs a pickle, and a damaged executable can crash the process).
+Any other failure to read, write or load an entry (a stale file) also falls back to
+compiling, and the entry is rewritten (atomically).
 
 This store *replaces* JAX's own persistent compilation cache in CLI runs, it does not sit on
 top of it: an executable that JAX loaded from its cache serialises without the code of its
@@ -28,7 +39,9 @@ Keys
 ----
 An entry is found by the SHA-256 of: the kernel's name; the static arguments' ``repr``; the
 pytree structure, shapes, dtypes and weak types of the other arguments; the x64 flag; the JAX
-and jaxlib versions, the platform and device kind; and a digest of the *source of the whole
+and jaxlib versions, the platform and device kind, the processor's model and instruction-set
+flags (:func:`_cpu`: an executable compiled for another processor of a shared home folder
+could use instructions this one lacks); and a digest of the *source of the whole
 dampfit package* (:func:`source_digest`), so that editing any module (a law, the profile) can
 never load an executable of the old code. Outputs must be arrays or (nested) tuples/lists of
 arrays (their structure is stored as JSON, not pickled); a kernel with other outputs is
@@ -45,15 +58,23 @@ import functools
 import hashlib
 import json
 import os
+import platform
 import re
-import tempfile
+import struct
+import threading
+import warnings
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["Kernel", "kernel", "source_digest", "store_dir"]
+from dampfit._private_store import PrivateStore, UnsafeFolder, open_store
+
+__all__ = ["Kernel", "kernel", "open_checked", "source_digest", "store", "store_dir"]
 
 #: Environment variable naming the folder of stored executables (set by the CLI; unset: off).
 ENV = "DAMPFIT_EXECUTABLE_CACHE"
+#: First bytes of an entry (format version 2: one authenticated file).
+_MAGIC = b"dampfit-executable\x02"
+_LENGTH = struct.Struct(">Q")
 
 
 @functools.lru_cache(maxsize=1)
@@ -70,10 +91,75 @@ def source_digest() -> str:
     return h.hexdigest()
 
 
-def store_dir() -> Path | None:
-    """The executables' folder (``$DAMPFIT_EXECUTABLE_CACHE``), or None when unset."""
+_STORES: dict[str, PrivateStore | None] = {}
+_STORES_LOCK = threading.Lock()
+
+
+def open_checked(folder: str) -> PrivateStore:
+    """The store in ``folder`` for this process (opened and checked once; created 0700 if
+    missing). Raises :class:`~dampfit._private_store.UnsafeFolder` (with the reason) or
+    :class:`OSError` (cannot be created or read) when it must not or cannot be used."""
+    with _STORES_LOCK:
+        if _STORES.get(folder) is not None:
+            return _STORES[folder]
+        opened = open_store(folder)
+        _STORES[folder] = opened
+        return opened
+
+
+def store() -> PrivateStore | None:
+    """The checked store named by :data:`ENV`, or None: unset, or unsafe or unusable (then
+    one :class:`RuntimeWarning`, once per process and folder)."""
     base = os.environ.get(ENV)
-    return Path(base) if base else None
+    if not base:
+        return None
+    if base in _STORES:
+        return _STORES[base]
+    try:
+        return open_checked(base)
+    except (UnsafeFolder, OSError) as exc:
+        reason = str(exc) if isinstance(exc, UnsafeFolder) else (exc.strerror or str(exc))
+        with _STORES_LOCK:
+            _STORES[base] = None
+        warnings.warn(f"dampfit: compiled-kernel cache {base} not used: {reason}",
+                      RuntimeWarning, stacklevel=3)
+        return None
+
+
+def store_dir() -> Path | None:
+    """The real path of the executables' folder in use (:func:`store`), or None."""
+    opened = store()
+    return None if opened is None else opened.path
+
+
+def _disable(opened: PrivateStore, exc: Exception) -> None:
+    """The folder stopped being private while in use: stop using it (one warning)."""
+    with _STORES_LOCK:
+        for key, value in list(_STORES.items()):
+            if value is opened:
+                _STORES[key] = None
+    warnings.warn(f"dampfit: compiled-kernel cache {opened.path} no longer used: {exc}",
+                  RuntimeWarning, stacklevel=3)
+
+
+@functools.lru_cache(maxsize=1)
+def _cpu() -> str:
+    """The processor's model and instruction-set flags (Linux ``/proc/cpuinfo``, first
+    processor), else what :mod:`platform` knows."""
+    lines = []
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if not line.strip():
+                    break  # the first processor's block is enough
+                key = line.split(":", 1)[0].strip()
+                if key in ("vendor_id", "model name", "flags", "Features", "CPU implementer",
+                           "CPU part", "isa"):
+                    lines.append(line.strip())
+    except OSError:
+        pass
+    return hashlib.sha256("\n".join(lines or [platform.machine(), platform.processor()])
+                          .encode()).hexdigest()
 
 
 @functools.lru_cache(maxsize=1)
@@ -83,7 +169,7 @@ def _environment() -> str:
 
     dev = jax.devices()[0]
     return json.dumps([jax.__version__, jaxlib.__version__, dev.platform,
-                       getattr(dev, "device_kind", ""), source_digest()])
+                       getattr(dev, "device_kind", ""), _cpu(), source_digest()])
 
 
 def _quick_aval(x) -> tuple:
@@ -144,7 +230,7 @@ class Kernel:
         functools.update_wrapper(self, fn)
 
     def __call__(self, *args):
-        folder = store_dir()
+        folder = store()
         if folder is None:
             return self._jit(*args)
         import jax
@@ -174,25 +260,28 @@ class Kernel:
         self._memory[quick] = exe
         return out
 
-    def _load_or_compile(self, folder: Path, signature: str, args):
+    def _load_or_compile(self, folder: PrivateStore, signature: str, args):
         import jax
         from jax.experimental import serialize_executable
 
         digest = hashlib.sha256((signature + _environment()).encode()).hexdigest()
-        stem = folder / f"{self._fn.__name__.strip('_')}-{digest[:40]}"
+        stem = re.sub(r"[^A-Za-z0-9_]", "_", self._fn.__name__).strip("_")[:60] or "kernel"
+        name = f"{stem}-{digest[:40]}.exe"
         dynamic = tuple(a for i, a in enumerate(args) if i not in self._static)
         in_tree = jax.tree_util.tree_structure((dynamic, {}))
         try:
-            meta = json.loads(stem.with_suffix(".json").read_text())
-            if meta.get("signature") == signature and meta.get("environment") == _environment():
-                payload = stem.with_suffix(".bin").read_bytes()
-                if hashlib.sha256(payload).hexdigest() == meta.get("payload_sha256"):
-                    _prepare_lapack()
-                    exe = serialize_executable.deserialize_and_load(
-                        payload, in_tree, _tree(meta["out"]))
-                    self.loaded += 1
-                    return exe, True
-        except Exception:  # noqa: BLE001 - missing, foreign or stale entry: compile instead
+            entry = _unpack(folder.read(name))  # None unless authenticated (module docstring)
+            if (entry is not None and entry[0].get("signature") == signature
+                    and entry[0].get("environment") == _environment()):
+                _prepare_lapack()
+                exe = serialize_executable.deserialize_and_load(
+                    entry[1], in_tree, _tree(entry[0]["out"]))
+                self.loaded += 1
+                return exe, True
+        except UnsafeFolder as exc:
+            _disable(folder, exc)
+            folder = None
+        except Exception:  # noqa: BLE001 - missing or stale entry: compile instead
             pass
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
@@ -200,16 +289,30 @@ class Kernel:
         try:
             payload, _, out_tree = serialize_executable.serialize(compiled)
             skeleton = _skeleton(out_tree)
-            if (skeleton is not None and _loadable(lowered.as_text())
+            if (folder is not None and skeleton is not None and _loadable(lowered.as_text())
                     and _reloads(payload, in_tree, out_tree, compiled, dynamic)):
-                meta = {"signature": signature, "environment": _environment(), "out": skeleton,
-                        "payload_sha256": hashlib.sha256(payload).hexdigest()}
-                folder.mkdir(mode=0o700, parents=True, exist_ok=True)
-                _atomic(stem.with_suffix(".bin"), payload)
-                _atomic(stem.with_suffix(".json"), json.dumps(meta).encode())
+                meta = {"signature": signature, "environment": _environment(), "out": skeleton}
+                folder.write(name, _pack(meta, payload))
+        except UnsafeFolder as exc:
+            _disable(folder, exc)
         except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
             pass
         return compiled, False
+
+
+def _pack(meta: dict, payload: bytes) -> bytes:
+    head = json.dumps(meta).encode()
+    return _MAGIC + _LENGTH.pack(len(head)) + head + payload
+
+
+def _unpack(body: bytes | None) -> tuple[dict, bytes] | None:
+    """(metadata, serialised executable) of an authenticated entry's body, or None."""
+    if body is None or not body.startswith(_MAGIC):
+        return None
+    start = len(_MAGIC) + _LENGTH.size
+    (size,) = _LENGTH.unpack_from(body, len(_MAGIC))
+    meta = json.loads(body[start:start + size])
+    return (meta, body[start + size:]) if isinstance(meta, dict) else None
 
 
 def _reloads(payload: bytes, in_tree, out_tree, compiled, dynamic) -> bool:
@@ -261,20 +364,6 @@ def _prepare_lapack() -> None:
         import numpy as np
 
         jax.jit(jnp.linalg.cholesky).lower(np.eye(2))
-
-
-def _atomic(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=path.suffix)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def kernel(fn: Callable | None = None, *, static_argnums: tuple[int, ...] = ()):

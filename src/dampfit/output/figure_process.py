@@ -8,9 +8,11 @@ figures the viscous posterior, the amplitude figure the damping-law assessment
 (:data:`dampfit.output.figures.NEEDS`). While this process samples the posterior — mostly one
 core — a second Python process draws what is ready on the other core:
 
-1. :meth:`FigureProcess.start` starts a Python running :func:`main` (with this process's import
-   path) before the analysis; it imports matplotlib, the figure module and what unpickling an analysis needs
-   (overlapping this process's own imports), then waits on its standard input;
+1. :meth:`FigureProcess.start` starts a Python running :func:`main` before the analysis
+   (isolated, with this process's import path minus the working folder:
+   :func:`dampfit._child.command`); it imports matplotlib, the figure module and what
+   unpickling an analysis needs (overlapping this process's own imports), then waits on its
+   standard input;
 2. :meth:`FigureProcess.target` names the folder to write into (the result folder's staging
    folder), :meth:`FigureProcess.send` passes each stage's fields as they appear
    (``dampfit.analyze(..., on_stage=…)``), and the process draws every figure whose fields
@@ -49,9 +51,8 @@ TIMEOUT_S = 120.0
 #: Environment variable that switches the process off (``0``).
 ENV = "DAMPFIT_FIGURE_PROCESS"
 _HEADER = struct.Struct(">Q")
-#: The process's program: the parent's import path, then :func:`main`.
-_BOOT = ("import json, sys; sys.path[:] = json.loads(sys.argv[1]); "
-         "from dampfit.output.figure_process import main; raise SystemExit(main())")
+#: The process's program (run by :func:`dampfit._child.command`, which sets the path first).
+_BOOT = "from dampfit.output.figure_process import main; raise SystemExit(main())"
 
 
 def _usable_cores() -> int:
@@ -87,9 +88,12 @@ class FigureProcess:
         if os.environ.get(ENV, "1").strip() == "0" or _usable_cores() < 2:
             return cls(None, dpi)
         # the process imports from this process's sys.path: this very dampfit and its
-        # libraries, whatever put them there (an editable install, a script's path edits)
+        # libraries, whatever put them there (an editable install, a script's path edits),
+        # but never from the working folder (dampfit._child)
+        from dampfit._child import command
+
         try:
-            proc = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(sys.path)],
+            proc = subprocess.Popen(command(_BOOT),
                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                                     stderr=subprocess.DEVNULL, close_fds=True)
         except OSError:

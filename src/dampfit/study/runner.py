@@ -6,8 +6,10 @@ pure; the client appends each finished record to ``runs.jsonl`` as it arrives
 flight and the same command resumes it. Runs whose record is already stored are not
 submitted again. The tables are written once every run of the configuration is stored.
 
-By default the client starts ``LocalCluster(n_workers=N, threads_per_worker=1,
-processes=True)``; with a scheduler address it connects to an existing cluster. Workers must
+By default the client starts a local cluster of N worker processes with one thread each
+(:func:`dampfit.study.cluster.local_cluster`: like ``LocalCluster``, but its workers import
+nothing from the working folder); with a scheduler address it connects to an existing
+cluster. Workers must
 be able to import the same dampfit version (same environment, e.g. ``pip install`` on every
 node); this is checked before anything is submitted.
 """
@@ -16,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import logging
 import re
 import sys
 import uuid
@@ -43,7 +44,7 @@ class StudyIncomplete(Exception):
 @contextlib.contextmanager
 def _client(workers: int, scheduler: str | None):
     import dask
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler:
         from distributed.comm.addressing import parse_address
@@ -66,9 +67,14 @@ def _client(workers: int, scheduler: str | None):
                              "with 'dask scheduler' or drop --scheduler") from None
         cluster = None
     else:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
+        from dampfit.study.cluster import local_cluster
+
+        cluster = local_cluster(workers)  # workers import nothing from the working folder
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
     try:
         yield client
     finally:
