@@ -24,7 +24,8 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    (:mod:`dampfit.signal.spectrum`). Gross spikes (more than :data:`GROSS_SPIKE` times the
    signal's own local scale on both sides, :func:`_gross_spikes`; they need no f₀ to be
    found) are left out of this spectrum, so that a train of glitches cannot pose as the
-   oscillation; with too few samples per period for the spike test of step 5 they are masked.
+   oscillation, and are masked with the spikes of step 5 (which that test misses at the ends
+   of the record and with fewer than 12 samples per period).
 7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` [Hz] (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
    the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
@@ -34,7 +35,8 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    user's window that contains such a drop is kept, with a warning.
 9. **Fit samples** — if the rate is far above what the band needs, a zero-phase low-pass at the
    band's upper edge and decimation to ≈2.5× that edge (near-white samples); otherwise the raw
-   samples in the window.
+   samples in the window — also when masked runs (a train of spikes) would exclude more than
+   half of the decimated samples, whose filter support they touch.
 """
 
 from __future__ import annotations
@@ -65,6 +67,9 @@ SPIKE_SIGMA = 8.0
 #: its running median is a gross spike, whatever the frequency (an oscillation's samples stay
 #: within ≈ 1 scale).
 GROSS_SPIKE = 20.0
+#: A gross spike is isolated: at most this many such samples among the 2·GROSS_RUN² + 1
+#: around it.
+GROSS_RUN = 3
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
@@ -287,23 +292,28 @@ def _spikes(y: np.ndarray, fs: float, f0: float) -> np.ndarray:
 
 
 def _gross_spikes(a: np.ndarray, span: int) -> np.ndarray:
-    """True for samples of ``a`` (n, n_axes) [m/s²] that stand more than
+    """True for isolated samples of ``a`` (n, n_axes) [m/s²] that stand more than
     :data:`GROSS_SPIKE` × the signal's robust scale away from its running median, the scale
     taken over ``span`` samples on *both* sides (the larger): an isolated spike is an outlier
-    against both, the onset of an oscillation only against the quiet side before it. Needs no
+    against both, the onset of an oscillation only against the quiet side before it, and a
+    short ring in a quiet record has many such samples (:data:`GROSS_RUN`). Needs no
     frequency: ``span`` is at least a period of the lowest frequency searched."""
     out = np.zeros(a.shape[0], dtype=bool)
     h = max(1, span // 2)
     if a.shape[0] < 4 * h:
         return out
     for col in np.asarray(a, float).T:
-        med = running_median(col, 2 * h + 1)
+        med = running_median(col, 2 * h + 1, "mirror")
         dev = np.abs(col - med)
-        scale = 1.4826 * running_median(dev, 2 * h + 1)  # centred: [i − h, i + h]
+        scale = 1.4826 * running_median(dev, 2 * h + 1, "mirror")  # centred: [i − h, i + h]
         left = np.concatenate([np.full(h, scale[0]), scale[:-h]])  # ends at i
         right = np.concatenate([scale[h:], np.full(h, scale[-1])])  # starts at i
         both = np.maximum(np.maximum(left, right), 1e-12 * max(float(dev.max()), 1e-300))
-        out |= dev > GROSS_SPIKE * both
+        far = dev > GROSS_SPIKE * both
+        # isolated: at most GROSS_RUN such samples among the 2·GROSS_RUN² + 1 around it (a
+        # short ring in a quiet record also stands far above both medians, but for many samples)
+        near = ndimage.uniform_filter1d(far.astype(float), 2 * GROSS_RUN**2 + 1, mode="constant")
+        out |= far & (near * (2 * GROSS_RUN**2 + 1) <= GROSS_RUN + 0.5)
     return out
 
 
@@ -414,7 +424,7 @@ def prepare(
     if band is None:
         bnd = auto_band(f0, fs)
 
-    spikes = _spikes(y, fs, f0) if fs / f0 >= 12 else gross
+    spikes = _spikes(y, fs, f0) | gross
     usable = ~(clipped | spikes)
     n_clipped, n_spikes = int(clipped.sum()), int((spikes & ~clipped).sum())
     if n_clipped:
@@ -543,7 +553,9 @@ def fit_data(prep: Prepared) -> FitData:
         tau = prep.grid[idx_k] - w0
         y = yl[idx_k]
         path, fs_fit, n_excl = "decimated", prep.fs / q, int((~keep).sum())
-    else:
+    if q < 3 or tau.size < max(keep.size / 2, 2 * (degree + 3) + 8):
+        # the raw samples: too little decimation to gain, or masked runs (a train of
+        # spikes) would exclude most decimated samples, whose filter support they touch
         sel = (prep.time >= w0) & (prep.time <= w1)
         keep = sel & prep.usable
         tau = prep.time[keep] - w0

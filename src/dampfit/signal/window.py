@@ -77,11 +77,13 @@ def impacts(t, y, usable, hits, f0) -> tuple[np.ndarray, np.ndarray]:
     return times, ratios
 
 
-def running_median(x: np.ndarray, width: int) -> np.ndarray:
-    """Centred running median over ``width`` samples, computed on a thinned copy (fast)."""
+def running_median(x: np.ndarray, width: int, mode: str = "nearest") -> np.ndarray:
+    """Centred running median over ``width`` samples, computed on a thinned copy (fast);
+    ``mode`` extends the ends as :func:`scipy.ndimage.median_filter` does (``"mirror"`` keeps
+    an outlier in the first sample from filling the window)."""
     step = max(1, width // 20)
     thin = x[::step]
-    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode="nearest")
+    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode=mode)
     return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
 
 
@@ -153,14 +155,14 @@ def passes_through(sm: np.ndarray, i: int, per: int, floor: float, i_pk: int) ->
     band-pass, so it shows the oscillation, not the spike), ``per`` the period [samples],
     ``floor`` the noise floor [m/s²], ``i_pk`` the release. A free decay is locally
     exponential: the log-envelope slope from ``THROUGH_PERIODS`` periods before the spike
-    (or the release, if nearer) to as many after it equals the slope over the next
+    (or a period after the release, if nearer) to as many after it equals the slope over the next
     2·``THROUGH_PERIODS`` periods (or up to a period before the end of the recording, if
     nearer), whatever the damping law. A catch (the oscillation stops),
     a knock (it jumps) or a contact (it loses energy at once) breaks that; so does an
     oscillation already at the noise after the spike, where nothing can be told (then False).
     """
     d = max(1, int(round(THROUGH_PERIODS * per)))
-    a, b, c = max(i - d, i_pk), i + d, min(i + 3 * d, sm.size - 1 - per)
+    a, b, c = max(i - d, i_pk + per), i + d, min(i + 3 * d, sm.size - 1 - per)
     if b - a < per or c - b < per or min(sm[a], sm[b]) <= 0 or sm[c] < 3.0 * floor:
         return False
     before = (np.log(sm[b]) - np.log(sm[a])) / (b - a)
