@@ -153,11 +153,11 @@ def _logger_pro_names(header: list[list[str]], width: int):
         unit = units[j] if units is not None and j < len(units) else ""
         bases.append(f"{long} ({unit})" if unit else long)
     labels = [sets[j] if sets is not None and j < len(sets) and sets[j] else "" for j in range(n)]
-    titles = [h[0] for h in header if len(h) == 1]
-    notes = [f"Vernier (Logger Pro) text export ({'; '.join(titles[:2]) or 'no title'})"]
+    titles = [h[0] for h in header if len(h) == 1]  # the file name and date, the data set
+    notes = [f"Vernier (Logger Pro) text export ({titles[0] if titles else 'no title'})"]
     several = len(set(labels) - {""}) > 1
-    if not several and set(labels) - {""}:
-        notes.append(f"data set {next(r for r in labels if r)!r}")
+    if not several and (set(labels) - {""} or len(titles) > 1):
+        notes.append(f"data set {next((r for r in labels if r), titles[-1])!r}")
     seen: dict[tuple[str, str], int] = {}
     for j, key in enumerate(zip(labels if several else [""] * n, bases)):
         seen[key] = seen.get(key, 0) + 1  # repeated names (two "Acceleration") made unique
