@@ -23,9 +23,8 @@ from scipy import ndimage
 from dampfit.signal.spectrum import noise_density
 
 __all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "PEAK_NOISE", "PEAK_RIPPLE",
-           "envelope_drops",
-           "detect_window", "noise_floor", "impacts", "passes_through", "release_time",
-           "running_median"]
+           "envelope_drops", "detect_window", "noise_floor", "impacts", "passes_through",
+           "release_time", "running_median"]
 
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
@@ -154,12 +153,12 @@ def passes_through(sm: np.ndarray, i: int, per: int, floor: float, i_pk: int) ->
     ``sm`` is the period-averaged envelope [m/s²] (spikes masked and bridged before the
     band-pass, so it shows the oscillation, not the spike), ``per`` the period [samples],
     ``floor`` the noise floor [m/s²], ``i_pk`` the release. A free decay is locally
-    exponential: the log-envelope slope from ``THROUGH_PERIODS`` periods before the spike
-    (or a period after the release, if nearer) to as many after it equals the slope over the next
+    exponential: the log-envelope slope from ``THROUGH_PERIODS`` periods before the spike (or
+    a period after the release, if nearer) to as many after it equals the slope over the next
     2·``THROUGH_PERIODS`` periods (or up to a period before the end of the recording, if
-    nearer), whatever the damping law. A catch (the oscillation stops),
-    a knock (it jumps) or a contact (it loses energy at once) breaks that; so does an
-    oscillation already at the noise after the spike, where nothing can be told (then False).
+    nearer), whatever the damping law. A catch (the oscillation stops), a knock (it jumps) or
+    a contact (it loses energy at once) breaks that; so does an oscillation already at the
+    noise after the spike, where nothing can be told (then False).
     """
     d = max(1, int(round(THROUGH_PERIODS * per)))
     a, b, c = max(i - d, i_pk + per), i + d, min(i + 3 * d, sm.size - 1 - per)
