@@ -759,6 +759,7 @@ def test_native_lab_files_are_refused_with_the_export_to_use(tmp_path):
                       (".cap", r"File ▸ Export Data")):
         path = _write(tmp_path / f"run{ext}", "<xml/>")
         _raises(path, f"is a .* file; export the data as .*{menu}")
+    _raises(tmp_path / "absent.cmbl", "file not found")  # the first reason still comes first
 
 
 def test_position_only_files_say_so(tmp_path):

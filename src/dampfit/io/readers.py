@@ -184,10 +184,7 @@ def read(
     try:
         opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable,
                              row, run)
-        hint = native_file_hint(p.suffix)
-        if hint:
-            raise InputError(f"is {hint}")
-        data = read_bytes(p)
+        data = _read_input(p)
         table = _load_table(p, data, opts, nrows=None)
         return _to_recording(table, opts, p, hashlib.sha256(data).hexdigest(), _window(window))
     except InputError as exc:
@@ -201,10 +198,7 @@ def detect_format(path: str | Path) -> str:
     """
     p = Path(path)
     try:
-        hint = native_file_hint(p.suffix)
-        if hint:
-            raise InputError(f"is {hint}")
-        table = _load_table(p, read_bytes(p), _Options(), nrows=PEEK_ROWS)
+        table = _load_table(p, _read_input(p), _Options(), nrows=PEEK_ROWS)
         return _format_name(table, identify(table).kind)
     except InputError as exc:
         raise _located(p, exc) from None
@@ -267,6 +261,20 @@ def _window(window) -> tuple[float, float] | None:
     if not (np.isfinite(w0) and np.isfinite(w1) and w0 < w1):
         raise InputError(f"window must be two finite times with start < end, got {window!r}")
     return w0, w1
+
+
+def _read_input(path: Path) -> bytes:
+    """:func:`~dampfit.io.bounded.read_bytes`; a native lab-software file (``.cmbl``,
+    ``.gambl``, ``.cap``) that exists is refused with the export to use instead."""
+    hint = native_file_hint(path.suffix)
+    if hint is None:
+        return read_bytes(path)
+    try:
+        read_bytes(path)
+    except InputError as exc:
+        if "unsupported file type" not in str(exc):
+            raise  # missing, a FIFO or device, too large: that reason first
+    raise InputError(f"is {hint}")
 
 
 def _located(path: Path, exc: InputError) -> InputError:
