@@ -225,9 +225,10 @@ def split_runs(table: Table, run: str | int | None) -> Table:
     frame = table.frame[cols].rename(columns={c: own[c] for c in own})
     filled = np.flatnonzero(frame[[own_c for own_c in own.values()]].notna().any(axis=1).to_numpy())
     frame = frame.iloc[: int(filled[-1]) + 1] if filled.size else frame.iloc[:0]
-    if frame.shape[0] == 0:
-        raise InputError(f"run {chosen!r} has no data")
     others = [r for r in order if r != chosen]
+    if frame.shape[0] == 0:
+        raise InputError(f"run {chosen!r} has no data" + (
+            f"; choose another with --run ({', '.join(repr(r) for r in others)})" if others else ""))
     how = "the first run" if run is None else "as chosen with --run"
     note = f"read run {chosen!r} ({frame.shape[0]} rows, {how})"
     if others:
