@@ -43,13 +43,17 @@ __all__ = ["is_logger_pro", "logger_pro_table", "split_runs", "native_file_hint"
 #: A run label as Graphical Analysis writes it in front of a column name: ``Run 1:``,
 #: ``Latest:``, ``Data Set 2:`` (also ``Trial 3:``), and as Capstone writes it after the
 #: name: ``… Run #1`` (also ``… Run 1``).
-_PREFIX_RUN = re.compile(r"^\s*(?P<run>latest|(?:run|data\s*set|trial)\s*#?\s*\d+)\s*:\s*(?P<base>\S.*)$", re.I)
-_SUFFIX_RUN = re.compile(r"^(?P<base>.*?\S)\s*[,;:\-]?\s+(?P<run>run\s*#\s*\d+|run\s+\d+)\s*$", re.I)
+_PREFIX_RUN = re.compile(
+    r"^\s*(?P<run>latest|(?:run|data\s*set|trial)\s*#?\s*\d+)\s*:\s*(?P<base>\S.*)$", re.I)
+_SUFFIX_RUN = re.compile(
+    r"^(?P<base>.*?\S)\s*[,;:\-]?\s+(?P<run>run\s*#\s*\d+|run\s+\d+)\s*$", re.I)
 #: Native files of lab software that dampfit does not read, and how to export text from them.
 _NATIVE = {
-    ".cmbl": "a Logger Pro file; export the data as text (File ▸ Export As ▸ Text) and read that",
+    ".cmbl": "a Logger Pro file; export the data as text (File ▸ Export As ▸ Text) and "
+             "read that",
     ".gambl": "a Graphical Analysis file; export the data as CSV (Export ▸ CSV) and read that",
-    ".cap": "a PASCO Capstone file; export the data as CSV (File ▸ Export Data) and read that",
+    ".cap": "a PASCO Capstone file; export the data as CSV (File ▸ Export Data) and "
+            "read that",
 }
 #: Most preamble and header lines a Logger Pro export has before its data.
 _MAX_HEADER_LINES = 12
@@ -109,7 +113,8 @@ def logger_pro_table(text: str, name: str, nrows: int | None) -> Table:
                             names=names, decimal=decimal, index_col=False, nrows=nrows,
                             skip_blank_lines=True, engine="c")
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError) as exc:
-        raise InputError(f"cannot be parsed as a Vernier text export ({' '.join(str(exc).split())})") from None
+        detail = " ".join(str(exc).split())
+        raise InputError(f"cannot be parsed as a Vernier text export ({detail})") from None
     if frame.shape[0] == 0:
         raise InputError("is a Vernier (Logger Pro) text export without data rows")
     return Table(frame, True, "text", name, notes, origin="logger-pro", runs=runs or None)
@@ -117,7 +122,8 @@ def logger_pro_table(text: str, name: str, nrows: int | None) -> Table:
 
 def _looks_like_run(field: str) -> bool:
     """A data set name as Logger Pro names them: ``Run 1``, ``Latest``, ``Data Set 2``."""
-    return bool(re.fullmatch(r"(latest|data\s*set|(run|data\s*set|trial)\s*#?\s*\d+)", field.strip(), re.I))
+    return bool(re.fullmatch(r"(latest|data\s*set|(run|data\s*set|trial)\s*#?\s*\d+)",
+                             field.strip(), re.I))
 
 
 def _header_rows(header: list[list[str]]):
@@ -199,7 +205,8 @@ def _choose(order: list[str], run: str | int) -> str:
         if _run_key(label) == key:
             return label
     if want.isdigit():
-        numbered = [lb for lb in order if re.findall(r"\d+", lb) and int(re.findall(r"\d+", lb)[-1]) == int(want)]
+        numbered = [lb for lb in order
+                    if (nums := re.findall(r"\d+", lb)) and int(nums[-1]) == int(want)]
         if len(numbered) == 1:
             return numbered[0]
     raise InputError(f"has no run {want!r}; runs: {', '.join(repr(r) for r in order)}")
@@ -226,9 +233,10 @@ def split_runs(table: Table, run: str | int | None) -> Table:
     filled = np.flatnonzero(frame[[own_c for own_c in own.values()]].notna().any(axis=1).to_numpy())
     frame = frame.iloc[: int(filled[-1]) + 1] if filled.size else frame.iloc[:0]
     others = [r for r in order if r != chosen]
+    listing = ", ".join(repr(r) for r in others)
     if frame.shape[0] == 0:
-        raise InputError(f"run {chosen!r} has no data" + (
-            f"; choose another with --run ({', '.join(repr(r) for r in others)})" if others else ""))
+        raise InputError(f"run {chosen!r} has no data"
+                         + (f"; choose another with --run ({listing})" if others else ""))
     how = "the first run" if run is None else "as chosen with --run"
     note = f"read run {chosen!r} ({frame.shape[0]} rows, {how})"
     if others:

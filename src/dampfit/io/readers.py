@@ -224,7 +224,8 @@ class _Options:
             raise InputError(f"row must be a 0-based row number, got {row!r}")
         if run is not None and (isinstance(run, bool) or not isinstance(run, (str, int))
                                 or not str(run).strip()):
-            raise InputError(f"run must be a run label such as 'Run #2' or a run number, got {run!r}")
+            raise InputError(f"run must be a run label such as 'Run #2' or a run number, "
+                             f"got {run!r}")
         if accel_columns is not None and isinstance(accel_columns, (str, int)):
             accel_columns = (accel_columns,)
         elif accel_columns is not None:
