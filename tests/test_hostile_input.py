@@ -471,3 +471,80 @@ def test_an_unsafe_cache_never_adds_a_line_to_an_error(tmp_path, capsys, monkeyp
     code, _, err = run(["simulate", "--duration", "5", "--handheld", "0", "--out",
                         tmp_path / "s.csv"], capsys)
     assert code == 0 and "cache off" in err and len(err.strip().splitlines()) == 1
+
+
+# -- lab exports, empty cells and motion-only files (issue 19) -------------------------------
+
+
+def _runs_csv(path: Path, lengths=(1000, 600)) -> Path:
+    """A Capstone-style CSV: "Time (s) Run #k", "Acceleration (m/s²) Run #k", shorter runs
+    ending in empty cells."""
+    t, a = _decay()
+    header = ",".join(f'"{n} Run #{k + 1}"' for k in range(len(lengths))
+                      for n in ("Time (s)", "Acceleration (m/s²)"))
+    rows = [",".join(f"{t[i]:.4f},{a[i]:.5f}" if i < n else "," for n in lengths)
+            for i in range(max(lengths))]
+    return _write(path, header + "\n" + "\n".join(rows) + "\n")
+
+
+def _motion_txt(path: Path) -> Path:
+    t, a = _decay()
+    x = -a / (2 * np.pi * F_TRUE) ** 2
+    lines = ["Vernier Format 2", "Untitled.cmbl 3/14/2026 10:21:05 .", "Latest",
+             "Time\tPosition", "t\tx", "s\tm", ""] + [f"{ti:.3f}\t{xi:.7f}" for ti, xi in zip(t, x)]
+    return _write(path, "\n".join(lines) + "\n")
+
+
+def _gap_csv(path: Path) -> Path:
+    t, a = _decay()
+    rows = [f"{ti:.4f},{ai:.5f}" for ti, ai in zip(t, a)]
+    rows[800] = f"{t[800]:.4f},"
+    return _write(path, '"Time (s)","acc z (m/s^2)"\n' + "\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize("case,extra,match", [  # match: a plain substring of the line
+    ("motion", [], "position/displacement ('Position (m)') but no acceleration column; "
+                   "dampfit analyses acceleration"),
+    ("gap", [], "acceleration has 1 missing or non-finite value inside the data (first at data "
+                "row 801, after t = 7.99 s); fill or delete those rows, or give --window START "
+                "END that leaves them out"),
+    ("gap", ["--window", "1", "9"], "inside the data"),
+    ("runs", ["--run", "3"], "has no run '3'; runs: 'Run #1', 'Run #2'"),
+    ("plain", ["--run", "2"], "--run: this file has no runs"),
+    ("cmbl", [], "is a Logger Pro file; export the data as text (File ▸ Export As ▸ Text)"),
+    ("mat-run", ["--run", "1"], "--run applies to lab exports"),
+], ids=["motion-only", "gap-inside", "gap-inside-window", "unknown-run", "run-without-runs",
+        "native-cmbl", "run-on-mat"])
+def test_lab_exports_and_empty_cells_refused_with_the_reason(tmp_path, capsys, case, extra, match):
+    import scipy.io as sio
+
+    t, a = _decay()
+    if case == "motion":
+        path = _motion_txt(tmp_path / "motion.txt")
+    elif case == "gap":
+        path = _gap_csv(tmp_path / "gap.csv")
+    elif case == "runs":
+        path = _runs_csv(tmp_path / "runs.csv")
+    elif case == "plain":
+        path = _write(tmp_path / "plain.csv", _csv_text(t, a))
+    elif case == "cmbl":
+        path = _write(tmp_path / "lab.cmbl", "<Document/>")
+    else:
+        path = tmp_path / "r.mat"
+        sio.savemat(path, {"acc": np.vstack([t, a])})
+    line = _refused(tmp_path, capsys, path, match, *extra)
+    if case == "motion":
+        assert "--accel-columns" not in line
+
+
+def test_empty_cells_outside_the_window_and_a_shorter_run_are_analysed(tmp_path, capsys):
+    """The window is applied before the empty-cell check: the gap at 8 s lies outside
+    --window 0.5 7.5; and run #2 of a Capstone file, shorter than run #1, reads without a
+    complaint about its empty cells. Both record their reading options."""
+    s = _analysed(tmp_path, capsys, _gap_csv(tmp_path / "gap.csv"), "--window", "0.5", "7.5")
+    assert "dropped 1 row with empty cells outside the window 0.5–7.5 s" in s["input"]["notes"]
+    assert s["parameters"]["f_n"]["q50"] == pytest.approx(F_TRUE, rel=2e-3)
+    s = _analysed(tmp_path, capsys, _runs_csv(tmp_path / "runs.csv"), "--run", "Run #2", "--force")
+    assert s["input"]["format"] == "capstone-csv" and s["input"]["n_samples"] == 600
+    assert s["provenance"]["options"]["run"] == "Run #2"
+    assert s["parameters"]["f_n"]["q50"] == pytest.approx(F_TRUE, rel=2e-3)

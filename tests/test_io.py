@@ -608,3 +608,221 @@ def test_real_cantilever_adxl345_csv():
     assert rec.accel.mean() == pytest.approx(-0.92 * G, rel=0.1)  # g → m/s²
     assert np.abs(rec.accel).max() == pytest.approx(15.97 * G, rel=0.01)
     assert np.mean(np.diff(rec.accel[:, 0]) == 0) > 0.2  # repeated samples kept
+
+
+# -- lab exports (issue 19): Vernier Logger Pro / Graphical Analysis, PASCO Capstone -----------
+# Synthetic files written the way these programs write them (generated here, no copies).
+
+
+def _lab_decay(n: int = 1500, rate: float = 50.0, scale: float = 1.0):
+    """Time [s] from 0 at ``rate`` [Hz] and a 2.5 Hz decay [m/s²] (a Vernier/PASCO cart)."""
+    t = np.arange(n) / rate
+    return t, scale * 4.0 * np.exp(-0.2 * t) * np.cos(2 * np.pi * 2.5 * t)
+
+
+def _logger_pro(path: Path, runs: list[tuple[np.ndarray, np.ndarray]], *, decimal: str = ".",
+                sets: str = "per column", position: bool = False, newline: str = "\r\n",
+                encoding: str = "latin-1") -> Path:
+    """A Logger Pro "Export As ▸ Text" file: format line, file name and date, data set
+    name(s), long names, short names, units, a blank line, tab-separated data; shorter runs
+    end in empty cells."""
+    longs, shorts, units, names = [], [], [], []
+    for k, _ in enumerate(runs):
+        cols = (["Time", "Position", "Acceleration"], ["t", "x", "a"], ["s", "m", "m/s²"]) if position \
+            else (["Time", "Acceleration"], ["t", "a"], ["s", "m/s²"])
+        longs += cols[0]
+        shorts += cols[1]
+        units += cols[2]
+        names += [f"Run {k + 1}"] * len(cols[0])
+    head = ["Vernier Format 2", "Untitled.cmbl 3/14/2026 10:21:05 ."]
+    head += ["\t".join(names)] if sets == "per column" else [names[0]]
+    head += ["\t".join(longs), "\t".join(shorts), "\t".join(units), ""]
+    fmt = lambda v: f"{v:.5g}".replace(".", decimal)  # noqa: E731
+    rows = []
+    for i in range(max(t.size for t, _ in runs)):
+        cells = []
+        for t, a in runs:
+            if i >= t.size:
+                cells += [""] * (3 if position else 2)
+                continue
+            vals = [t[i], -a[i] / (2 * np.pi * 2.5) ** 2, a[i]] if position else [t[i], a[i]]
+            cells += [fmt(v) for v in vals]
+        rows.append("\t".join(cells))
+    path.write_bytes(newline.join(head + rows).encode(encoding) + newline.encode())
+    return path
+
+
+def test_logger_pro_text_export(tmp_path):
+    t, a = _lab_decay()
+    path = _logger_pro(tmp_path / "cart.txt", [(t, a)], sets="one", position=True)
+    rec = read(path)
+    assert rec.format == "logger-pro-txt" == detect_format(path)
+    assert rec.axes == ("Acceleration (m/s²)",) and rec.time_unit == "s"
+    np.testing.assert_allclose(rec.accel[:, 0], a, atol=1e-4)
+    np.testing.assert_allclose(rec.time, t)
+    notes = " | ".join(rec.notes)
+    assert "Vernier (Logger Pro) text export (Untitled.cmbl 3/14/2026" in notes
+    assert "data set 'Run 1'" in notes and "ignored columns 'Position (m)'" in notes
+
+
+def test_logger_pro_runs_side_by_side_and_decimal_comma(tmp_path):
+    t, a = _lab_decay()
+    t2, a2 = _lab_decay(900, scale=0.5)
+    path = _logger_pro(tmp_path / "two.txt", [(t, a), (t2, a2)], decimal=",", newline="\n",
+                       encoding="utf-8")
+    rec = read(path)
+    assert rec.n_samples == t.size and "read with decimal comma" in rec.notes
+    np.testing.assert_allclose(rec.accel[:, 0], a, atol=1e-4)
+    note = next(n for n in rec.notes if n.startswith("read run"))
+    assert note == ("read run 'Run 1' (1500 rows, the first run); the file has 2 runs ('Run 1', "
+                    "'Run 2'): choose another with --run")
+    second = read(path, run=2)
+    assert second.n_samples == 900 and not any("empty cells" in n for n in second.notes)
+    np.testing.assert_allclose(second.accel[:, 0], a2, atol=1e-4)
+    assert read(path, run="run 2").n_samples == 900
+    assert second.read_options["run"] == 2
+    _raises(path, r"has no run 'Run 3'; runs: 'Run 1', 'Run 2'", run="Run 3")
+
+
+def test_vernier_format_2_from_an_arduino_sketch(tmp_path):
+    """Vernier's Arduino sketches print the format line, a title, "Data Set", long names and
+    units (no short names), with units spelled out."""
+    t, a = _lab_decay()
+    lines = ["Vernier Format 2", "Acceleration Readings taken using Arduino", "Data Set",
+             "Time\tAcceleration", "seconds\tm/s/s"]
+    lines += [f"{ti:.3f}\t{ai:.4f}" for ti, ai in zip(t, a)]
+    rec = read(_write(tmp_path / "serial.txt", "\n".join(lines) + "\n"))
+    assert rec.format == "logger-pro-txt" and rec.time_unit == "s"
+    assert rec.axes == ("Acceleration (m/s/s)",)
+    np.testing.assert_allclose(rec.accel[:, 0], a, atol=1e-4)
+
+
+def test_graphical_analysis_csv_with_three_axes_and_a_latest_run(tmp_path):
+    t, a = _lab_decay()
+    axes = ["X-axis acceleration", "Y-axis acceleration", "Z-axis acceleration"]
+    header = ",".join(f'"{run}: {name} (m/s²)"' for run in ("Latest",) for name in ["Time"] + axes)
+    header = header.replace('"Latest: Time (m/s²)"', '"Latest: Time (s)"')
+    header += "," + ",".join(f'"Run 1: {n}"' for n in ("Time (s)", "Y-axis acceleration (m/s²)"))
+    rows = [header] + [f"{ti:.3f},{0.1 * ai:.4f},{ai:.4f},9.81,{ti:.3f},{-ai:.4f}"
+                       for ti, ai in zip(t, a)]
+    path = _write(tmp_path / "ga.csv", "\n".join(rows) + "\n")
+    rec = read(path)
+    assert rec.format == "graphical-analysis-csv" == detect_format(path)
+    assert rec.axes == ("x", "y", "z")
+    np.testing.assert_allclose(rec.axis("y"), a, atol=1e-4)
+    assert any(n.startswith("read run 'Latest' (1500 rows, the first run)") for n in rec.notes)
+    other = read(path, run=1)
+    assert other.axes == ("y",) and other.accel[1, 0] == pytest.approx(-a[1], abs=1e-4)
+    assert read(path, run="latest").axes == ("x", "y", "z")
+
+
+def _capstone(path: Path, runs, sep: str = ",") -> Path:
+    """A PASCO Capstone "Export Data" CSV: the run after each column name, shorter runs end
+    in empty cells."""
+    header = sep.join(f'"{name} Run #{k + 1}"' for k in range(len(runs))
+                      for name in ("Time (s)", "Acceleration (m/s²)"))
+    rows = [header]
+    for i in range(max(t.size for t, _ in runs)):
+        rows.append(sep.join(f"{v:.4f}" if i < t.size else "" for t, a in runs
+                             for v in ((t[i], a[i]) if i < t.size else (0, 0))))
+    return _write(path, "\n".join(rows) + "\n")
+
+
+def test_capstone_csv_runs_of_different_lengths(tmp_path):
+    t, a = _lab_decay()
+    t2, a2 = _lab_decay(700, scale=2.0)
+    path = _capstone(tmp_path / "capstone.csv", [(t2, a2), (t, a)])
+    rec = read(path)
+    assert rec.format == "capstone-csv" == detect_format(path)
+    assert rec.n_samples == 700 and rec.axes == ("Acceleration (m/s²)",)
+    np.testing.assert_allclose(rec.accel[:, 0], a2, atol=1e-4)
+    assert any("read run 'Run #1' (700 rows, the first run); the file has 2 runs" in n
+               for n in rec.notes)
+    assert not any("empty cells" in n for n in rec.notes)  # a shorter run is not a defect
+    for choice in ("Run #2", "2", 2, "run 2"):
+        second = read(path, run=choice)
+        assert second.n_samples == 1500
+        assert any("as chosen with --run" in n for n in second.notes)
+    np.testing.assert_allclose(read(path, run=2).accel[:, 0], a, atol=1e-4)
+    _raises(path, "has no run '7'", run=7)
+
+
+def test_run_on_a_file_without_runs_is_refused(tmp_path):
+    t, accel = _signal()
+    path = _phyphox_csv(tmp_path / "p.csv", t, accel)
+    _raises(path, r"--run: this file has no runs \(no 'Run 1:' or 'Run #1' column names\)", run=1)
+    _raises(path, "run must be a run label", run=True)
+
+
+def test_native_lab_files_are_refused_with_the_export_to_use(tmp_path):
+    for ext, menu in ((".cmbl", r"Export As ▸ Text"), (".gambl", r"Export ▸ CSV"),
+                      (".cap", r"File ▸ Export Data")):
+        path = _write(tmp_path / f"run{ext}", "<xml/>")
+        _raises(path, f"is a .* file; export the data as .*{menu}")
+    _raises(tmp_path / "absent.cmbl", "file not found")  # the first reason still comes first
+
+
+def test_position_only_files_say_so(tmp_path):
+    """A motion detector's export (position, velocity) has no acceleration: the reason, not
+    an invitation to name the position column as acceleration."""
+    t, a = _lab_decay()
+    x = -a / (2 * np.pi * 2.5) ** 2
+    lines = ["Vernier Format 2", "Untitled.cmbl 3/14/2026 10:21:05 .", "Latest",
+             "Time\tPosition\tVelocity", "t\tx\tv", "s\tm\tm/s", ""]
+    lines += [f"{ti:.3f}\t{xi:.6f}\t{vi:.6f}" for ti, xi, vi in zip(t, x, np.gradient(x, t))]
+    path = _write(tmp_path / "motion.txt", "\n".join(lines) + "\n")
+    err = _raises(path, r"this file has position/displacement/velocity \('Position \(m\)', "
+                        r"'Velocity \(m/s\)'\) but no acceleration column; dampfit analyses "
+                        "acceleration")
+    assert "--accel-columns" not in str(err) and "--time-column" not in str(err)
+    for header in ("time,x (m)", "t,displacement", "Time (s),Distance (cm)"):
+        err = _raises(_write(tmp_path / "d.csv", _table_text(header, [t, x])),
+                      "position/displacement .* but no acceleration column")
+        assert "--accel-columns" not in str(err)
+    _raises(path, r"column 'Position \(m\)' holds position, not acceleration",
+            accel_columns=["Position (m)"])
+
+
+def _lines_with_empty_cells(t, a, empty: dict[int, str]) -> str:
+    rows = [f"{ti:.4f},{ai:.5f}" for ti, ai in zip(t, a)]
+    for i, row in empty.items():
+        rows[i] = row
+    return "time,acc\n" + "\n".join(rows) + "\n"
+
+
+def test_empty_edge_rows_are_dropped_with_a_note(tmp_path):
+    t, a = _lab_decay()
+    text = _lines_with_empty_cells(t, a, {0: f"{t[0]:.4f},", 1: ",", len(t) - 1: f"{t[-1]:.4f},"})
+    rec = read(_write(tmp_path / "edges.csv", text))
+    assert rec.n_samples == t.size - 3 and rec.time[0] == pytest.approx(t[2])
+    assert "dropped 2 leading rows and 1 trailing row with empty cells (at the edges of the table)" \
+        in rec.notes
+
+
+def test_empty_cells_inside_the_data_name_the_fix_unless_the_window_leaves_them_out(tmp_path):
+    t, a = _lab_decay()
+    path = _write(tmp_path / "gap.csv", _lines_with_empty_cells(
+        t, a, {0: ",", 1000: f"{t[1000]:.4f},", 1001: f"{t[1001]:.4f},"}))
+    _raises(path, r"acceleration has 2 missing or non-finite values inside the data \(first at "
+                  r"data row 1001, after t = 19\.98 s\); fill or delete those rows, or give "
+                  r"--window START END that leaves them out")
+    rec = read(path, window=(2.0, 15.0))
+    assert rec.n_samples == t.size - 3
+    assert "dropped 2 rows with empty cells outside the window 2–15 s" in rec.notes
+    assert rec.time[0] <= 2.0 and rec.time[-1] >= 15.0
+    _raises(path, "inside the data", window=(2.0, 25.0))  # the window holds them
+    time_gap = _write(tmp_path / "tgap.csv", _lines_with_empty_cells(t, a, {700: f",{a[700]:.5f}"}))
+    _raises(time_gap, r"time has 1 missing or non-finite value inside the data \(first at data "
+                      r"row 701")
+    assert read(time_gap, window=(0.5, 10.0)).n_samples == t.size - 1
+    _raises(path, "window must be two finite times", window=(3.0, 1.0))
+
+
+def test_reading_options_are_recorded(tmp_path):
+    t, accel = _signal()
+    text = _table_text("stamp;acc_a;acc_b", [t * 1000, accel[:, 1] / G, accel[:, 0]], sep=";")
+    rec = read(_write(tmp_path / "o.csv", text), time_column="stamp", accel_columns=["acc_a"],
+               time_unit="ms", accel_unit="g")
+    assert rec.read_options == {"time_column": "stamp", "accel_columns": ["acc_a"],
+                                "time_unit": "ms", "accel_unit": "g", "sheet": None,
+                                "variable": None, "row": None, "run": None}

@@ -42,9 +42,29 @@ def test_struct_path_two_by_n_time_first():
 
 
 def test_detected_without_variable_and_transposed_storage():
-    table = matfile.load(v5({"rec": np.column_stack([T, A, 2 * A, 3 * A])}, compress=False))
-    assert list(table.columns) == ["time", "x", "y", "z"]
-    np.testing.assert_array_equal(table.columns["y"], 2 * A)
+    """Found without --variable, stored N × 4 (transposed); its three data rows need --row
+    (issue 19: they used to be read as x, y, z of one vector, which two sensors are not)."""
+    data = v5({"rec": np.column_stack([T, A, 2 * A, 3 * A])}, compress=False)
+    table = matfile.load(data, row=2)
+    assert list(table.columns) == ["time", "a"]
+    np.testing.assert_array_equal(table.columns["a"], 2 * A)
+    with pytest.raises(InputError, match=r"3 data rows: row 1 \(rms .*\), row 2 .*, row 3 .*--row"):
+        matfile.load(data)
+
+
+def test_several_rows_without_row_are_refused_naming_them():
+    """Two sensors on one cantilever (tip and middle) in one 3 × N variable: not the axes of one
+    vector, so --variable alone is refused with the rows named; --row picks one."""
+    data = v5({"Fe": {"Out": {"Acc": np.vstack([T, A, 0.4 * A])}}})
+    with pytest.raises(InputError, match=r"'Fe.Out.Acc' has 2 data rows: row 1 \(rms 0.\d+\), "
+                                         r"row 2 \(rms 0.\d+\); row 0 is time;.*separate sensors.*"
+                                         r"--row \(e.g. --row 1\)"):
+        matfile.load(data, variable="Fe.Out.Acc")
+    np.testing.assert_array_equal(matfile.load(data, variable="Fe.Out.Acc", row=2).columns["a"],
+                                  0.4 * A)
+    # two rows and a sibling sample rate (no time row): the same refusal, before the time
+    with pytest.raises(InputError, match="2 data rows: row 0 .*row 1 .*--row"):
+        matfile.load(v5({"S": {"acc": np.vstack([A, -A]), "fs": FS}}))
 
 
 def test_row_picks_the_acceleration_and_the_time_row_is_refused():
@@ -126,6 +146,17 @@ def test_cli_reads_a_lab_struct_and_recovers_the_frequency(tmp_path, capsys):
     assert summary["input"]["format"] == "matlab"
     assert summary["parameters"]["f_n"]["q50"] == pytest.approx(f, rel=2e-3)
     assert summary["parameters"]["zeta"]["q50"] == pytest.approx(zeta, rel=0.1)
+
+
+def test_cli_refuses_several_rows_without_row(tmp_path, capsys):
+    from dampfit.cli import main
+
+    mat = tmp_path / "two.mat"
+    sio.savemat(mat, {"Fe": {"Out": {"Acc": np.vstack([T, A, -A])}}})
+    code = main(["analyze", str(mat), "--variable", "Fe.Out.Acc", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and not (tmp_path / "o").exists()
+    assert "row 1 (rms" in err and "row 2 (rms" in err and "--row" in err
 
 
 def test_cli_mat_options_on_other_files_and_bad_variables(tmp_path, capsys):

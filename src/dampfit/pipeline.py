@@ -416,7 +416,8 @@ def analyze(
         )
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
-               "min_ess": min_ess, "model": model, "amplitude": amplitude}
+               "min_ess": min_ess, "model": model, "amplitude": amplitude,
+               **recording.read_options}
     return Analysis(
         recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
         sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd, seed=int(seed), options=options,

@@ -233,7 +233,7 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     sampling = _with_seconds(sampling, time.monotonic() - started)
     warns.extend(sampling.warnings)
     options = {"axis": axis, "window": _jsonable_option(window), "band": _jsonable_option(band),
-               "max_steps": max_steps, "min_ess": min_ess}
+               "max_steps": max_steps, "min_ess": min_ess, **_reading_options(recs)}
     return CampaignAnalysis(tests=tests, sampling=sampling, warnings=warns, mass=m,
                             mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=int(seed),
                             options=options)
@@ -243,6 +243,15 @@ def _with_seconds(s: CampaignSampling, seconds: float) -> CampaignSampling:
     from dataclasses import replace
 
     return replace(s, seconds=float(seconds))
+
+
+def _reading_options(recs) -> dict:
+    """The recordings' reading options (``Recording.read_options``) for the provenance: as
+    one set when every recording was read alike (as the CLI reads them), else per test."""
+    opts = [dict(getattr(r, "read_options", None) or {}) for r in recs]
+    if all(o == opts[0] for o in opts):
+        return opts[0]
+    return {"read_options_per_test": opts}
 
 
 def _jsonable_option(x):

@@ -64,12 +64,15 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                    metavar="KG", default=None,
                    help="standard deviation of each added mass [kg] (default 0; a 0 "
                    "for the bare system is exact)")
-    g = a.add_argument_group("reading (generic CSV/NPY, MATLAB)")
+    g = a.add_argument_group("reading (generic CSV/NPY, lab exports, Excel, MATLAB)")
     g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
     g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
     g.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column")
-    g.add_argument("--accel-unit", choices=["m/s2", "g"], help="unit of the acceleration")
+    g.add_argument("--accel-unit", choices=["m/s2", "g", "mg"], help="unit of the acceleration")
     g.add_argument("--sheet", help="Excel sheet name")
+    g.add_argument("--run", metavar="RUN",
+                   help="lab export with several runs (Logger Pro, Graphical Analysis, "
+                        "Capstone): the run to read, e.g. 'Run #2' or 2 (default: the first)")
     g.add_argument("--variable", metavar="PATH",
                    help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
     g.add_argument("--row", type=_integer(0, 1023), metavar="N",
@@ -146,10 +149,14 @@ def _print_result(an, out: Path, as_json: bool) -> None:
 
 
 def _read_options(args) -> dict:
-    """Options of :func:`dampfit.io.readers.read` given on the command line."""
-    return {k: getattr(args, k) for k in ("time_column", "accel_columns", "time_unit",
-                                           "accel_unit", "sheet", "variable", "row")
-            if getattr(args, k) is not None}
+    """Options of :func:`dampfit.io.readers.read` given on the command line (the reading
+    options, and the analysis window: rows with empty cells outside it are dropped)."""
+    from dampfit.io.readers import READ_OPTIONS
+
+    opts = {k: getattr(args, k) for k in READ_OPTIONS if getattr(args, k, None) is not None}
+    if args.window is not None:
+        opts["window"] = tuple(args.window)
+    return opts
 
 
 def _figure_process(args):
@@ -179,10 +186,11 @@ def command(args) -> int:
                              "several recordings (one FILE per added mass), got one FILE")
     path = files[0]
     out = Path(args.out) if args.out else Path(Path(path).name + ".dampfit")
-    opts = _read_options(args)
     with _figure_process(args) as figs:  # before the scientific stack is imported
         from dampfit.io.readers import read
         from dampfit.pipeline import analyze
+
+        opts = _read_options(args)
 
         # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects
         # that every full garbage collection would walk again: move them out of its reach

@@ -36,6 +36,13 @@ _TIME_WORDS = {"time", "timestamp", "timestamps", "t", "seconds", "sec", "secs",
 _MAGNITUDE_WORDS = {"abs", "absolute", "norm", "magnitude", "mag", "resultant", "total"}
 _ACCEL_NAMES = {"a", "ax", "ay", "az", "x", "y", "z"}
 _ACCEL_PREFIXES = ("acc", "linearacc", "linacc", "useracc")
+#: Names and units of position and velocity columns (lab exports, motion detectors): never
+#: acceleration, whatever else the name says.
+_POSITION_WORDS = {"position", "displacement", "distance", "pos", "disp", "dist", "height",
+                   "elongation", "extension", "deflection"}
+_VELOCITY_WORDS = {"velocity", "speed", "vel"}
+_LENGTH_UNITS = {"m", "cm", "mm", "µm", "um", "km", "in", "ft"}
+_VELOCITY_UNITS = {f"{u}/s" for u in _LENGTH_UNITS} | {f"{u} s^-1" for u in _LENGTH_UNITS}
 
 
 @dataclass
@@ -51,13 +58,20 @@ class Layout:
 
 
 def role(name: Column) -> str | None:
-    """``"time"``, ``"accel"``, ``"magnitude"`` or None, judged from a column name."""
-    words = name_words(split_name(name)[0])
+    """``"time"``, ``"accel"``, ``"magnitude"``, ``"position"``, ``"velocity"`` or None,
+    judged from a column name and the unit written in it (``Position (m)``, ``v (m/s)``)."""
+    base, unit = split_name(name)
+    words = name_words(base)
     joined = "".join(words)
     if not words:
         return None
     if _TIME_WORDS.intersection(words) or "time" in joined:
         return "time"
+    unit = (unit or "").strip().lower().replace("μ", "µ")
+    if unit in _LENGTH_UNITS or _POSITION_WORDS.intersection(words):
+        return "position"
+    if unit in _VELOCITY_UNITS or _VELOCITY_WORDS.intersection(words):
+        return "velocity"
     is_accel = joined in _ACCEL_NAMES or joined.startswith(_ACCEL_PREFIXES) or "acceleration" in joined
     if not is_accel:
         return None
@@ -69,6 +83,9 @@ def _axis_from_name(name: Column) -> str | None:
     words = name_words(split_name(name)[0])
     if words and words[-1] in ("x", "y", "z"):
         return words[-1]
+    if len(words) >= 2 and words[0] in ("x", "y", "z") and words[1:] in (["axis", "acceleration"],
+                                                                          ["acceleration"]):
+        return words[0]  # Vernier's "X-axis acceleration"
     match = re.fullmatch(r"(?:a|acc|accel|acceleration|linearacceleration)([xyz])", "".join(words))
     return match.group(1) if match else None
 
@@ -200,6 +217,8 @@ def select(table: Table, layout: Layout, time_column: Column | None,
         accel = [c for c in layout.accel_cols if c != time]
     if len(table.frame.columns) < 2:
         raise InputError("has only one column; need a time column and at least one acceleration column")
+    if not accel and table.header:
+        _refuse_motion_only(table)
     if time is None or not accel:
         missing = " or ".join(w for w, bad in (("time", time is None), ("acceleration", not accel)) if bad)
         raise InputError(
@@ -208,7 +227,27 @@ def select(table: Table, layout: Layout, time_column: Column | None,
         )
     if time in accel:
         raise InputError(f"column {str(time)!r} cannot be both time and acceleration")
+    if accel_columns is not None and table.header:
+        for c in accel:
+            if (kind := role(c)) in ("position", "velocity"):
+                raise InputError(f"column {str(c)!r} holds {kind}, not acceleration; dampfit "
+                                 "analyses acceleration: name an acceleration column")
     return time, accel
+
+
+def _refuse_motion_only(table: Table) -> None:
+    """A table with position or velocity columns but no acceleration: say so (a motion
+    detector's or video-tracking export), without suggesting to read the position as one."""
+    motion = {c: role(c) for c in table.frame.columns}
+    found = [c for c, r in motion.items() if r in ("position", "velocity")]
+    if not found:
+        return
+    kinds = "/".join(dict.fromkeys("position/displacement" if motion[c] == "position"
+                                   else "velocity" for c in found))
+    names = ", ".join(repr(str(c)) for c in found[:4])
+    raise InputError(f"this file has {kinds} ({names}) but no acceleration column; dampfit "
+                     "analyses acceleration: record or export the acceleration (an accelerometer, "
+                     "or the software's acceleration column)")
 
 
 def axis_names(table: Table, accel: list[Column]) -> list[str]:

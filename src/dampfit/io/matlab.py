@@ -15,7 +15,10 @@ and acceleration:
 * **Orientation and rows.** The longer dimension counts samples, the shorter one variables
   ("rows" in MATLAB's 2 × N sense, whichever way they are stored). A row that is finite and
   strictly increasing is time; ``row=N`` (0-based) picks the acceleration row, the other rows
-  are ignored. Without a time row, a sibling time vector in the same struct (``t``, ``time``,
+  are ignored. An array with several data rows besides the time needs ``row``: a MAT-file
+  does not say whether they are the axes of one accelerometer or separate sensors (two
+  sensors on a cantilever are not the axes of one vector), so the error names the rows and
+  their rms. Without a time row, a sibling time vector in the same struct (``t``, ``time``,
   ``Time``…, the same length) or a sibling sample rate (``fs``, ``Fs``, ``SampleRate``… [Hz])
   gives the time axis.
 
@@ -74,8 +77,8 @@ def load(data: bytes, *, variable: str | None = None, row: int | None = None,
     variable
         Dotted struct path of the array to use, e.g. ``"Fe.Out.Acc"``; default: detected.
     row
-        0-based row (variable) of the acceleration within that array; default: every
-        non-time row (at most three, read as x, y, z).
+        0-based row (variable) of the acceleration within that array; required when the
+        array has more than one row besides the time.
     max_bytes
         Largest total decompressed size [bytes] the file may declare.
 
@@ -93,9 +96,7 @@ def load(data: bytes, *, variable: str | None = None, row: int | None = None,
     path = _choose(arrays, variable)
     rows = _rows(arrays[path], path)
     time, accel, how = _split(rows, path, arrays, row)
-    names = ["a"] if len(accel) == 1 else ["x", "y", "z"] if len(accel) == 3 else \
-        [f"a{i + 1}" for i in range(len(accel))]
-    columns = {"time": time, **dict(zip(names, accel))}
+    columns = {"time": time, "a": accel[0]}
     shape = " × ".join(str(s) for s in arrays[path].shape)
     return MatTable(columns, version, [f"MATLAB {version} file: variable {path!r} ({shape}): {how}"])
 
@@ -256,15 +257,19 @@ def _split(rows: np.ndarray, path: str, arrays: dict, row: int | None):
     else:
         accel_idx = [i for i in range(k) if i not in time_rows[:1]]
     time_idx = next((i for i in time_rows if i not in accel_idx), None)
+    if len(accel_idx) > 1:
+        rms = ", ".join(f"row {i} (rms {np.sqrt(np.mean(np.square(rows[i]))):.3g})"
+                        for i in accel_idx[:8]) + (", …" if len(accel_idx) > 8 else "")
+        timed = f"row {time_idx} is time; " if time_idx is not None else ""
+        raise InputError(
+            f"variable {path!r} has {len(accel_idx)} data rows: {rms}; {timed}a MAT-file does "
+            "not say whether they are the axes of one accelerometer or separate sensors, so "
+            f"choose the acceleration row with --row (e.g. --row {accel_idx[0]})")
     if time_idx is not None:
         time, how_t = rows[time_idx], f"row {time_idx} time"
     else:
         time, how_t = _sibling_time(path, arrays, n)
-    if len(accel_idx) > 3 and row is None:
-        raise InputError(f"variable {path!r} has {len(accel_idx)} non-time rows; choose the "
-                         "acceleration row with --row")
-    rows_txt = ", ".join(str(i) for i in accel_idx)
-    return time, [rows[i] for i in accel_idx], f"{how_t}, acceleration from row(s) {rows_txt}"
+    return time, [rows[accel_idx[0]]], f"{how_t}, acceleration from row {accel_idx[0]}"
 
 
 def _sibling_time(path: str, arrays: dict, n: int) -> tuple[np.ndarray, str]:

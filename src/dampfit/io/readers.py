@@ -36,14 +36,30 @@ Formats (``Recording.format``)
     header; ``#`` comment lines). Columns and units come from the header where written
     (``Time (ms)``, ``acc [g]``, ``micros`` …), else from the data (see below), or from the
     options ``time_column``, ``accel_columns``, ``time_unit``, ``accel_unit``.
+``"logger-pro-txt"``
+    Vernier Logger Pro text export (``Vernier Format 2``, title, data set name, long names,
+    short names, units, then tab-separated data; :mod:`dampfit.io.labexports`).
+``"graphical-analysis-csv"`` / ``"capstone-csv"``
+    Vernier Graphical Analysis (``"Run 1: Time (s)"``) and PASCO Capstone (``"Time (s) Run
+    #1"``) CSV exports. With several runs side by side the first is read, or the one named by
+    ``run=`` (a note names the others).
 ``"matlab"``
     MATLAB ``.mat`` files, v4–v7 and v7.3 (HDF5): one numeric variable, found through structs
     or named by ``variable="Fe.Out.Acc"``, with a time row, a sibling time vector or sample
-    rate; ``row=`` picks the acceleration row (:mod:`dampfit.io.matlab`).
+    rate; ``row=`` picks the acceleration row, which is required when the variable has
+    several data rows (:mod:`dampfit.io.matlab`).
 ``"npy"`` / ``"npz"``
     NumPy arrays: ``.npy`` of shape (2, N) / (N, 2) = time, acceleration or (4, N) / (N, 4)
     = time, x, y, z; ``.npz`` with arrays named like ``t``/``time`` and ``a``/``acc``/``x``…
     (else the first array is time and the others acceleration).
+
+Empty cells
+-----------
+Rows at the start or end of the table with an empty (or NaN) time or acceleration cell — a
+run shorter than the others, a logger that wrote its first values late — are dropped with a
+note. Empty cells inside the data are an error naming the first one, unless ``window=`` (the
+analysis window [s]) leaves them out: rows with empty cells outside it are then dropped with
+a note. Position- or velocity-only files (a motion detector) are refused with that reason.
 
 Unit inference when a unit is neither written nor given
 -------------------------------------------------------
@@ -82,6 +98,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from dampfit.errors import InputError
@@ -90,11 +107,17 @@ from dampfit.io import matlab as matfile
 from dampfit.io.bounded import TEXT_EXTS, decode, read_bytes
 from dampfit.io.columns import axis_names, identify, select
 from dampfit.io.containers import container_table, npy_table, xls_table
+from dampfit.io.labexports import is_logger_pro, logger_pro_table, native_file_hint, split_runs
 from dampfit.io.recording import Recording, gap_summary, time_segments
 from dampfit.io.text import PEEK_ROWS, Column, Table, text_table
 from dampfit.io.units import ACCEL_ALIASES, TIME_ALIASES, accel_block, canonical_unit, time_axis
 
-__all__ = ["read", "detect_format"]
+__all__ = ["read", "detect_format", "READ_OPTIONS"]
+
+#: The reading options of :func:`read`, as recorded in ``Recording.read_options`` and
+#: ``provenance.options`` (each is also a ``dampfit analyze`` option, ``_`` → ``-``).
+READ_OPTIONS = ("time_column", "accel_columns", "time_unit", "accel_unit", "sheet", "variable",
+                "row", "run")
 
 #: Magic bytes: NumPy .npy, ZIP (also .xlsx and .npz) and OLE2 (legacy .xls).
 _NPY_MAGIC = b"\x93NUMPY"
@@ -112,6 +135,8 @@ def read(
     sheet: str | int | None = None,
     variable: str | None = None,
     row: int | None = None,
+    run: str | int | None = None,
+    window: tuple[float, float] | None = None,
 ) -> Recording:
     """Read an accelerometer recording.
 
@@ -136,23 +161,32 @@ def read(
         default: detected (:mod:`dampfit.io.matlab`).
     row
         MATLAB file: 0-based row (variable) of that array holding the acceleration.
+    run
+        Lab export with several runs: the run to read, by label (``"Run #2"``, ``"Latest"``)
+        or number (``2``); default: the first.
+    window
+        (start, end) [s] of the analysis window, if one will be given: rows with empty cells
+        outside it are dropped instead of refused (module docstring, "Empty cells"). Not a
+        reading option (it is recorded with the analysis options).
 
     Returns
     -------
     Recording
-        Time [s], acceleration [m/s²], axes, format, ``gravity_removed``, notes, SHA-256.
+        Time [s], acceleration [m/s²], axes, format, ``gravity_removed``, notes, SHA-256,
+        ``read_options`` (the options given, for provenance).
 
     Raises
     ------
     InputError
         One line naming the file and the problem, for every file that cannot be used.
     """
-    opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable, row)
     p = Path(path)
     try:
-        data = read_bytes(p)
+        opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable,
+                             row, run)
+        data = _read_input(p)
         table = _load_table(p, data, opts, nrows=None)
-        return _to_recording(table, opts, p, hashlib.sha256(data).hexdigest())
+        return _to_recording(table, opts, p, hashlib.sha256(data).hexdigest(), _window(window))
     except InputError as exc:
         raise _located(p, exc) from None
 
@@ -164,8 +198,8 @@ def detect_format(path: str | Path) -> str:
     """
     p = Path(path)
     try:
-        table = _load_table(p, read_bytes(p), _Options(), nrows=PEEK_ROWS)
-        return _format_name(table.source, identify(table).kind)
+        table = _load_table(p, _read_input(p), _Options(), nrows=PEEK_ROWS)
+        return _format_name(table, identify(table).kind)
     except InputError as exc:
         raise _located(p, exc) from None
 
@@ -181,12 +215,17 @@ class _Options:
     sheet: str | int | None = None
     variable: str | None = None
     row: int | None = None
+    run: str | int | None = None
 
     @classmethod
     def make(cls, time_column, accel_columns, time_unit, accel_unit, sheet, variable=None,
-             row=None) -> _Options:
+             row=None, run=None) -> _Options:
         if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
             raise InputError(f"row must be a 0-based row number, got {row!r}")
+        if run is not None and (isinstance(run, bool) or not isinstance(run, (str, int))
+                                or not str(run).strip()):
+            raise InputError(f"run must be a run label such as 'Run #2' or a run number, "
+                             f"got {run!r}")
         if accel_columns is not None and isinstance(accel_columns, (str, int)):
             accel_columns = (accel_columns,)
         elif accel_columns is not None:
@@ -201,7 +240,42 @@ class _Options:
             sheet=sheet,
             variable=variable,
             row=row,
+            run=run,
         )
+
+    def recorded(self) -> dict:
+        """Every reading option (:data:`READ_OPTIONS`) as JSON-safe data, None where not given."""
+        out = {k: getattr(self, k) for k in READ_OPTIONS}
+        if out["accel_columns"] is not None:
+            out["accel_columns"] = list(out["accel_columns"])
+        return out
+
+
+def _window(window) -> tuple[float, float] | None:
+    """``window`` = (start, end) [s] checked: two finite numbers, start < end."""
+    if window is None:
+        return None
+    try:
+        w0, w1 = (float(w) for w in window)
+    except (TypeError, ValueError):
+        raise InputError(f"window must be (start, end) in seconds, got {window!r}") from None
+    if not (np.isfinite(w0) and np.isfinite(w1) and w0 < w1):
+        raise InputError(f"window must be two finite times with start < end, got {window!r}")
+    return w0, w1
+
+
+def _read_input(path: Path) -> bytes:
+    """:func:`~dampfit.io.bounded.read_bytes`; a native lab-software file (``.cmbl``,
+    ``.gambl``, ``.cap``) that exists is refused with the export to use instead."""
+    hint = native_file_hint(path.suffix)
+    if hint is None:
+        return read_bytes(path)
+    try:
+        read_bytes(path)
+    except InputError as exc:
+        if "unsupported file type" not in str(exc):
+            raise  # missing, a FIFO or device, too large: that reason first
+    raise InputError(f"is {hint}")
 
 
 def _located(path: Path, exc: InputError) -> InputError:
@@ -214,18 +288,25 @@ def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> T
     """Dispatch on the content (magic bytes), checked against the extension."""
     ext = path.suffix.lower()
     if ext == ".mat" or matfile.is_mat(data):
+        if opts.run is not None:
+            raise InputError("--run applies to lab exports with runs, not to MATLAB files; "
+                             "choose the variable with --variable")
         return _mat_table(data, path.name, opts)
     if opts.variable is not None or opts.row is not None:
         raise InputError("--variable and --row apply to MATLAB .mat files only")
     if data.startswith(_NPY_MAGIC):
-        return npy_table(data, path.name)
-    if data.startswith(_ZIP_MAGICS):
-        return container_table(data, path.name, ext, opts.sheet, nrows)
-    if data.startswith(_OLE_MAGIC) or ext == ".xls":
-        return xls_table(data, opts.sheet, nrows)
-    if ext not in TEXT_EXTS:
+        table = npy_table(data, path.name)
+    elif data.startswith(_ZIP_MAGICS):
+        table = container_table(data, path.name, ext, opts.sheet, nrows)
+    elif data.startswith(_OLE_MAGIC) or ext == ".xls":
+        table = xls_table(data, opts.sheet, nrows)
+    elif ext not in TEXT_EXTS:
         raise InputError(f"is not a valid {ext} file (corrupt, truncated or wrongly named)")
-    return text_table(decode(data), path.name, "text", nrows)
+    else:
+        text = decode(data)
+        table = logger_pro_table(text, path.name, nrows) if is_logger_pro(text) else \
+            text_table(text, path.name, "text", nrows)
+    return split_runs(table, opts.run)
 
 
 def _mat_table(data: bytes, name: str, opts: _Options) -> Table:
@@ -234,11 +315,17 @@ def _mat_table(data: bytes, name: str, opts: _Options) -> Table:
     return Table(pd.DataFrame(mat.columns), True, "matlab", name, list(mat.notes))
 
 
-def _format_name(source: str, kind: str) -> str:
-    """``Recording.format`` from the container (``text``, ``zip``, ``xlsx``, ``npy``, ``npz``,
-    ``matlab``) and the layout kind (``phyphox``, ``sensor-logger``, ``generic``)."""
+def _format_name(table: Table, kind: str) -> str:
+    """``Recording.format`` from the table's container (``text``, ``zip``, ``xlsx``, ``npy``,
+    ``npz``, ``matlab``), the software that wrote it (``table.origin``) and the layout kind
+    (``phyphox``, ``sensor-logger``, ``generic``)."""
+    source = table.source
     if source in ("npy", "npz", "matlab"):
         return source
+    if table.origin == "logger-pro":
+        return "logger-pro-txt"
+    if table.origin is not None and source == "text":
+        return f"{table.origin}-csv"
     if kind == "phyphox":
         return {"text": "phyphox-csv", "zip": "phyphox-zip", "xlsx": "phyphox-xlsx"}[source]
     if kind == "sensor-logger":
@@ -246,7 +333,8 @@ def _format_name(source: str, kind: str) -> str:
     return "generic-xlsx" if source == "xlsx" else "generic-csv"
 
 
-def _to_recording(table: Table, opts: _Options, path: Path, sha256: str) -> Recording:
+def _to_recording(table: Table, opts: _Options, path: Path, sha256: str,
+                  window: tuple[float, float] | None = None) -> Recording:
     """Select, convert and validate: the final step of every reader."""
     layout = identify(table)
     time_col, accel_cols = select(table, layout, opts.time_column, opts.accel_columns)
@@ -259,6 +347,10 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str) -> Reco
     notes = list(table.notes) + list(layout.notes)
     if layout.kind == "generic" and table.header:
         notes.append(f"time from column {str(time_col)!r}; acceleration from {', '.join(repr(str(c)) for c in accel_cols)}")
+    keep, empty_notes = _rows_to_keep(time, accel, window)
+    if keep is not None:
+        time, accel = time[keep], accel[keep]
+    notes += empty_notes
     segments = time_segments(time)
     if len(segments) > 1:
         time_notes.append(gap_summary(time, segments))
@@ -267,10 +359,60 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str) -> Reco
         accel=accel,
         axes=tuple(axes),
         path=str(path),
-        format=_format_name(table.source, layout.kind),
+        format=_format_name(table, layout.kind),
         gravity_removed=layout.gravity_removed,
         notes=tuple(notes + time_notes + accel_notes),
         sha256=sha256,
         time_unit=time_unit,
         time_unit_source=time_source,
+        read_options=opts.recorded(),
     )
+
+
+def _rows_to_keep(time: np.ndarray, accel: np.ndarray, window: tuple[float, float] | None):
+    """(row mask or None, notes): rows with an empty (NaN) time or acceleration cell are
+    dropped at the start and end of the table, and outside ``window`` [s]; one inside the
+    data (and the window) is an :class:`InputError` that names it and the fix. A table with
+    no complete row is left to :class:`Recording`'s own check."""
+    empty = np.isnan(time) | np.isnan(accel).any(axis=1)
+    full = np.flatnonzero(~empty)
+    if not empty.any() or full.size == 0:
+        return None, []
+    keep = np.zeros(time.size, dtype=bool)
+    keep[full[0]:full[-1] + 1] = True
+    notes = []
+    lead, trail = int(full[0]), int(time.size - 1 - full[-1])
+    if lead or trail:
+        ends = " and ".join(_count(n, f"{where} row") for n, where in
+                            ((lead, "leading"), (trail, "trailing")) if n)
+        notes.append(f"dropped {ends} with empty cells (at the edges of the table)")
+    inner = np.flatnonzero(empty & keep)
+    if inner.size and window is not None:
+        # a row's time, or for an empty time the times of the complete rows around it
+        prev_t = time[full[np.searchsorted(full, inner) - 1]]
+        next_t = time[full[np.searchsorted(full, inner)]]
+        t_row = time[inner]
+        outside = np.where(np.isnan(t_row), (next_t <= window[0]) | (prev_t >= window[1]),
+                           (t_row < window[0]) | (t_row > window[1]))
+        if outside.any():
+            keep[inner[outside]] = False
+            notes.append(f"dropped {_count(int(outside.sum()), 'row')} with empty cells outside "
+                         f"the window {window[0]:g}–{window[1]:g} s")
+        inner = inner[~outside]
+    if inner.size:
+        first = int(inner[0])
+        which = "time" if np.isnan(time[first]) else "acceleration"
+        count = int(np.isnan(time[inner]).sum() if which == "time"
+                    else np.isnan(accel[inner]).sum())
+        near = time[full[full < first][-1]]
+        raise InputError(
+            f"{which} has {_count(count, 'missing or non-finite value')} inside the data (first "
+            f"at data row {first + 1}, after t = {near:g} s); fill or delete those rows, or "
+            "give --window START END that leaves them out (rows with empty cells at the start "
+            "or end are dropped by themselves)")
+    return keep, notes
+
+
+def _count(n: int, noun: str) -> str:
+    """``"1 row"``, ``"3 rows"``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"

@@ -74,6 +74,10 @@ class Recording:
     time_unit_source : str or None
         Where that unit came from: ``"given"`` (option), ``"header"``, ``"format"`` (the
         format's fixed unit) or ``"inferred"`` (from the step size).
+    read_options : dict
+        The reading options it was read with (:data:`dampfit.io.readers.READ_OPTIONS`, None
+        where not given), JSON-safe; recorded in ``provenance.options`` so that the analysis
+        can be reproduced. Empty when not read from a file.
     """
 
     time: np.ndarray
@@ -86,6 +90,7 @@ class Recording:
     sha256: str | None = None
     time_unit: str | None = None
     time_unit_source: str | None = None
+    read_options: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         t, a = _coerce(self.time, self.accel, len(self.axes))

@@ -23,7 +23,7 @@ import pandas as pd
 from dampfit.errors import InputError
 from dampfit.io import bounded
 
-__all__ = ["Column", "Table", "PEEK_ROWS", "text_table", "is_number", "drop_empty_unnamed"]
+__all__ = ["Column", "Table", "PEEK_ROWS", "DECIMAL_COMMA", "text_table", "is_number", "drop_empty_unnamed"]
 
 #: A column by name or by 0-based position.
 Column = str | int
@@ -33,7 +33,7 @@ PEEK_ROWS = 5
 #: Non-blank lines looked at to sniff the dialect.
 _SNIFF_LINES = 50
 #: A number with a decimal comma, e.g. ``-1,25e-3``.
-_DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
+DECIMAL_COMMA = re.compile(r"^[-+]?\d*,\d+(?:[eE][-+]?\d+)?$")
 
 
 @dataclass
@@ -43,6 +43,9 @@ class Table:
     ``header`` tells whether the columns are names from the file (else positions).
     ``source`` is the container: ``text``, ``zip``, ``xlsx``, ``npy`` or ``npz``.
     ``name`` is the file, ZIP member or sheet name (Sensor Logger's sensor is in it).
+    ``origin`` names the lab software that wrote it when the layout tells (``"logger-pro"``,
+    ``"graphical-analysis"``, ``"capstone"``; :mod:`dampfit.io.labexports`), and ``runs``
+    maps a column to its (run label, column name) where a parser read the runs itself.
     """
 
     frame: pd.DataFrame
@@ -51,6 +54,8 @@ class Table:
     name: str
     notes: list[str] = field(default_factory=list)
     positional_fallback: bool = False
+    origin: str | None = None
+    runs: dict[str, tuple[str, str]] | None = None
 
 
 def _strip_comments(text: str) -> str:
@@ -127,7 +132,7 @@ def sniff_dialect(text: str) -> _Dialect:
     decimal = "."
     if sep != ",":
         tokens = (tok.strip().strip('"') for line in data_lines for tok in _split(line, sep))
-        if any(_DECIMAL_COMMA.match(tok) for tok in tokens):
+        if any(DECIMAL_COMMA.match(tok) for tok in tokens):
             decimal = ","
     width = max(len(_split(line, sep)) for line in lines)
     if width > bounded.MAX_COLUMNS:

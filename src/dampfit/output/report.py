@@ -327,6 +327,48 @@ def _signal_flags(opts: dict) -> list[str]:
     return parts
 
 
+#: The reading options recorded in ``provenance.options`` (:data:`dampfit.io.readers.READ_OPTIONS`)
+#: and what each value may be to become a flag again.
+_READ_FLAGS = {"time_column": "one", "accel_columns": "many", "time_unit": "one",
+               "accel_unit": "one", "sheet": "one", "variable": "one", "row": "int", "run": "one"}
+
+
+def _flag(flag: str, value: str) -> list[str]:
+    """``--flag VALUE``, or ``--flag=VALUE`` when the value starts with ``-`` (else the
+    parser would take it for an option), shell-quoted."""
+    if value.startswith("-"):
+        return [shlex.quote(f"{flag}={value}")]
+    return [flag, shlex.quote(value)]
+
+
+def _read_flags(opts: dict) -> list[str]:
+    """The reading options (``--time-column`` … ``--run``) as the recorded options gave them;
+    values of the wrong type (an edited summary) are left out."""
+    parts: list[str] = []
+    for key, kind in _READ_FLAGS.items():
+        v = opts.get(key)
+        flag = "--" + key.replace("_", "-")
+        if kind == "int" and isinstance(v, int) and not isinstance(v, bool) and v >= 0:
+            parts += [flag, str(v)]
+        elif kind == "one" and isinstance(v, (str, int)) and not isinstance(v, bool):
+            parts += _flag(flag, str(v))
+        elif kind == "many" and isinstance(v, list) and v and all(
+                isinstance(x, (str, int)) and not isinstance(x, bool) for x in v):
+            values = [str(x) for x in v]
+            if len(values) == 1:
+                parts += _flag(flag, values[0])
+            else:  # several values cannot take the --flag=VALUE form; a leading '-' stays
+                parts += [flag] + [shlex.quote(x) for x in values]
+    return parts
+
+
+def _input_arg(path) -> str:
+    """The input path as a shell word; a relative path starting with ``-`` gets ``./``."""
+    if not isinstance(path, str):
+        return "FILE"
+    return shlex.quote("./" + path if path.startswith("-") else path)
+
+
 def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     """The shell command that re-creates the result folder ``directory`` from its input."""
     directory = Path(os.path.abspath(directory))
@@ -337,9 +379,8 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
         return f"dampfit demo --seed {seed} --out {q(str(directory))}"
     opts = _get(s, "provenance", "options")
     opts = opts if isinstance(opts, dict) else {}
-    path = _get(s, "input", "path")
-    parts = ["dampfit", "analyze", q(path) if isinstance(path, str) else "FILE"]
-    parts += _mass_flags(s.get("mass")) + _signal_flags(opts)
+    parts = ["dampfit", "analyze", _input_arg(_get(s, "input", "path"))]
+    parts += _mass_flags(s.get("mass")) + _signal_flags(opts) + _read_flags(opts)
     if isinstance(opts.get("model"), str) and opts["model"] != "auto":
         parts += ["--model", q(opts["model"])]
     if _finite(opts.get("amplitude")):
@@ -943,7 +984,7 @@ def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     q = shlex.quote
     tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
     paths = [_get(t, "input", "path") for t in tests]
-    parts = ["dampfit", "analyze"] + [q(p) if isinstance(p, str) else "FILE" for p in paths]
+    parts = ["dampfit", "analyze"] + [_input_arg(p) for p in paths]
     am = _get(s, "design", "added_mass")
     m = _get(s, "design", "mass")
     if isinstance(am, dict) and isinstance(am.get("values"), list):
@@ -953,7 +994,8 @@ def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     else:
         parts += _mass_flags(m)
     opts = _get(s, "provenance", "options")
-    parts += _signal_flags(opts if isinstance(opts, dict) else {})
+    opts = opts if isinstance(opts, dict) else {}
+    parts += _signal_flags(opts) + _read_flags(opts)
     seed = _get(s, "provenance", "seed")
     seed = seed if isinstance(seed, int) and not isinstance(seed, bool) else 0
     return " ".join(parts + ["--seed", str(seed), "--out", q(str(directory))])

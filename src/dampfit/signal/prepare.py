@@ -21,7 +21,11 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    (> 8 robust σ above a running median) are masked, never fitted.
 6. **Spectrum and dominant frequency** — peak of the power summed over axes (Tukey-windowed
    periodogram, flat over 90 % of the record) refined by parabolic interpolation
-   (:mod:`dampfit.signal.spectrum`).
+   (:mod:`dampfit.signal.spectrum`). Gross spikes (more than :data:`GROSS_SPIKE` times the
+   signal's own local scale on both sides, :func:`_gross_spikes`; they need no f₀ to be
+   found) are left out of this spectrum, so that a train of glitches cannot pose as the
+   oscillation, and are masked with the spikes of step 5 (which that test misses at the ends
+   of the record and with fewer than 12 samples per period).
 7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` [Hz] (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
    the envelope maximum (the release) to where the envelope reaches 3× the in-band noise floor
@@ -31,7 +35,8 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    user's window that contains such a drop is kept, with a warning.
 9. **Fit samples** — if the rate is far above what the band needs, a zero-phase low-pass at the
    band's upper edge and decimation to ≈2.5× that edge (near-white samples); otherwise the raw
-   samples in the window.
+   samples in the window — also when masked runs (a train of spikes) would exclude more than
+   half of the decimated samples, whose filter support they touch.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary, time_segme
 from dampfit.signal.spectrum import auto_band, dominant_frequency
 from dampfit.signal.window import (
     DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
+    running_median,
 )
 
 __all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_length"]
@@ -57,6 +63,13 @@ __all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_lengt
 STALE_FRACTION = 0.10
 #: Robust z-score above which a sample deviating from its running median is a spike.
 SPIKE_SIGMA = 8.0
+#: A sample more than this many times the signal's robust local scale on both sides away from
+#: its running median is a gross spike, whatever the frequency (an oscillation's samples stay
+#: within ≈ 1 scale).
+GROSS_SPIKE = 20.0
+#: A gross spike is isolated: at most this many such samples among the 2·GROSS_RUN² + 1
+#: around it.
+GROSS_RUN = 3
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
@@ -278,6 +291,32 @@ def _spikes(y: np.ndarray, fs: float, f0: float) -> np.ndarray:
     return ndimage.binary_dilation(hit, iterations=2)
 
 
+def _gross_spikes(a: np.ndarray, span: int) -> np.ndarray:
+    """True for isolated samples of ``a`` (n, n_axes) [m/s²] that stand more than
+    :data:`GROSS_SPIKE` × the signal's robust scale away from its running median, the scale
+    taken over ``span`` samples on *both* sides (the larger): an isolated spike is an outlier
+    against both, the onset of an oscillation only against the quiet side before it, and a
+    short ring in a quiet record has many such samples (:data:`GROSS_RUN`). Needs no
+    frequency: ``span`` is at least a period of the lowest frequency searched."""
+    out = np.zeros(a.shape[0], dtype=bool)
+    h = max(1, span // 2)
+    if a.shape[0] < 4 * h:
+        return out
+    for col in np.asarray(a, float).T:
+        med = running_median(col, 2 * h + 1, "mirror")
+        dev = np.abs(col - med)
+        scale = 1.4826 * running_median(dev, 2 * h + 1, "mirror")  # centred: [i − h, i + h]
+        left = np.concatenate([np.full(h, scale[0]), scale[:-h]])  # ends at i
+        right = np.concatenate([scale[h:], np.full(h, scale[-1])])  # starts at i
+        both = np.maximum(np.maximum(left, right), 1e-12 * max(float(dev.max()), 1e-300))
+        far = dev > GROSS_SPIKE * both
+        # isolated: at most GROSS_RUN such samples among the 2·GROSS_RUN² + 1 around it (a
+        # short ring in a quiet record also stands far above both medians, but for many samples)
+        near = ndimage.uniform_filter1d(far.astype(float), 2 * GROSS_RUN**2 + 1, mode="constant")
+        out |= far & (near * (2 * GROSS_RUN**2 + 1) <= GROSS_RUN + 0.5)
+    return out
+
+
 def _inpaint_on_grid(grid: np.ndarray, t: np.ndarray, y: np.ndarray, usable: np.ndarray) -> np.ndarray:
     """``y`` on the grid from the usable samples only (cubic spline through them).
 
@@ -350,8 +389,14 @@ def prepare(
             f"the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) is too short to hold an oscillation"
         )
 
-    # dominant frequency on the axis with the strongest peak, then the axis, then refine
-    detr = signal.detrend(graw, axis=0)
+    # dominant frequency on the axis with the strongest peak, then the axis, then refine;
+    # gross spikes (found without f0) stay out of this first spectrum
+    gross = _gross_spikes(a, int(np.ceil(fs / fmin)))
+    if gross.any() and (~gross).sum() >= 16:
+        graw_f = _to_grid(t[~gross], a[~gross], fs, grid=grid)[1]
+    else:
+        graw_f = graw
+    detr = signal.detrend(graw_f, axis=0)
     try:
         f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
     except InputError as exc:
@@ -375,11 +420,11 @@ def prepare(
     yg = graw @ d
 
     # refine f0 on the selected signal, then fix the band
-    f0, freqs, amp = dominant_frequency(signal.detrend(yg), fs, *bnd)
+    f0, freqs, amp = dominant_frequency(signal.detrend(graw_f @ d), fs, *bnd)
     if band is None:
         bnd = auto_band(f0, fs)
 
-    spikes = _spikes(y, fs, f0)
+    spikes = _spikes(y, fs, f0) | gross
     usable = ~(clipped | spikes)
     n_clipped, n_spikes = int(clipped.sum()), int((spikes & ~clipped).sum())
     if n_clipped:
@@ -406,6 +451,8 @@ def prepare(
         w0, w1, wnotes = detect_window(grid, env, f0, floor, impacts(t, y, usable, spikes & ~clipped, f0))
         notes.extend(wnotes)
         guard = max(0.5 / f0, 3.0 / bnd[1])
+        if (w1 - min(w0 + guard, w1)) * f0 < MIN_CYCLES:
+            raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
         w0 = min(w0 + guard, w1)
         window_auto = True
     else:
@@ -423,12 +470,6 @@ def prepare(
                             f"{tc:.2f} s ({factor:.1f}x more loss than the decay trend within "
                             f"{DROP_PERIODS:g} cycles: a catch, rattle or contact); the damping "
                             "estimate mixes two regimes")
-    if window_auto and (w1 - w0) * f0 < MIN_CYCLES:
-        raise InputError(
-            f"no free decay found: the strongest oscillation ({f0:.3g} Hz) lasts only "
-            f"{(w1 - w0) * f0:.1f} cycles after its peak in this {t[-1] - t[0]:.3g} s recording "
-            f"(too short?); give --window START END if a decay is there{_unit_hint(rec)}"
-        )
     if (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
             f"the free-decay window {w0:.3f}–{w1:.3f} s holds only {(w1 - w0) * f0:.1f} cycles "
@@ -441,6 +482,28 @@ def prepare(
         window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
     )
+
+
+def _no_decay(rec: Recording, t: np.ndarray, f0: float, start: float, end: float,
+              notes: list[str]) -> str:
+    """Why the automatic window from the release at ``start`` [s] to ``end`` [s] holds fewer
+    than :data:`MIN_CYCLES` cycles of ``f0`` [Hz]: the reason that ended it (the last window
+    note: noise floor, a catch, an impact, an abrupt drop), or an envelope that is largest at
+    the end of the recording (it grows: no free decay after it)."""
+    cycles = max(end - start, 0.0) * f0
+    reason = next((n for n in reversed(notes) if n.startswith("window ends")), None)
+    if (t[-1] - t[0]) * f0 < 2 * MIN_CYCLES:
+        what = (f"the {t[-1] - t[0]:.3g} s recording holds only {(t[-1] - t[0]) * f0:.1f} cycles "
+                "of it (too short)")
+    elif reason is not None:
+        what = f"{reason}, {cycles:.1f} cycles after the release at {start:.4g} s"
+    else:
+        what = (f"its envelope is largest at {start:.4g} s, {t[-1] - start:.3g} s before the end "
+                f"of the recording ({t[0]:.4g}–{t[-1]:.4g} s): the oscillation grows rather than "
+                "decays (forced or self-sustained vibration, or a release at the very end?)")
+    return (f"no free decay found: the strongest oscillation ({f0:.3g} Hz) is cut short, {what}; "
+            f"at least {MIN_CYCLES:g} cycles are needed; give --window START END if a decay is "
+            f"there{_unit_hint(rec)}")
 
 
 def _long_masked_runs(t: np.ndarray, usable: np.ndarray, min_gap: float) -> np.ndarray:
@@ -490,7 +553,9 @@ def fit_data(prep: Prepared) -> FitData:
         tau = prep.grid[idx_k] - w0
         y = yl[idx_k]
         path, fs_fit, n_excl = "decimated", prep.fs / q, int((~keep).sum())
-    else:
+    if q < 3 or tau.size < max(keep.size / 2, 2 * (degree + 3) + 8):
+        # the raw samples: too little decimation to gain, or masked runs (a train of
+        # spikes) would exclude most decimated samples, whose filter support they touch
         sel = (prep.time >= w0) & (prep.time <= w1)
         keep = sel & prep.usable
         tau = prep.time[keep] - w0

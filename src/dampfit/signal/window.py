@@ -2,11 +2,15 @@
 
 From the Hilbert envelope [m/s²] of the band-passed signal on a uniform grid [s]:
 
-* start — just after the envelope maximum (the release);
+* start — just after the release: the maximum of the envelope (averaged over a period); an
+  envelope flat within its own ripple (a very light decay, ζ ~ 1e-5) has its maximum
+  anywhere, and the release is then where it first comes near it (:func:`_release_index`);
 * end — the first of: the envelope reaching 3× the in-band noise floor
   (:func:`noise_floor`, [m/s²]) or rising again (a catch or a new excitation), an abrupt
   envelope drop (a catch, rattle or contact: :func:`envelope_drops`), or an impact spike more
-  than :data:`IMPACT_RATIO` times the oscillation before it (:func:`impacts`).
+  than :data:`IMPACT_RATIO` times the oscillation before it (:func:`impacts`) — unless the
+  oscillation runs on through that spike unchanged (:func:`passes_through`: an isolated
+  glitch, masked like any spike, not a catch or knock).
 
 :func:`detect_window` returns the window [s] and notes saying why it ends there.
 """
@@ -18,11 +22,20 @@ from scipy import ndimage
 
 from dampfit.signal.spectrum import noise_density
 
-__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "envelope_drops", "detect_window",
-           "noise_floor", "impacts", "release_time"]
+__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "PEAK_NOISE", "PEAK_RIPPLE",
+           "envelope_drops", "detect_window", "noise_floor", "impacts", "passes_through",
+           "release_time", "running_median"]
 
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
+#: An envelope flat within this many noise floors or this fraction of its maximum (the
+#: Hilbert envelope's own ripple near the ends of a record) has no clear maximum; its release
+#: is where it first comes that near (:func:`_release_index`).
+PEAK_NOISE, PEAK_RIPPLE = 3.0, 0.1
+#: An impact the oscillation passes through: the log-envelope slopes [1/period] over
+#: ``THROUGH_PERIODS`` periods before and after the spike agree within ln(``THROUGH_FACTOR``)
+#: over that span, and the oscillation after it stands ≥ 3× the noise floor.
+THROUGH_PERIODS, THROUGH_FACTOR = 2.0, 1.5
 #: Abrupt envelope drops (catch, rattle, contact; :func:`envelope_drops`): the span [periods]
 #: over which a drop is measured, the running-median span of the decay trend [periods], the
 #: excess loss factor that ends the window, and the envelope-to-noise-floor ratio needed.
@@ -63,11 +76,13 @@ def impacts(t, y, usable, hits, f0) -> tuple[np.ndarray, np.ndarray]:
     return times, ratios
 
 
-def _running_median(x: np.ndarray, width: int) -> np.ndarray:
-    """Centred running median over ``width`` samples, computed on a thinned copy (fast)."""
+def running_median(x: np.ndarray, width: int, mode: str = "nearest") -> np.ndarray:
+    """Centred running median over ``width`` samples, computed on a thinned copy (fast);
+    ``mode`` extends the ends as :func:`scipy.ndimage.median_filter` does (``"mirror"`` keeps
+    an outlier in the first sample from filling the window)."""
     step = max(1, width // 20)
     thin = x[::step]
-    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode="nearest")
+    med = ndimage.median_filter(thin, size=max(1, width // step) | 1, mode=mode)
     return np.interp(np.arange(x.size), np.arange(thin.size) * step, med)
 
 
@@ -100,7 +115,7 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     if idx.size < 4 * per:
         return []
     d = sm[idx + half] - sm[idx - half]
-    trend = _running_median(d, int(DROP_TREND_PERIODS * per))
+    trend = running_median(d, int(DROP_TREND_PERIODS * per))
     excess = trend - d  # > 0: more loss than the trend
     hits = excess > np.log(DROP_FACTOR)
     out = []
@@ -118,6 +133,42 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     return out
 
 
+def _release_index(sm: np.ndarray, per: int, floor: float) -> int:
+    """Index of the release in the period-averaged envelope ``sm`` [m/s²] (``per`` samples a
+    period, ``floor`` the noise floor [m/s²]): its maximum — unless the envelope first came
+    within its own ripple (:data:`PEAK_RIPPLE` of the maximum, or :data:`PEAK_NOISE` noise
+    floors) more than two periods earlier and stayed above half the maximum since: then the
+    envelope is flat (a very light decay, whose maximum is anywhere) and the release is where
+    it first got there. A dip below half between the two is a new excitation: the maximum."""
+    i_max = int(np.argmax(sm))
+    top = float(sm[i_max])
+    i_first = int(np.argmax(sm >= top - max(PEAK_NOISE * floor, PEAK_RIPPLE * top)))
+    flat = i_max - i_first > 2 * per and float(sm[i_first:i_max + 1].min()) >= 0.5 * top
+    return i_first if flat else i_max
+
+
+def passes_through(sm: np.ndarray, i: int, per: int, floor: float, i_pk: int) -> bool:
+    """Whether the oscillation runs on unchanged through a spike at grid index ``i``.
+
+    ``sm`` is the period-averaged envelope [m/s²] (spikes masked and bridged before the
+    band-pass, so it shows the oscillation, not the spike), ``per`` the period [samples],
+    ``floor`` the noise floor [m/s²], ``i_pk`` the release. A free decay is locally
+    exponential: the log-envelope slope from ``THROUGH_PERIODS`` periods before the spike (or
+    a period after the release, if nearer) to as many after it equals the slope over the next
+    2·``THROUGH_PERIODS`` periods (or up to a period before the end of the recording, if
+    nearer), whatever the damping law. A catch (the oscillation stops), a knock (it jumps) or
+    a contact (it loses energy at once) breaks that; so does an oscillation already at the
+    noise after the spike, where nothing can be told (then False).
+    """
+    d = max(1, int(round(THROUGH_PERIODS * per)))
+    a, b, c = max(i - d, i_pk + per), i + d, min(i + 3 * d, sm.size - 1 - per)
+    if b - a < per or c - b < per or min(sm[a], sm[b]) <= 0 or sm[c] < 3.0 * floor:
+        return False
+    before = (np.log(sm[b]) - np.log(sm[a])) / (b - a)
+    after = (np.log(sm[c]) - np.log(sm[b])) / (c - b)
+    return abs(before - after) * (c - a) / 2 < np.log(THROUGH_FACTOR)
+
+
 def detect_window(
     grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
 ) -> tuple[float, float, list[str]]:
@@ -125,19 +176,22 @@ def detect_window(
 
     ``events`` = (times [s], size ratios [1]) of masked impact spikes (:func:`impacts`). A
     spike ends the free decay (a catch, or a knock that resets the oscillator) if it is more
-    than ``IMPACT_RATIO`` times the oscillation just before it. (Whether the oscillation "dies"
-    after a spike is no test: a heavily damped decay dies by itself within a few periods.)
+    than ``IMPACT_RATIO`` times the oscillation just before it, unless the oscillation passes
+    through it unchanged (:func:`passes_through`). (Whether the oscillation "dies" after a
+    spike alone is no test: a heavily damped decay dies by itself within a few periods; the
+    test compares the decay rates before and after the spike.) The last note says why the
+    window ends where it does.
     """
     fs = 1.0 / (grid[1] - grid[0])
     per = max(1, int(round(fs / f0)))
     sm = ndimage.uniform_filter1d(env, per)
     edge = min(per, len(sm) // 10)
     inner = sm[edge : len(sm) - edge] if len(sm) > 2 * edge + 1 else sm
-    i_pk = int(np.argmax(inner)) + (edge if len(sm) > 2 * edge + 1 else 0)
+    i_pk = _release_index(inner, per, floor) + (edge if len(sm) > 2 * edge + 1 else 0)
     notes = []
     # the end: envelope below 3× the noise floor, or rising again (a catch or a new pluck),
     # judged on a median over five periods so that short dropouts (gaps) do not end it
-    robust = _running_median(env, 5 * per)
+    robust = running_median(env, 5 * per)
     run_min = np.minimum.accumulate(robust[i_pk:])
     low = np.flatnonzero(robust[i_pk:] < 3.0 * floor)
     rise = np.flatnonzero((robust[i_pk:] > 1.5 * run_min) & (robust[i_pk:] > 5.0 * floor))
@@ -159,14 +213,24 @@ def detect_window(
                      "catch, rattle or contact)")
     ev_t, ev_a = events
     after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
+    through: list[float] = []
     for tc, ratio in zip(ev_t[after], ev_a[after]):
         i = int(np.searchsorted(grid, tc))
         if i >= i_end:
             break
         if ratio > IMPACT_RATIO:
+            if passes_through(sm, i, per, floor, i_pk):
+                if not through or tc - through[-1] > 0.5 / f0:  # one spike, not its samples
+                    through.append(float(tc))
+                continue
             i_end = max(i - per // 2, i_pk)
             notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
             break
+    if through:
+        shown = ", ".join(f"{x:.2f}" for x in through[:3]) + (", …" if len(through) > 3 else "")
+        notes.insert(0, f"{len(through)} spike(s) over {IMPACT_RATIO:g}x the oscillation (at "
+                        f"{shown} s) are masked but do not end the window: the decay runs on "
+                        "through them unchanged (glitches, not a catch or knock)")
     return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
 
 
