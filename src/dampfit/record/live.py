@@ -47,6 +47,8 @@ DONE = "done"
 MAX_BLOCKS = 2400
 #: Fewest samples a block needs; a shorter one is merged into the next.
 MIN_BLOCK_SAMPLES = 4
+#: Smallest noise floor [m/s²] (a recording of exact zeros has no noise to measure).
+_TINY = 1e-6
 
 
 class Detector:
@@ -119,7 +121,7 @@ class Detector:
         dev2 = var + (mean - base) ** 2
         d2 = np.diff(a, n=2, axis=0)
         self._noise2.append(float(np.sum(np.mean(d2**2, axis=0))) / 6.0)
-        floor2 = max(float(np.percentile(self._noise2, 20)), self._quant2)
+        floor2 = max(float(np.percentile(self._noise2, 20)), self._quant2, _TINY**2)
         self.noise = math.sqrt(floor2)
         self.amplitude = math.sqrt(2.0 * max(float(dev2.sum()) - floor2, 0.0))
         if self.state == WAITING:
@@ -134,7 +136,7 @@ class Detector:
             self._peak_axis = int(np.argmax(dev2))
             return
         self._since_peak += 1
-        if (self._peak >= self.release_snr * self.noise and self._since_peak >= 2
+        if (self._peak > self.release_snr * self.noise and self._since_peak >= 2
                 and self.amplitude <= self.confirm_drop * self._peak):
             self.state, self.release_time = DECAYING, self._peak_t
 

@@ -361,9 +361,9 @@ class PhyphoxClient:
         self.log = log
 
     # -- transport -----------------------------------------------------------------
-    def _once(self, path: str, limit: int) -> bytes:
-        deadline = time.monotonic() + 3 * self.timeout + limit / 2**20
-        conn = http.client.HTTPConnection(self.host, self.port, timeout=self.timeout)
+    def _once(self, path: str, limit: int, timeout: float) -> bytes:
+        deadline = time.monotonic() + 3 * timeout + limit / 2**20
+        conn = http.client.HTTPConnection(self.host, self.port, timeout=timeout)
         try:
             conn.request("GET", path, headers={"Connection": "close", "Accept": "application/json"})
             resp = conn.getresponse()
@@ -392,13 +392,14 @@ class PhyphoxClient:
         finally:
             conn.close()
 
-    def request(self, path: str, limit: int = SMALL_ANSWER) -> bytes:
-        """The body of ``GET path`` (at most ``limit`` bytes), retried with backoff."""
+    def request(self, path: str, limit: int = SMALL_ANSWER, timeout: float | None = None) -> bytes:
+        """The body of ``GET path`` (at most ``limit`` bytes), retried with backoff;
+        ``timeout`` [s] replaces the client's for this request (a large answer)."""
         if self.log is not None:
             self.log(path)
         for attempt in range(self.retries + 1):
             try:
-                return self._once(path, limit)
+                return self._once(path, limit, timeout or self.timeout)
             except socket.gaierror as exc:
                 raise ConnectionLost(f"cannot find the phone at {self.url}: "
                                      f"{exc.strerror or exc}") from None
@@ -409,8 +410,8 @@ class PhyphoxClient:
         raise ConnectionLost(f"no answer from phyphox at {self.url} ({reason}, "
                              f"{self.retries + 1} attempts)")
 
-    def _json(self, path: str, limit: int = SMALL_ANSWER):
-        return _parse_json(self.request(path, limit), path.split("?")[0])
+    def _json(self, path: str, limit: int = SMALL_ANSWER, timeout: float | None = None):
+        return _parse_json(self.request(path, limit, timeout), path.split("?")[0])
 
     # -- endpoints -----------------------------------------------------------------
     def config(self) -> Config:
@@ -432,7 +433,8 @@ class PhyphoxClient:
             raise NotPhyphox("/control did not answer like phyphox (no result)")
         return obj["result"]
 
-    def get(self, accel: AccelInput, since: float | None, limit: int) -> Chunk:
+    def get(self, accel: AccelInput, since: float | None, limit: int,
+            timeout: float | None = None) -> Chunk:
         """``/get`` of the accelerometer buffers: all values (``since`` None) or those whose
         time [s] is above ``since`` (``t=T&x=T|t…``); at most ``limit`` bytes."""
         if since is None:
@@ -441,4 +443,4 @@ class PhyphoxClient:
             mark, ref = quote(repr(float(since)), safe=""), quote(accel.t, safe="")
             query = "&".join([f"{ref}={mark}"] + [f"{quote(b, safe='')}={mark}%7C{ref}"
                                                   for b in accel.buffers[1:]])
-        return parse_get(self._json(f"/get?{query}", limit), accel)
+        return parse_get(self._json(f"/get?{query}", limit, timeout), accel)

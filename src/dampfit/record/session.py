@@ -63,6 +63,8 @@ POLL_S = 0.25
 STALL_S = 15.0
 #: Wall time [s] the measurement may take to begin after cmd=start (plus a timed-run countdown).
 START_WAIT_S = 10.0
+#: Samples per second [1/s] a phone formats for the final full /get at least (its timeout).
+FULL_FETCH_RATE = 5000.0
 #: Bytes per value in a /get answer at most (8 significant digits, exponent, separator: ≈ 16).
 _BYTES_PER_VALUE = 24
 
@@ -102,7 +104,7 @@ class _Samples:
         """Clean and keep the rows of ``chunk``; return the kept (time [s], accel [m/s²])."""
         cols = (chunk.t, chunk.x, chunk.y, chunk.z)
         n = min(c.size for c in cols)
-        self.dropped["unequal_lengths"] += max(c.size for c in cols) - n
+        self.dropped["unequal_lengths"] += sum(c.size - n for c in cols)
         t = chunk.t[:n]
         a = np.column_stack([chunk.x[:n], chunk.y[:n], chunk.z[:n]])
         ok = np.isfinite(t) & np.isfinite(a).all(axis=1)
@@ -288,7 +290,9 @@ class _Session:
         try:
             self.client.control("stop")
             full = _Samples(self.rows)
-            full.add(self.client.get(self.accel, None, self.limit_bytes))
+            # the phone formats the whole buffers first (slowly): allow for it
+            wait = 2 * self.client.timeout + self.samples.n / FULL_FETCH_RATE
+            full.add(self.client.get(self.accel, None, self.limit_bytes, timeout=wait))
         except KeyboardInterrupt as exc:  # a second Ctrl-C: keep what was polled
             self.interrupt, self.stopped_by = exc, "interrupted twice"
             return t, a, "polled samples"
