@@ -27,7 +27,7 @@ from tests.fake_phyphox import FakePhone, Quirks
 from tests.hostile import assert_one_line_error, run
 
 ROOT = Path(__file__).resolve().parents[1]
-FAST = ["--quiet", "--no-analyze", "--timeout", "0.5"]
+FAST = ["--quiet", "--no-analyze", "--timeout", "2"]
 
 
 def record(phone, out, capsys, *extra) -> tuple[int, str, str]:
@@ -108,7 +108,7 @@ def test_polled_samples_with_unequal_lengths_are_complete(tmp_path, capsys):
     assert "kept in" in line and "recording.csv" in line
     rec, meta = recording(out)
     assert meta["dropped"]["unequal_lengths"] > 0 and meta["data"] == "polled samples"
-    n = int(np.searchsorted(phone.t, rec.time[-1], side="right"))
+    n = int(np.searchsorted(phone.t, rec.time[-1] + 1e-6))  # the time has 8 digits
     assert rec.n_samples == n, "no sample between the first and the last is missing"
     assert_matches_phone(rec, phone)
 
@@ -156,8 +156,11 @@ def test_a_dropped_connection_is_retried_then_stops_keeping_the_data(tmp_path, c
 
 def test_a_flaky_connection_is_retried_and_recovers(tmp_path, capsys):
     out = tmp_path / "r"
-    with FakePhone(Quirks(speed=20.0, flaky_at=5.0, flaky=3)) as phone:
-        code, _, err = record(phone, out, capsys, *FAST, "--duration", "15")
+    with FakePhone(Quirks(speed=10.0, flaky_at=5.0, flaky=3)) as phone:
+        # the answer after the outage carries the ~17 s of phone time missed (the fake phone
+        # formats it slowly): a timeout long enough for it
+        code, _, err = record(phone, out, capsys, "--quiet", "--no-analyze", "--timeout", "3",
+                              "--duration", "15")
     assert code == 0, err
     rec, meta = recording(out)
     assert meta["stopped_by"] == "duration" and rec.duration == pytest.approx(15.0, abs=0.05)
@@ -166,11 +169,11 @@ def test_a_flaky_connection_is_retried_and_recovers(tmp_path, capsys):
 
 def test_a_hanging_phone_times_out(tmp_path, capsys):
     out = tmp_path / "r"
-    with FakePhone(Quirks(speed=20.0, hang_at=6.0, hang=3.0)) as phone:
+    with FakePhone(Quirks(speed=10.0, hang_at=8.0, hang=3.0)) as phone:
         code, _, err = record(phone, out, capsys, "--quiet", "--no-analyze", "--timeout", "0.2",
                               "--duration", "30")
     assert_one_line_error(code, err, match="timed out, 5 attempts")
-    assert recording(out)[0].time[-1] >= 4.0
+    assert recording(out)[0].time[-1] >= 2.0
 
 
 @pytest.mark.parametrize("garbage,match", [
@@ -236,11 +239,11 @@ def test_ios_meta_and_other_buffer_names_with_g(tmp_path, capsys):
 def test_the_end_of_the_decay_stops_the_recording(tmp_path, capsys):
     cfg = sim.from_modal(5.3, 1.72, 0.03, u0=0.04, duration=60.0, handheld=3.0, seed=2)
     out = tmp_path / "r"
-    with FakePhone(Quirks(speed=40.0), cfg) as phone:
+    with FakePhone(Quirks(speed=10.0), cfg) as phone:
         code, _, err = record(phone, out, capsys, *FAST, "--duration", "60")
     assert code == 0, err
     rec, meta = recording(out)
-    assert meta["stopped_by"] == "end of the decay" and rec.time[-1] < 40.0
+    assert meta["stopped_by"] == "end of the decay" and rec.time[-1] < 50.0
     assert meta["decay_end_time_s"] is not None and meta["release_time_s"] == pytest.approx(
         3.0, abs=1.0)
 
@@ -356,8 +359,8 @@ def test_a_failed_analysis_keeps_the_recording(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(analyze_cli, "analyse_into", fail)
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=40.0)) as phone:
-        code, _, err = record(phone, out, capsys, "--quiet", "--no-figures", "--duration", "5")
-    line = assert_one_line_error(code, err, match="no oscillation found")
+        code, _, err = record(phone, out, capsys, "--no-figures", "--duration", "5")
+    line = assert_one_line_error(code, err, match="no oscillation found")  # one line, not two
     assert "the recording is kept in" in line
     assert {p.name for p in out.iterdir()} == {MARKER, "recording.csv", "recording.json"}
     assert recording(out)[0].duration == pytest.approx(5.0, abs=0.05)

@@ -259,8 +259,10 @@ def test_live_line_is_throttled_overwritten_and_only_on_a_terminal():
     assert not line.show(1.2, 0.6, L.WAITING)  # too soon
     clock.now = 0.6
     assert line.show(2.0, 4.2, L.DECAYING)
+    line.status("recorded; analysing")
     line.finish("done: 40 s")
     text = out.getvalue()
+    assert "\rrecorded; analysing" in text
     assert text.count("\r") >= 3 and "waiting for the release" in text and "4.2 m/s²" in text
     assert text.endswith("done: 40 s\n") and "\n" not in text[:-1]
     plain = io.StringIO()
@@ -268,6 +270,8 @@ def test_live_line_is_throttled_overwritten_and_only_on_a_terminal():
     for stream, kw in ((plain, {"tty": False}), (quiet, {"tty": True, "enabled": False})):
         ll = L.LiveLine(stream, clock=clock, **kw)
         assert not ll.show(1.0, 1.0, L.DECAYING, force=True)
+        ll.status("analysing")
+        ll.finish_quietly()
         ll.finish("final")
     assert plain.getvalue() == "final\n" and quiet.getvalue() == ""
 

@@ -15,7 +15,9 @@ Every option is checked before any work: numbers must be finite and physically s
 positive mass of at most 10⁶ kg, a seed in [0, 2³²), ``--window START END`` with START < END,
 ``--band LO HI`` with 0 < LO < HI, …).
 
-Result folders (``analyze``, ``demo``) are handled by :class:`dampfit._files.ResultFolder`:
+Result folders (``analyze``, ``demo``, ``record``) are handled by
+:class:`dampfit._files.ResultFolder` (``record`` publishes its recording before its analysis,
+see :mod:`.record`):
 
 * each holds a marker file ``.dampfit-result`` (JSON: kind, dampfit version);
 * ``--force`` replaces an existing ``--out`` only if it is a real directory (not a symbolic

@@ -73,7 +73,7 @@ _non_negative = _real("a finite number ≥ 0", lambda v: v >= 0)
 _mass = _real("a positive mass in kg (at most 1e6)", lambda v: 0 < v <= MAX_MASS)
 
 
-def add_analysis_options(a: argparse.ArgumentParser) -> None:
+def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progress bar") -> None:
     """The analysis options of ``dampfit analyze`` (and of ``dampfit record``, which analyses
     its recording the same way): mass, axis, window, band, sampler, outputs."""
     a.add_argument("--mass", type=_mass, metavar="KG", help="oscillating mass [kg]")
@@ -90,7 +90,7 @@ def add_analysis_options(a: argparse.ArgumentParser) -> None:
                    help=f"sampler step limit, 1 to {MAX_STEPS}")
     a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
-    a.add_argument("--quiet", action="store_true", help="no progress bar")
+    a.add_argument("--quiet", action="store_true", help=quiet_help)
     a.add_argument("--report", action="store_true", help="also write report.html and report.md")
     a.add_argument("--model", default="auto",
                    choices=["auto", "viscous", "coulomb", "quadratic", "power"],

@@ -69,7 +69,7 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
     a.add_argument("--experiment", metavar="FILE",
                    help="write dampfit's phyphox experiment to FILE (and its QR code, with "
                         "segno installed) and exit")
-    add_analysis_options(a)
+    add_analysis_options(a, quiet_help="no live line and no progress bar (errors only)")
 
 
 def _experiment(args) -> int:
@@ -126,13 +126,20 @@ def command(args) -> int:
             live.finish_quietly()
             raise rec.interrupt  # SIGTERM or a second Ctrl-C: exit 143/130, the recording stays
         how = "Ctrl-C" if rec.stopped_by == "interrupted" else rec.stopped_by
-        live.finish(f"dampfit record: stopped ({how}); {kept}"
-                    + ("" if args.no_analyze else "; analysing"))
+        final = f"dampfit record: stopped ({how}); {kept}"
         if args.no_analyze:
+            live.finish(final)
             return 0
-        an = _analyse(args, folder, out, rec.notes, (CSV, JSON))
+        # the line is written once everything succeeded: a failure stays one line
+        live.status(f"{final}; analysing (Ctrl-C aborts the analysis, the recording stays)")
+        try:
+            an = _analyse(args, folder, out, rec.notes, (CSV, JSON))
+        except BaseException:
+            live.finish_quietly()
+            raise
     from dampfit.cli.analyze import _print_result
 
+    live.finish(final)
     _print_result(an, out, args.json)
     return 0
 

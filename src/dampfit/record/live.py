@@ -220,6 +220,13 @@ class LiveLine:
         self._width = len(line)
         return True
 
+    def status(self, text: str) -> None:
+        """Replace the live line by ``text`` (on a terminal only; no newline): what happens
+        next, until :meth:`finish` or :meth:`finish_quietly`."""
+        if self.enabled and self.tty:
+            self._write("\r" + text.ljust(self._width), "")
+            self._width = len(text)
+
     def finish_quietly(self) -> None:
         """Erase the live line (on a terminal) and write nothing: an error line follows."""
         if self.enabled and self.tty and self._width:

@@ -208,9 +208,9 @@ class _Session:
             raise InputError(f"phyphox at {client.url} refused to start the measurement (is a "
                              "sensor of the experiment missing, or a Bluetooth device not "
                              "connected?)")
-        self.started_wall = self.clock()
-        self.start_time = client.start_time()
+        self.started_wall, self.start_time = self.clock(), None
         try:
+            self.start_time = client.start_time()
             self._loop()
         except KeyboardInterrupt as exc:
             self.interrupt = exc
