@@ -470,3 +470,23 @@ class ResultFolder:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
         return self.target
+
+    def restage(self) -> Path:
+        """After :meth:`publish`: a fresh staging folder for a second, fuller version of the
+        same target, still under this process's lock (no other dampfit process can step in
+        between). :meth:`publish` swaps it in without ``force`` (the target is the version this
+        folder published); if the work fails, it is discarded and the published version stays.
+        ``dampfit record`` publishes the recording first and the analysis beside it second, so
+        that a failed or killed analysis never loses the recording."""
+        if not self.published or self.stage is None:
+            raise RuntimeError("ResultFolder.restage before publish")
+        if self.kind not in self.free_kinds:
+            self.free_kinds = (*self.free_kinds, self.kind)
+        self.published = False
+        self.stage = None
+        try:
+            self._make_stage()
+        except BaseException:
+            self._discard_stage()
+            raise
+        return self.stage

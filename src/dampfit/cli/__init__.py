@@ -1,7 +1,7 @@
-"""Command-line interface: ``dampfit analyze | simulate | demo | report | export | verify | study``.
+"""Command-line interface: ``dampfit analyze | record | simulate | demo | report | export | verify | study``.
 
 This package is a thin layer over the library: one module per command (:mod:`.analyze` with
-``demo``, :mod:`.simulate`, :mod:`.report`, :mod:`.export`, :mod:`.verify`, :mod:`.study`),
+``demo``, :mod:`.record`, :mod:`.simulate`, :mod:`.report`, :mod:`.export`, :mod:`.verify`, :mod:`.study`),
 each with ``add_arguments(parser)`` and ``command(args) -> exit code``; option converters in
 :mod:`.options`, result-folder staging in :mod:`.staging`. This module builds the parser,
 dispatches, and owns exit codes, the one-line error contract and signal handling. No library
@@ -15,7 +15,9 @@ Every option is checked before any work: numbers must be finite and physically s
 positive mass of at most 10⁶ kg, a seed in [0, 2³²), ``--window START END`` with START < END,
 ``--band LO HI`` with 0 < LO < HI, …).
 
-Result folders (``analyze``, ``demo``) are handled by :class:`dampfit._files.ResultFolder`:
+Result folders (``analyze``, ``demo``, ``record``) are handled by
+:class:`dampfit._files.ResultFolder` (``record`` publishes its recording before its analysis,
+see :mod:`.record`):
 
 * each holds a marker file ``.dampfit-result`` (JSON: kind, dampfit version);
 * ``--force`` replaces an existing ``--out`` only if it is a real directory (not a symbolic
@@ -45,6 +47,7 @@ from collections.abc import Sequence
 
 from dampfit.cli import analyze as _analyze
 from dampfit.cli import export as _export
+from dampfit.cli import record as _record
 from dampfit.cli import report as _report
 from dampfit.cli import simulate as _simulate
 from dampfit.cli import study as _study
@@ -58,6 +61,8 @@ __all__ = ["main", "run", "get_parser"]
 COMMANDS = (
     ("analyze", "analyse a recording: summary.json, posterior.nc, figures",
      _analyze.add_arguments, _analyze.command),
+    ("record", "record a free decay from a phone running phyphox (remote access), then analyse it",
+     _record.add_arguments, _record.command),
     ("simulate", "write a synthetic phyphox CSV with known truth",
      _simulate.add_arguments, _simulate.command),
     ("demo", "simulate the paper's set-up and analyse it (the main job)",
@@ -204,8 +209,8 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         _compile_cache()
         args = get_parser().parse_args(argv)
         if args.command is None:
-            raise InputError("no command given; use analyze, simulate, demo, report, export, verify "
-                             "or study (see 'dampfit --help')")
+            raise InputError("no command given; use analyze, record, simulate, demo, report, export, "
+                             "verify or study (see 'dampfit --help')")
         return {name: command for name, _, _, command in COMMANDS}[args.command](args)
     except DampfitError as exc:
         print(f"dampfit: error: {_one_line(exc)}", file=sys.stderr)

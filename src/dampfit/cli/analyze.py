@@ -29,13 +29,15 @@ import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import MAX_MASS, MAX_STEPS, SEED_LIMIT, _integer, _mass, _real, seed_arg
+from dampfit.cli.options import MAX_MASS, _integer, _real, seed_arg
+from dampfit.cli.options import add_analysis_options as _analysis_options
+from dampfit.cli.options import check_analysis_options as _check_analysis_options
 from dampfit.cli.staging import (old_demo_folder, result_folder, write_campaign_outputs,
                                   write_outputs, write_report)
 from dampfit.errors import InputError
 
-__all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "campaign_command", "command",
-           "demo"]
+__all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into", "campaign_command",
+           "command", "demo"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
 
@@ -91,43 +93,6 @@ def add_demo_arguments(d: argparse.ArgumentParser) -> None:
     d.add_argument("--report", action="store_true", help="also write report.html and report.md")
 
 
-def _analysis_options(a: argparse.ArgumentParser) -> None:
-    a.add_argument("--mass", type=_mass, metavar="KG", help="oscillating mass [kg]")
-    a.add_argument("--mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
-                   metavar="KG", default=None, help="standard deviation of the mass [kg]")
-    a.add_argument("--axis", default="auto", help="x, y, z, another column name, or auto")
-    a.add_argument("--window", nargs=2, type=_real("a finite time [s]"), metavar=("START", "END"),
-                   help="free-decay window [s] in the recording's time base, START < END")
-    a.add_argument("--band", nargs=2, type=_real("a positive frequency [Hz]", lambda v: v > 0),
-                   metavar=("LO", "HI"), help="pass band [Hz] around the oscillation, 0 < LO < HI")
-    a.add_argument("--seed", type=seed_arg, default=0,
-                   help=f"random seed of the sampler, 0 to {SEED_LIMIT - 1}")
-    a.add_argument("--max-steps", type=_integer(1, MAX_STEPS), default=20000,
-                   help=f"sampler step limit, 1 to {MAX_STEPS}")
-    a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
-    a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
-    a.add_argument("--quiet", action="store_true", help="no progress bar")
-    a.add_argument("--report", action="store_true", help="also write report.html and report.md")
-    a.add_argument("--model", default="auto",
-                   choices=["auto", "viscous", "coulomb", "quadratic", "power"],
-                   help="damping law reported as c_equivalent (auto: the one the evidence "
-                        "prefers); all are compared in model_checks either way")
-    a.add_argument("--amplitude", type=_real("a positive displacement amplitude in metres",
-                                             lambda v: v > 0), metavar="M",
-                   help="displacement amplitude [m] at which a non-viscous law's equivalent "
-                        "viscous c is reported (the amplitude your FEM model will see)")
-
-
-def _check_analysis_options(args) -> None:
-    """Relations between options, before any work (single values are checked by the parser)."""
-    if args.window is not None and not args.window[0] < args.window[1]:
-        raise InputError(f"argument --window: END must come after its start, got "
-                         f"{args.window[0]:g} {args.window[1]:g}")
-    if args.band is not None and not args.band[0] < args.band[1]:
-        raise InputError(f"argument --band: the pass band needs LO < HI, got "
-                         f"{args.band[0]:g} {args.band[1]:g}")
-
-
 def _print_result(an, out: Path, as_json: bool) -> None:
     """The summary table (or summary.json) on stdout; a non-converged result warns on stderr."""
     from dampfit.output import text as render
@@ -154,7 +119,7 @@ def _read_options(args) -> dict:
     from dampfit.io.readers import READ_OPTIONS
 
     opts = {k: getattr(args, k) for k in READ_OPTIONS if getattr(args, k, None) is not None}
-    if args.window is not None:
+    if getattr(args, "window", None) is not None:
         opts["window"] = tuple(args.window)
     return opts
 
@@ -187,31 +152,49 @@ def command(args) -> int:
     path = files[0]
     out = Path(args.out) if args.out else Path(Path(path).name + ".dampfit")
     with _figure_process(args) as figs:  # before the scientific stack is imported
-        from dampfit.io.readers import read
-        from dampfit.pipeline import analyze
-
-        opts = _read_options(args)
-
-        # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects
-        # that every full garbage collection would walk again: move them out of its reach
-        gc.freeze()
         with result_folder(out, "analyze", args.force, inputs=[path]) as folder, \
                 contextlib.closing(figs):
-            figs.target(folder.stage)
-            rec = read(path, **opts)
-            an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                         window=tuple(args.window) if args.window else None,
-                         band=tuple(args.band) if args.band else None, seed=args.seed,
-                         progress=not args.quiet and sys.stderr.isatty(),
-                         max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
-                         on_stage=figs.send)
-            gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
-            write_outputs(an, folder, not args.no_figures, figs)
+            an = analyse_into(args, folder, figs, path)
             folder.publish()
             if args.report:
                 write_report(out)
     _print_result(an, out, args.json)
     return 0
+
+
+def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
+                 notes: tuple[str, ...] = ()):
+    """Read ``path``, analyse it with the analysis options in ``args`` and write the outputs
+    into ``folder.stage`` (not yet published); return the analysis.
+
+    The one code path of ``dampfit analyze FILE`` (one recording), shared with ``dampfit
+    record`` (which analyses its own recording): ``figs`` is the figure process
+    (:func:`_figure_process`, started before this imports the scientific stack);
+    ``shown_path`` is the path the recording is reported under when it is read from
+    elsewhere (a staging folder); ``notes`` are added to the recording's notes.
+    """
+    import gc
+
+    from dampfit.io.readers import read
+    from dampfit.pipeline import analyze
+
+    # the imported stack (JAX, SciPy, …) is hundreds of thousands of long-lived objects
+    # that every full garbage collection would walk again: move them out of its reach
+    gc.freeze()
+    figs.target(folder.stage)
+    rec = read(path, **_read_options(args))
+    if shown_path is not None or notes:
+        rec = dataclasses.replace(rec, path=str(shown_path) if shown_path else rec.path,
+                                  notes=(*rec.notes, *notes))
+    an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
+                 window=tuple(args.window) if args.window else None,
+                 band=tuple(args.band) if args.band else None, seed=args.seed,
+                 progress=not args.quiet and sys.stderr.isatty(),
+                 max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
+                 on_stage=figs.send)
+    gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
+    write_outputs(an, folder, not args.no_figures, figs)
+    return an
 
 
 def _check_campaign_options(args, files: list[str]) -> None:

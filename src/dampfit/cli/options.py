@@ -15,8 +15,8 @@ from dampfit.errors import InputError
 from dampfit.simulate import MAX_MASS as MAX_MASS
 from dampfit.simulate import MAX_SIM_SAMPLES as MAX_SIM_SAMPLES
 
-__all__ = ["MAX_MASS", "MAX_SIM_SAMPLES", "MAX_STEPS", "SEED_LIMIT", "Parser", "float_arg",
-           "seed_arg"]
+__all__ = ["MAX_MASS", "MAX_SIM_SAMPLES", "MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
+           "check_analysis_options", "float_arg", "seed_arg"]
 
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
 SEED_LIMIT = 2**32
@@ -71,3 +71,42 @@ seed_arg = _integer(0, SEED_LIMIT - 1, f"an integer from 0 to {SEED_LIMIT - 1}")
 _positive = _real("a positive finite number", lambda v: v > 0)
 _non_negative = _real("a finite number ≥ 0", lambda v: v >= 0)
 _mass = _real("a positive mass in kg (at most 1e6)", lambda v: 0 < v <= MAX_MASS)
+
+
+def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progress bar") -> None:
+    """The analysis options of ``dampfit analyze`` (and of ``dampfit record``, which analyses
+    its recording the same way): mass, axis, window, band, sampler, outputs."""
+    a.add_argument("--mass", type=_mass, metavar="KG", help="oscillating mass [kg]")
+    a.add_argument("--mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
+                   metavar="KG", default=None, help="standard deviation of the mass [kg]")
+    a.add_argument("--axis", default="auto", help="x, y, z, another column name, or auto")
+    a.add_argument("--window", nargs=2, type=_real("a finite time [s]"), metavar=("START", "END"),
+                   help="free-decay window [s] in the recording's time base, START < END")
+    a.add_argument("--band", nargs=2, type=_real("a positive frequency [Hz]", lambda v: v > 0),
+                   metavar=("LO", "HI"), help="pass band [Hz] around the oscillation, 0 < LO < HI")
+    a.add_argument("--seed", type=seed_arg, default=0,
+                   help=f"random seed of the sampler, 0 to {SEED_LIMIT - 1}")
+    a.add_argument("--max-steps", type=_integer(1, MAX_STEPS), default=20000,
+                   help=f"sampler step limit, 1 to {MAX_STEPS}")
+    a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
+    a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
+    a.add_argument("--quiet", action="store_true", help=quiet_help)
+    a.add_argument("--report", action="store_true", help="also write report.html and report.md")
+    a.add_argument("--model", default="auto",
+                   choices=["auto", "viscous", "coulomb", "quadratic", "power"],
+                   help="damping law reported as c_equivalent (auto: the one the evidence "
+                        "prefers); all are compared in model_checks either way")
+    a.add_argument("--amplitude", type=_real("a positive displacement amplitude in metres",
+                                             lambda v: v > 0), metavar="M",
+                   help="displacement amplitude [m] at which a non-viscous law's equivalent "
+                        "viscous c is reported (the amplitude your FEM model will see)")
+
+
+def check_analysis_options(args) -> None:
+    """Relations between options, before any work (single values are checked by the parser)."""
+    if args.window is not None and not args.window[0] < args.window[1]:
+        raise InputError(f"argument --window: END must come after its start, got "
+                         f"{args.window[0]:g} {args.window[1]:g}")
+    if args.band is not None and not args.band[0] < args.band[1]:
+        raise InputError(f"argument --band: the pass band needs LO < HI, got "
+                         f"{args.band[0]:g} {args.band[1]:g}")
