@@ -186,7 +186,9 @@ def test_garbage_during_the_recording_keeps_the_data(tmp_path, capsys, garbage, 
         code, _, err = record(phone, out, capsys, *FAST, "--duration", "30")
     assert "kept in" in assert_one_line_error(code, err, match=match)
     rec, meta = recording(out)
-    assert meta["stopped_by"] == "garbage" and rec.time[-1] >= 5.0
+    # what arrived before the garbage is kept (how much depends on the polling pace under load)
+    assert meta["stopped_by"] == "garbage" and rec.time[-1] >= 2.0
+    assert_matches_phone(rec, phone)
 
 
 @pytest.mark.parametrize("quirks,match", [
