@@ -99,7 +99,7 @@ def read_summary(folder: str | os.PathLike | Any) -> Summary:
     (one line) if the folder is not a usable result folder."""
     folder = folder_of(folder)
     if not folder.is_dir():
-        raise not_a_result(folder, "it is not a directory")
+        raise not_a_result(folder, _hidden_previous(folder) or "it is not a directory")
     path = folder / "summary.json"
     data = read_regular(path, MAX_SUMMARY_BYTES, missing=not_a_result(
         folder, f"{shown(path)} not found, the folder has no summary.json"), folder=folder)
@@ -127,6 +127,23 @@ def read_summary(folder: str | os.PathLike | Any) -> Summary:
                    sha256=hashlib.sha256(data).hexdigest(),
                    schema_version=_schema_version(summary, path),
                    marked=os.path.isfile(folder / MARKER))
+
+
+def _hidden_previous(folder: Path) -> str | None:
+    """Why ``folder`` is missing when a dampfit run killed between the two renames of its
+    swap left the previous result beside it (``.NAME.dampfit-old-PID-XXXX``), else None."""
+    if os.path.lexists(folder):
+        return None
+    try:
+        hidden = sorted(p.name for p in folder.parent.iterdir()
+                        if p.name.startswith(f".{folder.name}.dampfit-old-"))
+    except OSError:
+        return None
+    if not hidden:
+        return None
+    return (f"it does not exist, but a dampfit run killed while replacing it left its previous "
+            f"result as {shown(hidden[0], 80)} beside it; the next 'dampfit analyze … --out "
+            f"{shown(folder)}' restores it (or rename it back yourself)")
 
 
 def _check_fields(summary: dict[str, Any], path: Path) -> None:
