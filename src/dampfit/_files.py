@@ -176,6 +176,20 @@ def read_marker(folder: str | os.PathLike) -> dict | None:
     return data if isinstance(data, dict) and "kind" in data else None
 
 
+def check_lock_file(fd: int, path: Path) -> None:
+    """Refuse (and close ``fd``) a lock file that is not a regular file: a FIFO, device or
+    socket planted under the lock's name cannot be truncated or written like one."""
+    try:
+        mode = os.fstat(fd).st_mode
+    except OSError as exc:
+        os.close(fd)
+        raise InputError(f"cannot use the lock file {path}: {_reason(exc)}") from None
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise InputError(f"the lock file {path} is not a regular file (a FIFO, socket or "
+                         "device); remove it, or choose another --out")
+
+
 def _reason(exc: BaseException) -> str:
     """One short line describing an I/O failure."""
     if isinstance(exc, OSError) and exc.strerror:
@@ -304,10 +318,12 @@ class ResultFolder:
     def _lock(self) -> None:
         for _ in range(20):
             try:
-                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW
+                             | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0), 0o600)
             except OSError as exc:
                 raise InputError(f"cannot create the lock file {self._lock_path}: "
                                  f"{_reason(exc)}") from None
+            check_lock_file(fd, self._lock_path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
