@@ -166,13 +166,20 @@ MIN_FREE = 50 * 2**20
 def read_marker(folder: str | os.PathLike) -> dict | None:
     """The marker of a result folder dampfit wrote, or None (missing, a link, not ours)."""
     path = Path(folder) / MARKER
+    try:  # never follows a link, never blocks on a FIFO: checked on the open descriptor
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK
+                     | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        return None
     try:
-        st = os.lstat(path)
+        st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode) or st.st_size > 4096:
             return None
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = json.loads(os.pread(fd, 4097, 0).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
+    finally:
+        os.close(fd)
     return data if isinstance(data, dict) and "kind" in data else None
 
 

@@ -17,9 +17,9 @@ node); this is checked before anything is submitted.
 from __future__ import annotations
 
 import contextlib
+import html
 import importlib.util
 import logging
-import re
 import sys
 import uuid
 from pathlib import Path
@@ -334,9 +334,12 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
 
 
 def _configuration_md(cfg: StudyConfig) -> list[str]:
-    # a fence longer than any backtick run of the file, so its text cannot end the code block
-    fence = "`" * max(3, 1 + max((len(r) for r in re.findall(r"`+", cfg.source)), default=0))
-    return ["## Configuration\n", f"{fence}toml\n" + cfg.source.rstrip() + f"\n{fence}\n"]
+    """The configuration's TOML source as a preformatted HTML block with every ``& < >``
+    escaped: Markdown viewers show it verbatim, and no tag of the source (a study named
+    ``<script>…``) reaches the file raw, as it would inside a fenced code block. (The source
+    itself is also in study.json.)"""
+    text = html.escape(cfg.source.rstrip(), quote=False)
+    return ["## Configuration\n", f'<pre><code class="language-toml">{text}</code></pre>\n']
 
 
 def _campaign_summary_md(cfg: StudyConfig, runs, agg, pooled, version: str, figures: bool) -> str:
