@@ -250,8 +250,9 @@ class ResultFolder:
     directory (not a symbolic link) holding dampfit's :data:`MARKER` and ``force`` is set (or
     its marker's kind is in ``free_kinds``, or ``legacy(out)`` is true). A non-blocking
     exclusive lock (``.NAME.dampfit-lock`` beside ``out``) keeps a second dampfit process
-    writing the same ``out`` away until this one is finished; stale staging folders of dead
-    processes are removed; the staging folder ``.NAME.dampfit-stage-PID-XXXX`` is created
+    writing the same ``out`` away until this one is finished; what dead processes left is dealt
+    with (:meth:`_recover`: a previous result a kill left hidden is restored, dampfit's other
+    left-overs removed, ``note`` tells); the staging folder ``.NAME.dampfit-stage-PID-XXXX`` is created
     (with the marker) and the free space is checked against ``need_bytes``. Every refusal is
     an :class:`~dampfit.errors.InputError` with one line. On any exception (including
     KeyboardInterrupt) the staging folder is removed and an existing result stays untouched.

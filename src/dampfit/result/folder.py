@@ -10,10 +10,14 @@ What ``dampfit analyze`` / ``dampfit demo`` write (:mod:`dampfit.cli.staging`) a
   eagerly: ``Analysis.summary()`` returns it as written, nothing is recomputed;
 * ``posterior.nc`` — :func:`read_posterior` (arviz ``from_netcdf``, loaded eagerly into memory
   so no file stays open), on first use of ``Analysis.posterior``; at most
-  :data:`MAX_POSTERIOR_BYTES`;
+  :data:`MAX_POSTERIOR_BYTES`, and the sizes its datasets declare are checked against the file
+  before anything is allocated;
 * ``signals.npz`` — :func:`load_signals` (the ZIP directory and array headers are checked
   before anything is allocated, as :mod:`dampfit.io.readers` does for recordings), on first use
   of ``Analysis.signals()``; at most :data:`MAX_SIGNALS_BYTES`.
+
+Every file is opened through :mod:`dampfit.result.files` (a regular file of the folder, not a
+link, FIFO or device; size-limited).
 
 The live pipeline objects (recording, prepared signal, least-squares and sampler results,
 baselines, damping assessment) are not stored; using one raises a
