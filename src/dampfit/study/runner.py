@@ -69,16 +69,17 @@ def check_scheduler(scheduler: str, wait_s: float | None = None) -> dict:
     except ValueError as exc:
         raise _unreachable(scheduler, str(exc)) from None
     if scheme not in SCHEMES:
-        raise InputError(f"--scheduler {scheduler}: the {scheme}:// transport is not supported "
-                         "by dampfit study; give a tcp:// address (or tls:// with Dask's TLS "
-                         "settings)")
+        raise _unreachable(scheduler, f"the {scheme}:// transport is not supported by dampfit "
+                                      "study: give a tcp:// address, or tls:// with Dask's TLS "
+                                      "settings")
     try:
         args = Security().get_connection_args("client")
     except Exception as exc:  # noqa: BLE001 - a broken TLS configuration (missing files)
         raise _unreachable(scheduler, f"Dask's TLS settings are unusable: {exc}") from None
     if scheme == "tls" and args.get("ssl_context") is None:
-        raise InputError(f"--scheduler {scheduler}: tls:// needs Dask's TLS settings "
-                         "(distributed.comm.tls.ca-file and client certificate); none are set")
+        raise _unreachable(scheduler, "tls:// needs Dask's TLS settings "
+                                      "(distributed.comm.tls.ca-file and a client certificate); "
+                                      "none are set")
     identity = _ask_identity(scheduler, args, wait_s)
     if not (isinstance(identity, dict) and identity.get("type") == "Scheduler"):
         raise _unreachable(scheduler, "the server there is not a Dask scheduler")
