@@ -443,3 +443,55 @@ def test_verify_of_a_campaign_folder_says_what_to_do(tmp_path, capsys):
     code, _, err = run(["verify", out], capsys)
     line = one_line(err)
     assert code == 2 and "campaign of 3 tests" in line and "single-recording" in line
+
+
+# ----------------------------------------------------------------------------- issue 19
+@pytest.mark.parametrize("edit,match", [
+    (lambda s: s["population"].update(predictive=1e308), "'population.predictive' must be an object"),
+    (lambda s: s["population"].update(spread="x"), "'population.spread' must be an object"),
+    (lambda s: s["population"]["predictive"].update(c=[1]), "'population.predictive.c' must be"),
+])
+@pytest.mark.parametrize("command", [["export", "--format", "lsdyna"], ["report"]])
+def test_an_edited_population_is_one_line_in_export_and_report(tmp_path, capsys, edit, match,
+                                                                command):
+    s = hand_summary()
+    edit(s)
+    folder = write_folder(tmp_path, s)
+    code, _, err = run([command[0], folder, *command[1:]], capsys)
+    assert code == 2 and match in one_line(err)
+    assert not any(p.name.startswith(("sdof_", "report.")) for p in folder.iterdir())
+
+
+def test_identical_recordings_are_named_and_campaign_signals_are_per_test(recordings, tmp_path,
+                                                                          capsys, monkeypatch):
+    """The same file under two names is warned about (both names, same SHA-256) in the table
+    and the summary; a live campaign's signals() gives each test's window signals, a loaded
+    one says its folder has none (a DampfitError, not an AttributeError)."""
+    import shutil
+
+    import dampfit.campaign as campaign
+    from dampfit.errors import DampfitError
+
+    paths, _ = recordings
+    copy = tmp_path / "copy-of-rec-1.csv"
+    shutil.copy(paths[0], copy)
+    live = []
+    real = campaign.analyze_campaign
+    monkeypatch.setattr(campaign, "analyze_campaign",
+                        lambda *a, **k: live.append(real(*a, **k)) or live[-1])
+    out = tmp_path / "camp"
+    code, text, err = run(["analyze", paths[0], paths[1], copy, "--mass", "1.0", "--out", out,
+                           "--quiet", "--max-steps", "300", "--no-figures"], capsys)
+    assert code == 0, err
+    warning = next(line for line in text.splitlines() if "byte-identical" in line)
+    assert "test 1 (rec-1.csv) and test 3 (copy-of-rec-1.csv)" in warning
+    assert "same SHA-256" in warning
+    assert any("byte-identical" in w for w in json.loads((out / "summary.json").read_text())
+               ["warnings"])
+    sig = live[0].signals()
+    assert len(sig) == 3
+    for test, s in zip(live[0].tests, sig):
+        assert s["t"].shape == s["accel"].shape == s["accel_model"].shape
+        assert s["t"][0] >= test.prepared.window[0] and float(s["p"]) == test.least_squares.p
+    with pytest.raises(DampfitError, match="stores summary.json and posterior.nc only"):
+        dampfit.load(out).signals()

@@ -254,23 +254,24 @@ def test_study_name_with_newline_in_a_file_is_one_error_line(tmp_path, capsys):
     fails(tmp_path, capsys, ["study", cfg, "--out", tmp_path / "o", "--quiet"], "[study] name")
 
 
-def _fenced_block(md: str, heading: str) -> tuple[str, list[str]]:
-    """(fence, lines) of the first fenced code block after ``heading`` (CommonMark rules)."""
-    lines = md.splitlines()
-    i = lines.index(heading) + 1
-    while not lines[i].startswith("```"):
-        i += 1
-    fence = re.match(r"`+", lines[i]).group(0)
-    for j in range(i + 1, len(lines)):
-        if re.fullmatch(r" {0,3}`{%d,}\s*" % len(fence), lines[j]):
-            return fence, lines[i + 1:j]
-    return fence, lines[i + 1:]
+def _pre_block(md: str, heading: str) -> tuple[str, str]:
+    """(raw text, text as a browser shows it) of the ``<pre>`` block after ``heading``."""
+    import html
+
+    after = md.split(heading, 1)[1]
+    m = re.search(r'<pre><code class="language-toml">(.*?)</code></pre>', after, re.S)
+    assert m, after
+    return m.group(1), html.unescape(m.group(1))
 
 
 def test_summary_md_escapes_the_name_and_fences_the_source(tmp_path):
+    """The name is escaped for Markdown and HTML; the TOML source is shown verbatim as a
+    preformatted block whose ``& < >`` are entities: no tag of the source reaches the file raw
+    (issue 19: a raw ``<script>`` inside a fenced code block was flagged), and nothing in it can
+    end the block early."""
     name = "# <script>alert(1)</script> & `rm -rf` *bold* [x](javascript:y) | ~z~"
-    source = ('[study]\nname = "n"\n# ```\n# <img src=x onerror=alert(1)>\n# ````\n'
-              'replicates = 1\n')
+    source = ('[study]\nname = "<script>alert(1)</script>"\n# ```\n# <img src=x onerror=alert(1)>\n'
+              '# ````\n# </code></pre> <b>\nreplicates = 1\n')
     cfg = sconfig.parse(base(study__name=name), AVAILABLE, source=source)
     rank = pd.DataFrame({"rank": [1], "estimator": ["<b>hilbert</b>"], "rmse_crlb": [1.5]})
     agg = pd.DataFrame({"label": ["zeta=0.01 | <i>"], "estimator": ["hilbert"], "n": [2]})
@@ -281,11 +282,12 @@ def test_summary_md_escapes_the_name_and_fences_the_source(tmp_path):
     assert "<" not in shown and ">" not in shown and "&lt;script&gt;" in shown
     assert re.search(r"(?<!\\)[`*\[\]|~#]", shown) is None  # every special is escaped
     assert "&amp;" in shown
-    # nothing outside the code block holds a raw tag or an unescaped table pipe from a value
-    fence, block = _fenced_block(md, "## Configuration")
-    assert "\n".join(block) == source.rstrip()  # the whole source stays inside the block
-    outside = md.split(fence + "toml")[0]
-    assert "<" not in outside.replace("<=", "")
+    # the whole source is shown verbatim inside one block
+    raw, text = _pre_block(md, "## Configuration")
+    assert text == source.rstrip()
+    # no raw tag anywhere but the block's own <pre><code>…</code></pre>
+    outside = md.replace(f'<pre><code class="language-toml">{raw}</code></pre>', "")
+    assert "<" not in outside.replace("<=", "") and "<" not in raw
     assert "&lt;b&gt;hilbert&lt;/b&gt;" in md and "zeta=0.01 \\| &lt;i&gt;" in md
 
 

@@ -272,6 +272,21 @@ def test_concurrent_run_to_same_out_fails_at_once(work, monkeypatch, capsys):
         os.close(fd)
 
 
+@pytest.mark.parametrize("kind", ["fifo", "link-to-dev-zero"])
+def test_a_lock_path_that_is_not_a_file_is_one_line(work, monkeypatch, capsys, kind):
+    """A FIFO (or a link) planted under the lock's name: exit 2, one line, nothing written."""
+    no_analysis(monkeypatch)
+    lock = work / ".res.dampfit-lock"
+    if kind == "fifo":
+        os.mkfifo(lock)
+    else:
+        lock.symlink_to("/dev/zero")
+    before = snapshot(work)
+    code, _, err = run(analyze_argv(work, work / "res"), capsys)
+    assert_one_line_error(code, err, match="lock file")
+    assert_unchanged(before, snapshot(work))
+
+
 def _dead_pid() -> int:
     proc = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
                           capture_output=True, text=True, check=True)

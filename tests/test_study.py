@@ -461,3 +461,123 @@ def test_resume_after_sigkill_recomputes_nothing_finished(small_study, dask_clus
     for r in first:  # finished runs were kept as they were
         assert by_key[(r["scenario"], r["replicate"])]["started"] == r["started"]
     pd.testing.assert_frame_equal(frame(out), frame(ref))
+
+
+# -- hostile options and files (issue 19, item 10): exit 2, one line, nothing written -------
+
+TINY = SMALL.replace("replicates = 4", "replicates = 1").replace(
+    'estimators = ["log_decrement", "hilbert", "matrix_pencil"]', 'estimators = ["log_decrement"]'
+).replace("jitter = [0, 0.02]", "")
+
+
+@pytest.fixture
+def tiny(tmp_path):
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(TINY)
+    return cfg
+
+
+def _refused(capsys, argv, match, out: Path) -> None:
+    capsys.readouterr()
+    assert main([str(a) for a in argv]) == 2
+    line = one_error_line(capsys)
+    assert match in line, line
+    assert not (out / "study.json").exists() and not (out / ".lock").exists()
+
+
+@pytest.mark.parametrize("address,match", [
+    ("ucx://127.0.0.1:9", "the ucx:// transport is not supported"),
+    ("ws://127.0.0.1:9", "the ws:// transport is not supported"),
+    ("tls://127.0.0.1:9", "tls:// needs Dask's TLS settings"),
+])
+def test_a_scheduler_scheme_dampfit_cannot_use_is_one_line(tiny, tmp_path, capsys, address, match):
+    out = tmp_path / "s"
+    _refused(capsys, ["study", tiny, "--out", out, "--scheduler", address, "--quiet"], match, out)
+    assert not out.exists()
+
+
+def test_a_silent_server_is_one_line_within_the_wait(tiny, tmp_path, capsys, monkeypatch):
+    """A TCP port that accepts connections but never speaks (the kernel's backlog accepts
+    them): refused once the scheduler has not answered within the wait, not a hang."""
+    import socket
+
+    from dampfit.study import runner
+
+    monkeypatch.setattr(runner, "SCHEDULER_WAIT_S", 1.0)
+    out = tmp_path / "s"
+    with socket.create_server(("127.0.0.1", 0)) as srv:
+        port = srv.getsockname()[1]
+        _refused(capsys, ["study", tiny, "--out", out, "--scheduler", f"tcp://127.0.0.1:{port}",
+                          "--quiet"], "no answer within 1 s", out)
+
+
+def test_a_lock_file_that_is_a_fifo_is_one_line(tiny, tmp_path, capsys):
+    out = tmp_path / "s"
+    out.mkdir()
+    os.mkfifo(out / ".lock")
+    capsys.readouterr()
+    assert main(["study", str(tiny), "--out", str(out), "--quiet"]) == 2
+    line = one_error_line(capsys)
+    assert "lock file" in line and "not a regular file" in line, line
+    assert sorted(p.name for p in out.iterdir()) == [".lock"]
+
+
+@pytest.mark.parametrize("line,why", [
+    ("[1, 2, 3]", "not a JSON object"),
+    ('{"scenario": ["s1"], "replicate": 0, "seed": 1, "rows": []}', "'scenario' must be a string"),
+    ('{"scenario": "s1", "replicate": true, "rows": []}', "'replicate' must be"),
+    ('{"scenario": "s1", "replicate": 0, "rows": {"a": 1}}', "'rows' must be a list"),
+    ('{"scenario": "s1", "replicate": 0, "rows": [1, 2]}', "rows[0] must be an object"),
+    ('{"scenario": "s1", "replicate": 0, "rows": [{"estimator": ["x"]}]}', "estimator must be"),
+    ('{"scenario": "s1", "replicate": 0, "rows": [{"estimator": "x", "est_c": [1]}]}', "nested"),
+])
+def test_a_tampered_runs_jsonl_is_one_line_and_kept(tiny, tmp_path, capsys, line, why):
+    cfg = sconfig.load(tiny, AVAILABLE)
+    out = tmp_path / "s"
+    store = Store(out)
+    store.open(cfg, force=False, version="x")
+    store.append({"scenario": "s1", "replicate": 0, "rows": []})
+    store.close()
+    with open(out / "runs.jsonl", "a") as fh:
+        fh.write(line + "\n")
+    before = (out / "runs.jsonl").read_bytes()
+    capsys.readouterr()
+    assert main(["study", str(tiny), "--out", str(out), "--quiet"]) == 2
+    err = one_error_line(capsys)
+    assert "runs.jsonl line 2 is not a run record dampfit wrote" in err and why in err, err
+    assert (out / "runs.jsonl").read_bytes() == before and not (out / ".lock").exists()
+
+
+def test_a_runs_jsonl_that_is_a_fifo_or_link_is_refused_before_anything(tiny, tmp_path, capsys):
+    cfg = sconfig.load(tiny, AVAILABLE)
+    for kind in ("fifo", "link"):
+        out = tmp_path / kind
+        store = Store(out)
+        store.open(cfg, force=False, version="x")
+        store.close()
+        if kind == "fifo":
+            os.mkfifo(out / "runs.jsonl")
+        else:
+            (tmp_path / "elsewhere.jsonl").write_text("")
+            (out / "runs.jsonl").symlink_to(tmp_path / "elsewhere.jsonl")
+        capsys.readouterr()
+        assert main(["study", str(tiny), "--out", str(out), "--quiet"]) == 2
+        assert "runs.jsonl is not a regular file" in one_error_line(capsys)
+
+
+def test_local_workers_are_capped_at_the_runs_to_do(tiny, tmp_path, capsys, monkeypatch):
+    """--workers 4 for a study of 2 runs starts 2 worker processes, not 4."""
+    import distributed
+
+    started = []
+
+    def cluster(n_workers, **kw):
+        started.append(n_workers)
+        raise InputError("stopped before starting workers")
+
+    monkeypatch.setattr(distributed, "LocalCluster", cluster)
+    out = tmp_path / "s"
+    capsys.readouterr()
+    assert main(["study", str(tiny), "--out", str(out), "--workers", "4"]) == 2
+    assert started == [2]
+    assert "2 runs" in capsys.readouterr().err

@@ -20,13 +20,13 @@ import os
 import re
 import secrets
 import shutil
-import signal
 import stat
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from collections.abc import Callable
 
+from dampfit import _swap
 from dampfit.errors import InputError
 
 __all__ = ["atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
@@ -166,14 +166,35 @@ MIN_FREE = 50 * 2**20
 def read_marker(folder: str | os.PathLike) -> dict | None:
     """The marker of a result folder dampfit wrote, or None (missing, a link, not ours)."""
     path = Path(folder) / MARKER
+    try:  # never follows a link, never blocks on a FIFO: checked on the open descriptor
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK
+                     | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError:
+        return None
     try:
-        st = os.lstat(path)
+        st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode) or st.st_size > 4096:
             return None
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = json.loads(os.pread(fd, 4097, 0).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
+    finally:
+        os.close(fd)
     return data if isinstance(data, dict) and "kind" in data else None
+
+
+def check_lock_file(fd: int, path: Path) -> None:
+    """Refuse (and close ``fd``) a lock file that is not a regular file: a FIFO, device or
+    socket planted under the lock's name cannot be truncated or written like one."""
+    try:
+        mode = os.fstat(fd).st_mode
+    except OSError as exc:
+        os.close(fd)
+        raise InputError(f"cannot use the lock file {path}: {_reason(exc)}") from None
+    if not stat.S_ISREG(mode):
+        os.close(fd)
+        raise InputError(f"the lock file {path} is not a regular file (a FIFO, socket or "
+                         "device); remove it, or choose another --out")
 
 
 def _reason(exc: BaseException) -> str:
@@ -211,21 +232,6 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-@contextlib.contextmanager
-def _signals_blocked():
-    """Hold SIGINT/SIGTERM back for a few system calls (the swap of the old and new result)."""
-    sigs = {signal.SIGINT, signal.SIGTERM}
-    try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - no pthread_sigmask
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
 class ResultFolder:
     """Write a result folder so that nothing is deleted by mistake and nothing is half-written.
 
@@ -244,8 +250,9 @@ class ResultFolder:
     directory (not a symbolic link) holding dampfit's :data:`MARKER` and ``force`` is set (or
     its marker's kind is in ``free_kinds``, or ``legacy(out)`` is true). A non-blocking
     exclusive lock (``.NAME.dampfit-lock`` beside ``out``) keeps a second dampfit process
-    writing the same ``out`` away until this one is finished; stale staging folders of dead
-    processes are removed; the staging folder ``.NAME.dampfit-stage-PID-XXXX`` is created
+    writing the same ``out`` away until this one is finished; what dead processes left is dealt
+    with (:meth:`_recover`: a previous result a kill left hidden is restored, dampfit's other
+    left-overs removed, ``note`` tells); the staging folder ``.NAME.dampfit-stage-PID-XXXX`` is created
     (with the marker) and the free space is checked against ``need_bytes``. Every refusal is
     an :class:`~dampfit.errors.InputError` with one line. On any exception (including
     KeyboardInterrupt) the staging folder is removed and an existing result stays untouched.
@@ -253,7 +260,8 @@ class ResultFolder:
 
     def __init__(self, target: str | os.PathLike, *, kind: str, force: bool = False,
                  protect: Sequence[str | os.PathLike] = (), need_bytes: int = MIN_FREE,
-                 free_kinds: Sequence[str] = (), legacy=None, version: str = "unknown") -> None:
+                 free_kinds: Sequence[str] = (), legacy=None, version: str = "unknown",
+                 note: Callable[[str], object] | None = None) -> None:
         try:
             absolute = Path(os.path.abspath(target))
             Path.cwd()
@@ -270,6 +278,7 @@ class ResultFolder:
         self.protect = [Path(p) for p in protect]
         self.need_bytes = int(need_bytes)
         self.free_kinds, self.legacy = tuple(free_kinds), legacy
+        self.note = note if note is not None else (lambda text: None)
         self.stage: Path | None = None
         self.published = False
         self.replaced = False
@@ -317,10 +326,12 @@ class ResultFolder:
     def _lock(self) -> None:
         for _ in range(20):
             try:
-                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW
+                             | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0), 0o600)
             except OSError as exc:
                 raise InputError(f"cannot create the lock file {self._lock_path}: "
                                  f"{_reason(exc)}") from None
+            check_lock_file(fd, self._lock_path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
@@ -354,21 +365,58 @@ class ResultFolder:
         self._lock_fd = None
 
     # --------------------------------------------------------------- helpers
-    def _clean_stale(self) -> None:
-        """Remove staging/old folders of this target left by dampfit processes that died."""
+    def _ours(self, path: Path) -> bool:
+        """A real folder (not a link) holding dampfit's marker, or an old folder ``legacy``
+        recognises: only such a folder is ever restored or removed."""
+        try:
+            if not stat.S_ISDIR(os.lstat(path).st_mode):
+                return False
+        except OSError:
+            return False
+        return read_marker(path) is not None or bool(self.legacy and self.legacy(path))
+
+    def _recover(self) -> None:
+        """Deal with what dampfit processes that died left beside the target (under the lock,
+        so no live dampfit process is writing it): restore the previous result a kill left
+        under ``.NAME.dampfit-old-…`` when the target is missing (the kill fell between the
+        two renames of a swap without ``renameat2``), remove the other old and staging
+        folders that are dampfit's; report (``note``) what was restored or left alone."""
         try:
             entries = list(os.scandir(self.parent))
         except OSError:
             return
+        helpers = []
         for entry in entries:
             m = _HELPER.match(entry.name)
-            if not m or m["name"] != self.target.name or _pid_alive(int(m["pid"])):
+            if m and m["name"] == self.target.name and not _pid_alive(int(m["pid"])):
+                helpers.append((m["what"], int(m["pid"]), Path(entry.path)))
+        olds = [(pid, path) for what, pid, path in helpers if what == "old" and self._ours(path)]
+        restored = None
+        if olds and not os.path.lexists(self.target):
+            if len(olds) == 1:
+                pid, path = olds[0]
+                try:
+                    _swap.rename_noreplace(path, self.target)
+                    restored = path
+                    self.note(f"restored the previous result {self.target} from {path.name}, "
+                              f"left by a dampfit process (pid {pid}) killed while replacing it")
+                except OSError as exc:
+                    self.note(f"could not restore the previous result {self.target} from "
+                              f"{path.name}: {_reason(exc)}; rename it yourself")
+            else:
+                names = ", ".join(sorted(path.name for _, path in olds))
+                self.note(f"{self.target} is missing and {len(olds)} earlier results of it were "
+                          f"left by killed dampfit processes ({names}); none was restored: "
+                          "rename the one to keep yourself")
+                return
+        for what, pid, path in helpers:
+            if path == restored or not os.path.lexists(path):
                 continue
-            if m["what"] == "old" and not os.path.lexists(self.target):
-                continue  # the swap was interrupted: this is the only copy of the old result
-            path = Path(entry.path)
-            if entry.is_dir(follow_symlinks=False) and read_marker(path) is not None:
-                shutil.rmtree(path, ignore_errors=True)
+            if self._ours(path):
+                _swap.remove_result(path, MARKER)
+            elif what == "old":
+                self.note(f"{path.name} (left by a killed dampfit process) holds no dampfit "
+                          "marker: left alone; remove it yourself")
 
     def _make_stage(self) -> None:
         name = self.target.name
@@ -390,7 +438,7 @@ class ResultFolder:
 
     def _discard_stage(self) -> None:
         if self.stage is not None and os.path.lexists(self.stage):
-            shutil.rmtree(self.stage, ignore_errors=True)
+            _swap.remove_result(self.stage, MARKER)
 
     # --------------------------------------------------------------- protocol
     def __enter__(self) -> "ResultFolder":
@@ -399,8 +447,8 @@ class ResultFolder:
         self._check_protected()
         self._lock()
         try:
+            self._recover()
             self._check_existing()
-            self._clean_stale()
             self._make_stage()
         except BaseException:
             self._discard_stage()
@@ -444,31 +492,34 @@ class ResultFolder:
             raise InputError(f"cannot write {self.target}: {reason}; {fate}") from None
 
     def publish(self) -> Path:
-        """Move the staging folder onto the target (replacing a previous result); return it."""
+        """Move the staging folder onto the target (replacing a previous result); return it.
+
+        With ``renameat2(RENAME_EXCHANGE)`` (Linux) the old and new folders are swapped in one
+        system call; elsewhere two renames run with the signals held back
+        (:func:`dampfit._swap.signals_deferred`), and a kill between them leaves the previous
+        result under ``.NAME.dampfit-old-…``, which the next run restores (:meth:`_recover`).
+        The previous result is then removed, marker last, if it is still the folder checked;
+        a signal that arrives meanwhile acts once both are done."""
         if self.stage is None:
             raise RuntimeError("ResultFolder.publish outside its with-block")
         existed = self._check_existing()  # nobody swapped in something foreign meanwhile
+        try:
+            checked = os.lstat(self.target) if existed else None
+        except OSError:
+            checked, existed = None, False
         old = None
         try:
-            with _signals_blocked():
-                if existed:
-                    old = self.parent / (f".{self.target.name}.dampfit-old-{os.getpid()}-"
-                                         f"{secrets.token_hex(4)}")
-                    os.replace(self.target, old)
+            with _swap.signals_deferred():  # a signal meanwhile acts once all is done
                 try:
-                    os.replace(self.stage, self.target)
-                except OSError:
+                    old = self._move_into_place(existed)
+                    self.published = True
+                    self.replaced = existed
+                finally:
                     if old is not None:
-                        os.replace(old, self.target)
-                        old = None
-                    raise
-                self.published = True
-                self.replaced = existed
+                        self._remove_previous(old, checked)
         except OSError as exc:
             raise InputError(f"cannot move the result into place at {self.target}: "
                              f"{_reason(exc)}; the previous result is unchanged") from None
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
         return self.target
 
     def restage(self) -> Path:
@@ -490,3 +541,33 @@ class ResultFolder:
             self._discard_stage()
             raise
         return self.stage
+
+    def _remove_previous(self, old: Path, checked: os.stat_result | None) -> None:
+        """Remove the previous result swapped out to ``old`` if it is still the folder that
+        was checked and dampfit's; else leave it and say where it is."""
+        try:
+            same = checked is not None and os.path.samestat(checked, os.lstat(old))
+        except OSError:
+            same = False
+        if same and self._ours(old):
+            _swap.remove_result(old, MARKER)
+        else:  # replaced between the check and the swap: never delete what is not ours
+            self.note(f"the folder that was at {self.target} was moved to {old} and left "
+                      "there: it changed while the result was being written")
+
+    def _move_into_place(self, existed: bool) -> Path | None:
+        """Put the staging folder at the target; return where the previous result went."""
+        if not existed:
+            _swap.rename_noreplace(self.stage, self.target)
+            return None
+        if _swap.exchange(self.stage, self.target):
+            return self.stage  # the staging name now holds the previous result
+        old = self.parent / (f".{self.target.name}.dampfit-old-{os.getpid()}-"
+                             f"{secrets.token_hex(4)}")
+        os.rename(self.target, old)
+        try:
+            os.rename(self.stage, self.target)
+        except OSError:
+            os.rename(old, self.target)
+            raise
+        return old

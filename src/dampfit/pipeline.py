@@ -222,24 +222,8 @@ class Analysis(ResultViews):
         """
         if self._loaded is not None:
             return self._loaded.signals()
-        from dampfit.model import viscous as model
-
-        prep, ls = self.prepared, self.least_squares
-        sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
-        t = prep.grid[sel]
-        tau = t - self.fit_data.t0
-        a_cos, a_sin = self.true_quadratures()
-        args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
-        accel_model = np.asarray(model.acceleration(*args, xp=np), dtype=float)
-        disp_model = np.asarray(model.displacement(*args, xp=np), dtype=float)
-        env = self.baselines.get("envelope_pipeline")
-        disp = np.full(t.size, np.nan)
-        if env is not None and np.size(env.details.get("displacement", [])) == t.size:
-            disp = np.asarray(env.details["displacement"], float)
-        return {"t": t, "accel": prep.bandpassed[sel], "accel_model": accel_model,
-                "displacement": disp, "displacement_model": disp_model,
-                "fs": np.float64(prep.fs), "p": np.float64(ls.p),
-                "omega_d": np.float64(ls.omega_d), "t0": np.float64(self.fit_data.t0)}
+        return window_signals(self.prepared, self.fit_data, self.least_squares,
+                              self.baselines.get("envelope_pipeline"))
 
     def to_signals(self, path: str | os.PathLike) -> Path:
         """Write :meth:`signals` to an ``.npz`` file (atomically)."""
@@ -270,6 +254,28 @@ class ViscousStages(FitStages):
 
     sampling: posterior.PosteriorResult = None
     posterior_seconds: float = float("nan")  # wall time [s] of the posterior stage
+
+
+def window_signals(prep: preprocess.Prepared, fd, ls, envelope=None) -> dict[str, np.ndarray]:
+    """The signals of :meth:`Analysis.signals` from a prepared recording, its fit data, its
+    least-squares result and (optionally) its envelope-pipeline baseline (else the measured
+    displacement is NaN); also each test of a campaign (:meth:`CampaignAnalysis.signals`)."""
+    from dampfit.model import viscous as model
+
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    t = prep.grid[sel]
+    tau = t - fd.t0
+    a_cos, a_sin = ls.true_quadratures()
+    args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
+    accel_model = np.asarray(model.acceleration(*args, xp=np), dtype=float)
+    disp_model = np.asarray(model.displacement(*args, xp=np), dtype=float)
+    disp = np.full(t.size, np.nan)
+    if envelope is not None and np.size(envelope.details.get("displacement", [])) == t.size:
+        disp = np.asarray(envelope.details["displacement"], float)
+    return {"t": t, "accel": prep.bandpassed[sel], "accel_model": accel_model,
+            "displacement": disp, "displacement_model": disp_model,
+            "fs": np.float64(prep.fs), "p": np.float64(ls.p),
+            "omega_d": np.float64(ls.omega_d), "t0": np.float64(fd.t0)}
 
 
 def fit_stages(prep: preprocess.Prepared, mass: float | None) -> FitStages:

@@ -173,6 +173,25 @@ class CampaignAnalysis(ResultViews):
         x = np.asarray(self.posterior.posterior[name])
         return x.reshape((-1,) + x.shape[2:])
 
+    def signals(self) -> list[dict[str, np.ndarray]]:
+        """Each test's measured and modelled signals on its analysis window, in the order of
+        ``tests``: the arrays and scalars of :meth:`dampfit.pipeline.Analysis.signals` (``t``
+        [s], ``accel``, ``accel_model`` [m/s²], ``displacement``, ``displacement_model`` [m]
+        — the measured displacement is NaN: a campaign keeps no envelope-pipeline baseline —
+        ``fs`` [Hz], ``p`` [1/s], ``omega_d`` [rad/s], ``t0`` [s]) from the test's own least
+        squares. A campaign loaded from its folder (:func:`dampfit.load`) has none: the folder
+        stores no signals.npz; that raises a :class:`~dampfit.errors.DampfitError`."""
+        if self._loaded is not None:
+            from dampfit.fem.sanitize import shown
+
+            raise DampfitError(f"signals() is not available: this campaign was loaded from "
+                               f"{shown(self.folder)}, which stores summary.json and "
+                               "posterior.nc only (no per-test signals); run "
+                               "dampfit.analyze([rec1, rec2, …]) on the recordings for them")
+        from dampfit.pipeline import window_signals
+
+        return [window_signals(t.prepared, t.fit_data, t.least_squares) for t in self.tests]
+
     def summary(self) -> dict[str, Any]:
         """The JSON-safe summary (kind "campaign", schema_version 1), a fresh copy; computed
         once and cached (of a loaded result: the summary.json read)."""
@@ -223,7 +242,8 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     tests = [_fit_test(i, r, axis, windows[i], bands[i], m, None if dm is None else dm[i])
              for i, r in enumerate(recs)]
     names = [t.name for t in tests]
-    warns = [f"test {t.index + 1} ({t.name}): {w}" for t in tests for w in t.warnings]
+    warns = checks.duplicate_recordings(recs)
+    warns += [f"test {t.index + 1} ({t.name}): {w}" for t in tests for w in t.warnings]
     if dm is None:
         checks.check_same_system([t.prepared.f0 for t in tests], names)
     data, centre = _campaign_data(tests, dm, dm_sd)

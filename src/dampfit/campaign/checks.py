@@ -15,6 +15,9 @@ Refusals (one-line :class:`~dampfit.errors.InputError`, raised before any sampli
   :data:`MIN_FREQUENCY_CHANGE_SD` = 3 standard deviations of a test's ln ω_n (its own
   uncertainty combined with the added-mass sd's effect ½·s_Δm/(m₀ + Δm)).
 
+A warning, not a refusal (:func:`duplicate_recordings`): byte-identical recordings (same
+SHA-256) given as different tests.
+
 Verdicts (on the tests' own estimates y_i = ln p̂_i with sds s_i, or ln ĉ_i in added-mass mode)
 -----------------------------------------------------------------------------------------------
 * **spread consistent with zero** — Cochran's heterogeneity statistic
@@ -46,6 +49,7 @@ Verdicts (on the tests' own estimates y_i = ln p̂_i with sds s_i, or ln ĉ_i in
 
 from __future__ import annotations
 
+import os
 from typing import Any, Sequence
 
 import numpy as np
@@ -53,8 +57,10 @@ from scipy import optimize, stats
 
 from dampfit import physics
 from dampfit.errors import InputError
+from dampfit.fem.sanitize import shown
 
 __all__ = ["MAX_FREQUENCY_RATIO", "MIN_FREQUENCY_CHANGE_SD", "ALPHA", "check_design",
+           "duplicate_recordings",
            "check_same_system", "check_added_mass_design", "heterogeneity", "loo_outliers",
            "amplitude_regression", "verdict"]
 
@@ -111,6 +117,33 @@ def check_design(recordings: Any, mass, mass_sd, added_mass, added_mass_sd):
         raise InputError("the added-mass method needs at least 2 different added masses "
                          f"(all recordings have {dm[0]:g} kg): m0 cannot be identified")
     return recs, None, 0.0, dm, dm_sd
+
+
+def duplicate_recordings(recordings: Sequence[Any]) -> list[str]:
+    """One warning per group of byte-identical recordings: the same SHA-256 of the file (of
+    the time and acceleration arrays for a recording not read from a file). The same release
+    given twice is one test, not two: the between-test spread and the predictive interval
+    would come out too narrow. Each warning names the tests and files and the digest."""
+    import hashlib
+
+    groups: dict[str, list[int]] = {}
+    for i, rec in enumerate(recordings):
+        digest = rec.sha256 if isinstance(rec.sha256, str) and rec.sha256 else \
+            hashlib.sha256(np.ascontiguousarray(rec.time).tobytes()
+                           + np.ascontiguousarray(rec.accel).tobytes()).hexdigest()
+        groups.setdefault(digest, []).append(i)
+    out = []
+    for digest, idx in groups.items():
+        if len(idx) < 2:
+            continue
+        named = " and ".join(
+            f"test {i + 1} ({shown(os.path.basename(str(recordings[i].path)), 80)})"
+            if recordings[i].path else f"test {i + 1}" for i in idx)
+        out.append(f"{named} are byte-identical (same SHA-256 {digest[:16]}…): the same "
+                   "recording given more than once is not several independent tests; the "
+                   "between-test spread and the predictive interval are too narrow — give each "
+                   "release once")
+    return out
 
 
 def check_same_system(f0: Sequence[float], names: Sequence[str]) -> None:

@@ -49,7 +49,15 @@ def result_folder(out: Path, kind: str, force: bool, inputs=(), **kw) -> ResultF
         except OSError:
             pass  # reading reports a missing input
     return ResultFolder(out, kind=kind, force=force, protect=inputs, need_bytes=need,
-                        version=__version__, **kw)
+                        version=__version__, note=_note, **kw)
+
+
+def _note(text: str) -> None:
+    """A note of the result folder (a previous result restored after a kill): printed on
+    stderr after the command succeeds (a failing command prints its one error line only)."""
+    from dampfit.cli import _DEFERRED
+
+    _DEFERRED.append(f"dampfit: note: {text}")
 
 
 def write_outputs(an, folder: ResultFolder, figures: bool, figure_process=None) -> None:

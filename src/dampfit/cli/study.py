@@ -40,10 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", metavar="DIR",
                         help="study folder (default: CONFIG's name + '.study'); reused to resume")
     parser.add_argument("--workers", type=_positive_int, metavar="N", default=None,
-                        help=f"local worker processes, 1 to {MAX_WORKERS} "
-                             "(default: the number of CPUs)")
+                        help=f"local worker processes, 1 to {MAX_WORKERS} (default: the number "
+                             "of CPUs; never more than the runs still to do)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (ignores --workers)")
+                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (tls:// with Dask's "
+                             "TLS settings; ignores --workers)")
     parser.add_argument("--force", action="store_true",
                         help="discard stored runs in DIR (even of another configuration) and restart")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or status lines")

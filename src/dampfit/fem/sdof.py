@@ -209,8 +209,9 @@ def campaign_note(summary: dict[str, Any]) -> str:
         else "hierarchical"
     note = (f"Population damper of a campaign of {n} tests ({model} model): c, k and m are the "
             "population values (the centre of the tests), u0 the median release amplitude")
-    pred = ((summary.get("population") or {}).get("predictive") or {}).get("c") \
-        if isinstance(summary.get("population"), dict) else None
+    pred = summary
+    for key in ("population", "predictive", "c"):  # any of them may be an edited non-object
+        pred = pred.get(key) if isinstance(pred, dict) else None
     if isinstance(pred, dict) and all(isinstance(pred.get(k), (int, float))
                                       and not isinstance(pred.get(k), bool)
                                       and math.isfinite(pred[k]) for k in ("q05", "q95")):

@@ -167,12 +167,20 @@ def _excel_table(data: bytes, sheet: str | int | None, nrows: int | None, engine
 
 def _xlsx_table(data: bytes, sheet: str | int | None, nrows: int | None) -> Table:
     """An .xlsx workbook via openpyxl."""
+    from xml.etree.ElementTree import ParseError
+    from xml.parsers.expat import ExpatError
+
     from openpyxl.utils.exceptions import InvalidFileException
 
     try:
         return _excel_table(data, sheet, nrows, "openpyxl")
     except InputError:
         raise
+    except (ParseError, ExpatError) as exc:  # expat refuses entity bombs: one line, exit 2
+        why = ("its XML declares entities that expand without bound, an entity bomb"
+               if "amplification" in str(exc) or "entit" in str(exc).lower()
+               else "its XML is malformed")
+        raise InputError(f"is not a readable xlsx workbook: {why}; export it again") from None
     except (zipfile.BadZipFile, InvalidFileException, KeyError, ValueError, OSError, EOFError) as exc:
         raise InputError(f"is not a readable xlsx workbook ({type(exc).__name__}); export it again") from None
 

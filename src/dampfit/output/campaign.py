@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from dampfit.output.text import interval
+from dampfit.result.schema import unique_warnings
 from dampfit.physics import UNITS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -213,13 +214,13 @@ def text(s: dict[str, Any]) -> str:
         lines.append(f"  converged       {state} (max R-hat "
                      f"{f'{r_hat:.4f}' if _real(r_hat) else '—'}, min bulk ESS "
                      f"{f'{ess:.0f}' if _real(ess) else '—'}, {d.get('n_steps', '?')} steps)")
-    warns = []
-    for w in (d.get("warnings") or []) + (s.get("warnings") or []):
-        if isinstance(w, str) and w not in warns:
-            warns.append(w)
+    warns, more = unique_warnings(d.get("warnings"), s.get("warnings"),
+                                  text=lambda w: w if isinstance(w, str) else "")
     if warns:
         lines.append("")
         lines += [f"  WARNING: {w}" for w in warns]
+    if more:
+        lines.append(f"  … and {more} more distinct warnings (see summary.json)")
     return "\n".join(lines)
 
 

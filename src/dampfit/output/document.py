@@ -29,10 +29,14 @@ Block = tuple
 
 
 def _png(directory: Path, name: str) -> tuple[bytes, int, int] | None:
-    """(bytes, width, height) of ``DIR/name.png`` if it is a readable PNG, else None."""
-    try:
-        data = (directory / f"{name}.png").read_bytes()
-    except OSError:
+    """(bytes, width, height) of ``DIR/name.png`` if it is a readable PNG, else None: a regular
+    file of the folder (not a link, FIFO or device: :mod:`dampfit.result.files`) of at most
+    :data:`~dampfit.result.files.MAX_FIGURE_BYTES`."""
+    from dampfit.result.files import MAX_FIGURE_BYTES, read_optional
+
+    data, _ = read_optional(Path(directory) / f"{name}.png", MAX_FIGURE_BYTES,
+                            "a dampfit figure is below 1 MB")
+    if data is None:
         return None
     if len(data) < 24 or data[:8] != PNG_MAGIC or data[12:16] != b"IHDR":
         return None
@@ -65,7 +69,8 @@ _NUMERIC = re.compile(r"^[-+−\[\]\d.,e± ]+$|^—$")  # right-aligned table ce
 
 def _missing_png(name: str) -> str:
     return (f"{name}.png is not in this folder (the analysis ran with --no-figures, or the file "
-            "is unreadable); re-run the analysis without --no-figures to draw it.")
+            "is unreadable: not a PNG, too large, or a link, FIFO or device, which a report "
+            "never follows); re-run the analysis without --no-figures to draw it.")
 
 
 def _h(text: Any) -> str:

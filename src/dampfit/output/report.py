@@ -42,7 +42,6 @@ replace a ``report.html``/``report.md`` that dampfit did not write.
 from __future__ import annotations
 
 import datetime as _dt
-import json
 import math
 import os
 import shlex
@@ -57,7 +56,9 @@ from dampfit.output.document import render_html as render_html
 from dampfit.output.document import render_markdown as render_markdown
 from dampfit._files import DEMO_MARKER, atomic_write_text
 from dampfit.errors import InputError
-from dampfit.result.schema import folder_of, read_summary
+from dampfit.result.files import (MAX_SIDE_BYTES, MAX_VERIFICATION_BYTES, open_regular,
+                                  read_optional)
+from dampfit.result.schema import folder_of, parse_json, read_summary, unique_warnings
 from dampfit.output.campaign import FIGURES as CAMPAIGN_FIGURES
 from dampfit.output.campaign import labels as campaign_labels
 from dampfit.output.text import _own_spread
@@ -288,13 +289,16 @@ def load(directory: str | os.PathLike | Any) -> dict[str, Any]:
     """
     checked = read_summary(directory)
     summary, d = checked.data, checked.folder
-    ver, err = summary.get("verification"), None
-    vpath = d / "verification.json"
-    if vpath.is_file():
+    ver = summary.get("verification")
+    data, err = read_optional(d / "verification.json", MAX_VERIFICATION_BYTES,
+                              "'dampfit verify' writes a few kB")
+    if data is not None:
         try:
-            ver = json.loads(vpath.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            ver = parse_json(data)
+        except ValueError as exc:
             ver, err = None, f"verification.json could not be read ({exc})"
+    elif err is not None:
+        ver, err = None, f"verification.json could not be read: {err}"
     return {"summary": summary, "verification": ver, "verification_error": err}
 
 
@@ -411,16 +415,20 @@ def _figure(name: str, why_missing: str | None = None) -> Block:
 
 
 def _warnings(s: dict) -> list[str]:
-    """Every warning of the analysis, each once (diagnostics first, then the model check's)."""
+    """Every warning of the analysis, each once (diagnostics first, then the model check's
+    unless a diagnostics warning already says it), at most
+    :data:`~dampfit.result.schema.MAX_WARNINGS_SHOWN` and a count of the rest; linear in the
+    number of warnings (:func:`~dampfit.result.schema.unique_warnings`)."""
     d = s.get("diagnostics") if isinstance(s.get("diagnostics"), dict) else {}
-    raw = d.get("warnings") if isinstance(d.get("warnings"), list) else []
-    mc_warn = _get(s, "model_checks", "warning")
-    out: list[str] = []
-    for w in raw + ([mc_warn] if mc_warn else []):
-        text = _num(w).strip()
-        if text and text not in out and not any(text in o for o in out):
-            out.append(text)
-    return out
+    out, more = unique_warnings(d.get("warnings"), text=_num)
+    mc_warn = _num(_get(s, "model_checks", "warning")).strip()
+    if mc_warn and mc_warn != "—" and not any(mc_warn in o for o in out):
+        out.append(mc_warn)
+    return out + _more_warnings(more)
+
+
+def _more_warnings(more: int) -> list[str]:
+    return [f"… and {more} more distinct warnings (see summary.json)"] if more else []
 
 
 def _status(s: dict) -> list[Block]:
@@ -597,9 +605,10 @@ def _methods(s: dict, directory: Path) -> list[Block]:
 def _truth(s: dict, directory: Path) -> dict | None:
     if not _is_demo(s, directory):
         return None
+    data, _ = read_optional(directory / DEMO_MARKER, MAX_SIDE_BYTES)
     try:
-        truth = json.loads((directory / DEMO_MARKER).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        truth = parse_json(data) if data is not None else None
+    except ValueError:
         return None
     return truth if isinstance(truth, dict) else None
 
@@ -1004,12 +1013,8 @@ def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
 def _campaign_status(s: dict) -> list[Block]:
     """The red or green box at the top of a campaign report (every warning once)."""
     d = s.get("diagnostics") if isinstance(s.get("diagnostics"), dict) else {}
-    warns: list[str] = []
-    for w in (d.get("warnings") if isinstance(d.get("warnings"), list) else []) + \
-            (s.get("warnings") if isinstance(s.get("warnings"), list) else []):
-        text = _num(w).strip()
-        if text and text not in warns:
-            warns.append(text)
+    warns, more = unique_warnings(d.get("warnings"), s.get("warnings"), text=_num)
+    warns += _more_warnings(more)
     facts = (f"max R-hat {_fixed(d.get('max_r_hat'), '.4f')}, min bulk ESS "
              f"{_fixed(d.get('min_ess_bulk'), '.0f')}, {_num(d.get('n_steps'))} steps")
     if not d:
@@ -1269,11 +1274,19 @@ def build(data: dict[str, Any], directory: str | os.PathLike, now: str | None = 
 
 
 def _ours(path: Path, marker: str) -> bool:
+    """Whether ``path`` is a report dampfit wrote: a regular file (a link, FIFO or device is
+    not, and is never opened in a way that could block) whose first 4 kB hold ``marker``."""
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
-            return marker in fh.read(4096)
+        fd = open_regular(path, 1 << 62, missing=FileNotFoundError())
+    except (InputError, OSError):
+        return False
+    try:
+        head = os.pread(fd, 4096, 0)
     except OSError:
         return False
+    finally:
+        os.close(fd)
+    return marker in head.decode("utf-8", "replace")
 
 
 def write_report(directory: str | os.PathLike | Any, *, force: bool = False) -> dict[str, Path]:
@@ -1291,7 +1304,7 @@ def write_report(directory: str | os.PathLike | Any, *, force: bool = False) -> 
     texts = {"html": render_html(title, blocks, d), "md": render_markdown(title, blocks, d)}
     paths = {"html": d / "report.html", "md": d / "report.md"}
     for key, marker in (("html", _MARK_HTML), ("md", _MARK_MD)):
-        if paths[key].exists() and not force and not _ours(paths[key], marker):
+        if os.path.lexists(paths[key]) and not force and not _ours(paths[key], marker):
             raise InputError(f"{paths[key]} exists and was not written by dampfit; "
                              "use --force to replace it")
     try:

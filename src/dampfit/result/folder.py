@@ -10,10 +10,14 @@ What ``dampfit analyze`` / ``dampfit demo`` write (:mod:`dampfit.cli.staging`) a
   eagerly: ``Analysis.summary()`` returns it as written, nothing is recomputed;
 * ``posterior.nc`` — :func:`read_posterior` (arviz ``from_netcdf``, loaded eagerly into memory
   so no file stays open), on first use of ``Analysis.posterior``; at most
-  :data:`MAX_POSTERIOR_BYTES`;
+  :data:`MAX_POSTERIOR_BYTES`, and the sizes its datasets declare are checked against the file
+  before anything is allocated;
 * ``signals.npz`` — :func:`load_signals` (the ZIP directory and array headers are checked
   before anything is allocated, as :mod:`dampfit.io.readers` does for recordings), on first use
   of ``Analysis.signals()``; at most :data:`MAX_SIGNALS_BYTES`.
+
+Every file is opened through :mod:`dampfit.result.files` (a regular file of the folder, not a
+link, FIFO or device; size-limited).
 
 The live pipeline objects (recording, prepared signal, least-squares and sampler results,
 baselines, damping assessment) are not stored; using one raises a
@@ -29,10 +33,11 @@ from typing import Any
 
 from dampfit.errors import DampfitError, InputError
 from dampfit.fem.sanitize import shown
+from dampfit.result.files import Unusable, open_regular
 from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
 
-__all__ = ["MAX_POSTERIOR_BYTES", "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "load", "load_signals",
-           "read_posterior"]
+__all__ = ["MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES", "MAX_SIGNALS_BYTES", "SIGNAL_KEYS",
+           "load", "load_signals", "read_posterior"]
 
 #: Arrays and scalars ``signals.npz`` must hold.
 SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
@@ -40,6 +45,11 @@ SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model"
 MAX_POSTERIOR_BYTES = 4 * 2**30
 #: Largest signals.npz read [bytes]: the analysed window of a recording, a few MB.
 MAX_SIGNALS_BYTES = 2 * 2**30
+#: Most bytes of data posterior.nc may declare per byte of file [1]: deflate, the compression
+#: arviz writes with, cannot exceed about 1032:1 (draws of a real posterior compress < 2:1).
+MAX_DECLARED_RATIO = 1100
+#: Declared bytes allowed beyond that ratio (HDF5 headers of a tiny file) [bytes].
+DECLARED_SLACK_BYTES = 64 * 2**20
 #: Fields of :class:`dampfit.pipeline.Analysis` that exist only in a live analysis.
 LIVE_FIELDS = ("recording", "prepared", "fit_data", "least_squares", "noise", "sampling",
                "baselines", "damping")
@@ -84,8 +94,8 @@ def _load_campaign(s: Summary, loaded: "_Loaded"):
 
     d = s.data
     diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
-    warns = [w for w in (diag.get("warnings") or []) + (d.get("warnings") or [])
-             if isinstance(w, str)]
+    warns = [w for items in (diag.get("warnings"), d.get("warnings")) if isinstance(items, list)
+             for w in items if isinstance(w, str)]
     return CampaignAnalysis(tests=[], sampling=None, warnings=list(dict.fromkeys(warns)),
                             folder=s.folder, _loaded=loaded)
 
@@ -160,14 +170,39 @@ class _Unavailable:
 def read_posterior(folder: str | os.PathLike | Any):
     """The posterior of result ``folder`` as arviz ``InferenceData`` (read into memory).
 
-    :class:`InputError` if posterior.nc is missing, not a regular file, larger than
-    :data:`MAX_POSTERIOR_BYTES` or not a readable NetCDF file of arviz groups.
+    :class:`InputError` if posterior.nc is missing, not a regular file of the folder (a link,
+    FIFO or device: :mod:`dampfit.result.files`), larger than :data:`MAX_POSTERIOR_BYTES`,
+    declares more data than it could hold (:func:`_check_declared`, before anything is
+    allocated) or is not a readable NetCDF file of arviz groups. The file checked is the file
+    read (the open descriptor is handed to the reader).
     """
     folder = folder_of(folder)
     path = folder / "posterior.nc"
-    _check_size(path, MAX_POSTERIOR_BYTES,
-                f"{shown(path)} not found; re-run 'dampfit analyze' (it writes posterior.nc)",
-                "a posterior of the longest allowed chain is about 2 GB")
+    fd = open_regular(path, MAX_POSTERIOR_BYTES, missing=InputError(
+        f"{shown(path)} not found; re-run 'dampfit analyze' (it writes posterior.nc)"),
+        what="a posterior of the longest allowed chain is about 2 GB")
+    try:
+        size = os.fstat(fd).st_size
+        name = _fd_path(fd, path)
+        _check_declared(name, size, path)
+        idata = _read_idata(name, path)
+    finally:
+        os.close(fd)
+    if "posterior" not in idata.groups():
+        raise InputError(f"{shown(path)} holds no posterior group; re-run 'dampfit analyze'")
+    return idata
+
+
+def _fd_path(fd: int, path: Path) -> str:
+    """A name that opens the very file behind ``fd`` (``/proc/self/fd/N`` on Linux,
+    ``/dev/fd/N`` elsewhere), or ``path`` where neither exists."""
+    for base in ("/proc/self/fd", "/dev/fd"):
+        if os.path.isdir(base):
+            return f"{base}/{fd}"
+    return str(path)  # pragma: no cover - no descriptor file system
+
+
+def _read_idata(name: str, path: Path):
     import warnings
 
     import arviz as az  # lazy: heavy
@@ -176,58 +211,85 @@ def read_posterior(folder: str | os.PathLike | Any):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             with az.rc_context({"data.load": "eager"}):
-                idata = az.from_netcdf(str(path))
+                return az.from_netcdf(name)
     except Exception as exc:  # noqa: BLE001 - any reader failure is a bad file for the user
         raise InputError(f"{shown(path)} is not a readable posterior ({type(exc).__name__}); "
                          "re-run 'dampfit analyze'") from None
-    if "posterior" not in idata.groups():
-        raise InputError(f"{shown(path)} holds no posterior group; re-run 'dampfit analyze'")
-    return idata
 
 
-def _check_size(path: Path, limit: int, missing: str, what: str) -> None:
-    """Refuse a missing, special or oversized file from its ``stat`` (nothing is read)."""
-    import stat
+def _check_declared(name: str, size: int, path: Path) -> None:
+    """Refuse a posterior.nc whose datasets declare more bytes than its ``size`` [bytes] could
+    hold compressed (:data:`MAX_DECLARED_RATIO`, plus :data:`DECLARED_SLACK_BYTES`) or than
+    :data:`MAX_POSTERIOR_BYTES`, and one whose data lie outside it (external storage,
+    external links, virtual datasets): read with h5py from the headers, nothing allocated."""
+    import h5py
+
+    declared = 0
+    foreign: list[str] = []
+
+    def visit(obj_name: str, obj) -> None:
+        nonlocal declared
+        if isinstance(obj, h5py.Dataset):
+            declared += int(obj.size) * int(obj.dtype.itemsize)
+            if obj.is_virtual or obj.id.get_create_plist().get_external_count() > 0:
+                foreign.append(obj_name)
+
+    def visit_link(obj_name: str, link) -> None:
+        if isinstance(link, h5py.ExternalLink):
+            foreign.append(obj_name)
 
     try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise InputError(missing) from None
-    except OSError as exc:
-        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{shown(path)} is not a regular file (a directory, FIFO, socket or device)")
-    if st.st_size > limit:
-        raise InputError(f"{shown(path)} is {st.st_size / 2**20:.0f} MB, larger than "
-                         f"{limit // 2**20} MB; {what}")
+        with h5py.File(name, "r", locking=False) as f:
+            f.visititems_links(visit_link)
+            f.visititems(visit)
+    except Exception as exc:  # noqa: BLE001 - not HDF5 (NetCDF-4 is), truncated, corrupt
+        raise InputError(f"{shown(path)} is not a readable posterior ({type(exc).__name__}); "
+                         "re-run 'dampfit analyze'") from None
+    if foreign:
+        raise InputError(f"{shown(path)}: {shown(foreign[0], 60)} keeps its data outside the "
+                         "file (external storage, link or virtual dataset): not a posterior "
+                         "dampfit writes; re-run 'dampfit analyze'")
+    limit = min(MAX_POSTERIOR_BYTES, MAX_DECLARED_RATIO * size + DECLARED_SLACK_BYTES)
+    if declared > limit:
+        raise InputError(f"{shown(path)} declares {declared / 2**20:.0f} MB of draws in a "
+                         f"{size / 2**20:.1f} MB file (at most {limit / 2**20:.0f} MB can be "
+                         "read): not a posterior dampfit writes; re-run 'dampfit analyze'")
 
 
 # ------------------------------------------------------------------------- signals.npz
 def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[str, Any]:
     """Arrays of ``folder/signals.npz`` as float64 NumPy arrays/floats; :class:`InputError` if unusable.
 
-    The file must hold :data:`SIGNAL_KEYS`: ``t`` at least 16 finite increasing times [s],
-    ``accel``, ``accel_model`` [m/s²] finite, ``displacement``, ``displacement_model`` [m] of
-    the same length, scalars ``p`` ≥ 0 [1/s], ``omega_d`` > 0 [rad/s], ``t0`` [s] finite.
+    The file must be a regular file of the folder (not a link, FIFO or device) of at most
+    :data:`MAX_SIGNALS_BYTES` and hold :data:`SIGNAL_KEYS`: ``t`` at least 16 finite increasing
+    times [s], ``accel``, ``accel_model`` [m/s²] finite, ``displacement``,
+    ``displacement_model`` [m] of the same length, scalars ``p`` ≥ 0 [1/s], ``omega_d`` > 0
+    [rad/s], ``t0`` [s] finite. The ZIP directory and array headers are checked before
+    anything is allocated, on the descriptor that is then read.
     """
     import numpy as np
 
     path = folder_of(folder) / "signals.npz"
-    if not path.is_file():
-        raise InputError(f"{shown(path)} not found; re-run 'dampfit analyze' (it writes signals.npz)")
-    _check_size(path, MAX_SIGNALS_BYTES, f"{shown(path)} not found",
-                "signals.npz of an analysis is a few MB")
-    _check_npz(path)
+    again = "re-run 'dampfit analyze' (it writes signals.npz)"
     try:
-        with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in SIGNAL_KEYS if k not in data.files]
-            if missing:
-                raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
-            sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
-    except InputError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
-        raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
+        fd = open_regular(path, MAX_SIGNALS_BYTES, missing=InputError(
+            f"{shown(path)} not found; {again}"), what="signals.npz of an analysis is a few MB")
+    except Unusable as exc:
+        raise InputError(f"{shown(path)} not found as a regular file: it is {exc.reason}; "
+                         f"{again}") from None
+    with os.fdopen(fd, "rb") as fh:
+        _check_npz(fh, path)
+        fh.seek(0)
+        try:
+            with np.load(fh, allow_pickle=False) as data:
+                missing = [k for k in SIGNAL_KEYS if k not in data.files]
+                if missing:
+                    raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
+                sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
+        except InputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
+            raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
     t = sig["t"]
     n = t.size
     if t.ndim != 1 or n < 16 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
@@ -248,7 +310,7 @@ def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[
     return sig
 
 
-def _check_npz(path: Path) -> None:
+def _check_npz(fh, path: Path) -> None:
     """Refuse a zip bomb or an array header declaring more bytes than the file holds before
     ``np.load`` allocates anything (the checks :mod:`dampfit.io.readers` applies to
     recordings), so the memory used is bounded by the data present."""
@@ -257,7 +319,7 @@ def _check_npz(path: Path) -> None:
     from dampfit.io.containers import check_npy_header, check_zip
 
     try:
-        with zipfile.ZipFile(path) as zf:
+        with zipfile.ZipFile(fh) as zf:
             check_zip(zf)
             for info in zf.infolist():
                 if info.filename.endswith(".npy"):
@@ -268,4 +330,3 @@ def _check_npz(path: Path) -> None:
     except (OSError, EOFError, zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError,
             RuntimeError, ValueError) as exc:
         raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
-

@@ -6,8 +6,9 @@ the same words. This module imports only the standard library.
 
 What a usable ``summary.json`` is:
 
-* a regular file (a FIFO or device is refused before it is opened, so nothing blocks) of at
-  most :data:`MAX_SUMMARY_BYTES`, UTF-8 (a byte-order mark is allowed);
+* a regular file, not a symbolic link (a FIFO, device or link is refused from the descriptor
+  opened without blocking or following: :mod:`dampfit.result.files`), of at most
+  :data:`MAX_SUMMARY_BYTES`, UTF-8 (a byte-order mark is allowed);
 * one JSON object nested at most :data:`MAX_DEPTH` levels, with a ``parameters`` object;
   sections ``mass``, ``input``, ``window`` are objects (or absent/null), ``dampfit_version`` a
   string (or absent);
@@ -35,18 +36,19 @@ import json
 import math
 import numbers
 import os
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import MARKER, read_bounded
+from dampfit._files import MARKER
 from dampfit.errors import InputError
 from dampfit.fem.sanitize import shown
+from dampfit.result import files
 
-__all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "SCHEMA_VERSION",
-           "Summary", "brief", "folder_of", "is_campaign", "not_a_result", "number",
-           "read_regular", "read_summary"]
+__all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MAX_WARNINGS_SHOWN",
+           "MIN_POSITIVE", "SCHEMA_VERSION", "Summary", "brief", "folder_of", "is_campaign",
+           "not_a_result", "number", "parse_json", "read_regular", "read_summary",
+           "unique_warnings"]
 
 #: Version of the summary.json layout :meth:`dampfit.pipeline.Analysis.summary` writes (its
 #: ``schema_version``). 0: written before the field existed (same layout as 1).
@@ -99,23 +101,14 @@ def read_summary(folder: str | os.PathLike | Any) -> Summary:
     (one line) if the folder is not a usable result folder."""
     folder = folder_of(folder)
     if not folder.is_dir():
-        raise not_a_result(folder, "it is not a directory")
+        raise not_a_result(folder, _hidden_previous(folder) or "it is not a directory")
     path = folder / "summary.json"
     data = read_regular(path, MAX_SUMMARY_BYTES, missing=not_a_result(
         folder, f"{shown(path)} not found, the folder has no summary.json"), folder=folder)
-    broken = f"cannot read {shown(path)}"
     try:
-        summary = _plain(json.loads(data.decode("utf-8-sig")))
-    except UnicodeDecodeError:
-        raise not_a_result(folder, f"{broken}: not UTF-8 text", again=True) from None
-    except RecursionError:
-        raise not_a_result(folder, f"{broken}: nested too deeply", again=True) from None
-    except _TooDeep:
-        raise not_a_result(folder, f"{broken}: nested too deeply (more than {MAX_DEPTH} "
-                           "levels)", again=True) from None
-    except ValueError as exc:  # json.JSONDecodeError, or an integer with too many digits
-        raise not_a_result(folder, f"{broken}: not readable JSON ({shown(exc, 120)})",
-                           again=True) from None
+        summary = parse_json(data)
+    except ValueError as exc:
+        raise not_a_result(folder, f"cannot read {shown(path)}: {exc}", again=True) from None
     if not isinstance(summary, dict):
         raise not_a_result(folder, f"{shown(path)} holds a JSON {_kind(summary)}, not an "
                            "object: not a dampfit summary", again=True)
@@ -127,6 +120,39 @@ def read_summary(folder: str | os.PathLike | Any) -> Summary:
                    sha256=hashlib.sha256(data).hexdigest(),
                    schema_version=_schema_version(summary, path),
                    marked=os.path.isfile(folder / MARKER))
+
+
+def _hidden_previous(folder: Path) -> str | None:
+    """Why ``folder`` is missing when a dampfit run killed between the two renames of its
+    swap left the previous result beside it (``.NAME.dampfit-old-PID-XXXX``), else None."""
+    if os.path.lexists(folder):
+        return None
+    try:
+        hidden = sorted(p.name for p in folder.parent.iterdir()
+                        if p.name.startswith(f".{folder.name}.dampfit-old-"))
+    except OSError:
+        return None
+    if not hidden:
+        return None
+    return (f"it does not exist, but a dampfit run killed while replacing it left its previous "
+            f"result as {shown(hidden[0], 80)} beside it; the next 'dampfit analyze … --out "
+            f"{shown(folder)}' restores it (or rename it back yourself)")
+
+
+def parse_json(data: bytes) -> Any:
+    """JSON bytes of a result folder (UTF-8, a byte-order mark allowed) as plain data
+    (:func:`_plain`); ValueError with a short reason: not UTF-8, not JSON, nested deeper than
+    :data:`MAX_DEPTH`."""
+    try:
+        return _plain(json.loads(data.decode("utf-8-sig")))
+    except UnicodeDecodeError:
+        raise ValueError("not UTF-8 text") from None
+    except RecursionError:
+        raise ValueError("nested too deeply") from None
+    except _TooDeep:
+        raise ValueError(f"nested too deeply (more than {MAX_DEPTH} levels)") from None
+    except ValueError as exc:  # json.JSONDecodeError, or an integer with too many digits
+        raise ValueError(f"not readable JSON ({shown(exc, 120)})") from None
 
 
 def _check_fields(summary: dict[str, Any], path: Path) -> None:
@@ -158,6 +184,16 @@ def _check_campaign(summary: dict[str, Any], path: Path) -> None:
         if summary.get(section) is not None and not isinstance(summary[section], dict):
             raise InputError(f"{shown(path)}: '{section}' must be an object, "
                              f"got {brief(summary[section])}")
+    population = summary.get("population") or {}
+    for section in ("spread", "predictive"):
+        entries = population.get(section)
+        if entries is not None and not isinstance(entries, dict):
+            raise InputError(f"{shown(path)}: 'population.{section}' must be an object, "
+                             f"got {brief(entries)}")
+        for name, entry in (entries or {}).items():
+            if entry is not None and not isinstance(entry, dict):
+                raise InputError(f"{shown(path)}: 'population.{section}.{shown(name, 40)}' must "
+                                 f"be an object with q05/q50/q95, got {brief(entry)}")
     tests = summary.get("tests")
     if not isinstance(tests, list) or len(tests) < 2:
         raise InputError(f"{shown(path)}: 'tests' of a campaign must be a list of at least 2 "
@@ -172,6 +208,36 @@ def _check_campaign(summary: dict[str, Any], path: Path) -> None:
     for key in ("warnings",):
         if summary.get(key) is not None and not isinstance(summary[key], list):
             raise InputError(f"{shown(path)}: '{key}' must be a list, got {brief(summary[key])}")
+
+
+#: Most warnings a report or table shows (the others are counted): an analysis has a handful.
+MAX_WARNINGS_SHOWN = 100
+#: Longest warning shown [characters]; a longer one (an edited summary) is cut.
+MAX_WARNING_CHARS = 2000
+
+
+def unique_warnings(*lists: Any, text=str, limit: int = MAX_WARNINGS_SHOWN
+                    ) -> tuple[list[str], int]:
+    """The distinct non-empty warnings of ``lists`` (each a list; anything else is skipped)
+    as ``text(item)``, stripped, in order of first appearance: at most ``limit`` of them,
+    each cut at :data:`MAX_WARNING_CHARS`, and the number of further distinct ones. One pass
+    with a set: linear in the number of warnings (an edited summary can hold millions)."""
+    seen: set[str] = set()
+    out: list[str] = []
+    more = 0
+    for items in lists:
+        if not isinstance(items, list):
+            continue
+        for item in items:
+            t = text(item).strip()
+            if not t or t in seen:
+                continue
+            seen.add(t)
+            if len(out) < limit:
+                out.append(t if len(t) <= MAX_WARNING_CHARS else t[:MAX_WARNING_CHARS - 1] + "…")
+            else:
+                more += 1
+    return out, more
 
 
 def is_campaign(summary: dict[str, Any]) -> bool:
@@ -197,39 +263,14 @@ def _schema_version(summary: dict[str, Any], path: Path) -> int:
 
 def read_regular(path: Path, limit: int, missing: InputError | str, folder: Path | None = None,
                  what: str = "a dampfit summary.json is a few kB") -> bytes:
-    """Bytes of the regular file ``path`` (symbolic links followed), at most ``limit`` bytes.
-
-    A directory, FIFO, socket or device is refused from its ``stat`` and again after a
-    non-blocking ``open`` (so a file swapped in between cannot make the read block). A
-    missing file raises ``missing``; with ``folder`` every refusal is :func:`not_a_result`.
-    """
+    """Bytes of the regular file ``path`` of a result folder, at most ``limit`` bytes
+    (:func:`dampfit.result.files.read_regular`: not a link, FIFO, socket, device or directory,
+    checked on the descriptor opened without blocking). A missing file raises ``missing``;
+    with ``folder`` every refusal is :func:`not_a_result`."""
     def refuse(why: str) -> InputError:
         return not_a_result(folder, why, again=True) if folder is not None else InputError(why)
 
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        raise (missing if isinstance(missing, InputError) else InputError(missing)) from None
-    except OSError as exc:
-        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-
-    def check(st: os.stat_result) -> None:
-        if stat.S_ISDIR(st.st_mode):
-            raise refuse(f"{shown(path)} is a directory, not a file")
-        if not stat.S_ISREG(st.st_mode):
-            raise refuse(f"{shown(path)} is not a regular file (a FIFO, socket or device)")
-        if st.st_size > limit:
-            raise refuse(f"{shown(path)} is {st.st_size / 2**20:.0f} MB, larger than "
-                         f"{limit // 2**20} MB; {what}")
-
-    check(st)
-    try:
-        data = read_bounded(path, limit, check)
-    except OSError as exc:
-        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
-    if len(data) > limit:
-        raise refuse(f"{shown(path)} is larger than {limit // 2**20} MB; {what}")
-    return data
+    return files.read_regular(path, limit, missing, refuse=refuse, what=what)
 
 
 class _TooDeep(ValueError):

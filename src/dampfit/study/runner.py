@@ -8,8 +8,9 @@ submitted again. The tables are written once every run of the configuration is s
 
 By default the client starts a local cluster of N worker processes with one thread each
 (:func:`dampfit.study.cluster.local_cluster`: like ``LocalCluster``, but its workers import
-nothing from the working folder); with a scheduler address it connects to an existing
-cluster. Workers must
+nothing from the working folder), N capped at the number of runs still to do; with a scheduler
+address (``tcp://``, or ``tls://`` with Dask's TLS settings) it connects to an existing cluster,
+after the scheduler has answered a first request within :data:`SCHEDULER_WAIT_S`. Workers must
 be able to import the same dampfit version (same environment, e.g. ``pip install`` on every
 node); this is checked before anything is submitted.
 """
@@ -17,8 +18,8 @@ node); this is checked before anything is submitted.
 from __future__ import annotations
 
 import contextlib
+import html
 import importlib.util
-import re
 import sys
 import uuid
 from pathlib import Path
@@ -41,30 +42,96 @@ class StudyIncomplete(Exception):
     """Some runs did not finish (a worker died); the finished ones are stored."""
 
 
+#: How long the scheduler has to answer a first request before it is called unreachable [s].
+SCHEDULER_WAIT_S = 15.0
+#: Address schemes ``--scheduler`` accepts: plain TCP, and TLS when Dask's configuration
+#: holds the certificates (``distributed.comm.tls.*``).
+SCHEMES = ("tcp", "tls")
+
+
+def _unreachable(scheduler: str, why: str) -> InputError:
+    return InputError(f"cannot reach the Dask scheduler at {scheduler} ({why}); start it with "
+                      "'dask scheduler' or drop --scheduler")
+
+
+def check_scheduler(scheduler: str, wait_s: float | None = None) -> dict:
+    """Refuse an unusable ``--scheduler`` address before a ``Client`` exists (a failed Client
+    lingers, and one connected to a server that accepts but never answers waits forever):
+    the scheme must be one of :data:`SCHEMES` (``tls://`` only with Dask's TLS settings), and
+    a Dask scheduler must answer an identity request within ``wait_s`` [s] (default
+    :data:`SCHEDULER_WAIT_S`). Returns the connection arguments; one-line InputError else."""
+    from distributed.comm.addressing import parse_address
+    from distributed.security import Security
+
+    wait_s = SCHEDULER_WAIT_S if wait_s is None else wait_s
+    try:
+        scheme = parse_address(scheduler)[0]
+    except ValueError as exc:
+        raise _unreachable(scheduler, str(exc)) from None
+    if scheme not in SCHEMES:
+        raise _unreachable(scheduler, f"the {scheme}:// transport is not supported by dampfit "
+                                      "study: give a tcp:// address, or tls:// with Dask's TLS "
+                                      "settings")
+    try:
+        args = Security().get_connection_args("client")
+    except Exception as exc:  # noqa: BLE001 - a broken TLS configuration (missing files)
+        raise _unreachable(scheduler, f"Dask's TLS settings are unusable: {exc}") from None
+    if scheme == "tls" and args.get("ssl_context") is None:
+        raise _unreachable(scheduler, "tls:// needs Dask's TLS settings "
+                                      "(distributed.comm.tls.ca-file and a client certificate); "
+                                      "none are set")
+    identity = _ask_identity(scheduler, args, wait_s)
+    if not (isinstance(identity, dict) and identity.get("type") == "Scheduler"):
+        raise _unreachable(scheduler, "the server there is not a Dask scheduler")
+    return args
+
+
+def _ask_identity(address: str, args: dict, wait_s: float):
+    """The scheduler's answer to ``identity``, within ``wait_s`` [s] in all (connection,
+    handshake and answer), asked from a thread of its own (an event loop may be running in
+    this one); InputError when nothing usable arrives in time."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed.comm import connect
+
+    async def ask():
+        comm = await connect(address, timeout=wait_s, **args)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    def run():
+        return asyncio.run(asyncio.wait_for(ask(), wait_s))
+
+    pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="dampfit-probe")
+    try:
+        return pool.submit(run).result(timeout=wait_s + 5)
+    except (TimeoutError, asyncio.TimeoutError, concurrent.futures.TimeoutError):
+        raise _unreachable(address, f"no answer within {wait_s:g} s") from None
+    except Exception as exc:  # noqa: BLE001 - refused, reset, a handshake that is not Dask's
+        raise _unreachable(address, f"{type(exc).__name__}: {exc}") from None
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
 @contextlib.contextmanager
 def _client(workers: int, scheduler: str | None):
     import dask
     from distributed import Client
 
     if scheduler:
-        from distributed.comm.addressing import parse_address
-        from distributed.comm.registry import get_backend
-
-        try:  # a malformed address is refused before a Client exists (a failed Client lingers
-            # and blocks the interpreter's exit for 30 s trying to close itself)
-            get_backend(parse_address(scheduler)[0])
-        except ValueError as exc:
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
-                             "with 'dask scheduler' or drop --scheduler") from None
+        check_scheduler(scheduler)
         try:
-            client = Client(scheduler, timeout="15s")
-        except (OSError, TimeoutError, ValueError) as exc:
+            client = Client(scheduler, timeout=f"{SCHEDULER_WAIT_S:g}s")
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
             # a failed Client has already made itself dask's global scheduler: undo that, or
             # every later dask computation in this process (xarray/arviz loads) tries to reach it
             dask.config.config.pop("scheduler", None)
             dask.config.config.pop("shuffle", None)
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({exc}); start it "
-                             "with 'dask scheduler' or drop --scheduler") from None
+            raise _unreachable(scheduler, str(exc)) from None
         cluster = None
     else:
         from dampfit.study.cluster import local_cluster
@@ -163,6 +230,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
         tasks = cfg.tasks()
         done = _finished(store, tasks)
         todo = [t for t in tasks if t.key not in done]
+        workers = max(1, min(workers, len(todo)))  # no idle worker processes to start
         if not quiet:
             where = scheduler or f"a local cluster of {workers} worker process(es)"
             print(f"dampfit study: {len(tasks)} runs ({cfg.n_scenarios} scenarios × "
@@ -272,9 +340,12 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
 
 
 def _configuration_md(cfg: StudyConfig) -> list[str]:
-    # a fence longer than any backtick run of the file, so its text cannot end the code block
-    fence = "`" * max(3, 1 + max((len(r) for r in re.findall(r"`+", cfg.source)), default=0))
-    return ["## Configuration\n", f"{fence}toml\n" + cfg.source.rstrip() + f"\n{fence}\n"]
+    """The configuration's TOML source as a preformatted HTML block with every ``& < >``
+    escaped: Markdown viewers show it verbatim, and no tag of the source (a study named
+    ``<script>…``) reaches the file raw, as it would inside a fenced code block. (The source
+    itself is also in study.json.)"""
+    text = html.escape(cfg.source.rstrip(), quote=False)
+    return ["## Configuration\n", f'<pre><code class="language-toml">{text}</code></pre>\n']
 
 
 def _campaign_summary_md(cfg: StudyConfig, runs, agg, pooled, version: str, figures: bool) -> str:

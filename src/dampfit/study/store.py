@@ -26,17 +26,49 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import _reason, atomic_write_text, publish, read_marker
+from dampfit._files import _reason, atomic_write_text, check_lock_file, publish, read_marker
 from dampfit.errors import InputError
 from dampfit.study.config import StudyConfig
 
-__all__ = ["OUTPUTS", "Store"]
+__all__ = ["MAX_RECORD_BYTES", "OUTPUTS", "Store", "check_record"]
 
 #: Files the study writes (and ``--force`` removes); nothing else in DIR is touched.
 OUTPUTS = ("study.json", "runs.jsonl", "runs.csv", "runs.parquet", "aggregate.csv",
            "ranking.csv", "summary.md", "ranking.png", "coverage.png")
 #: Largest study.json [bytes] read (the configuration and its TOML source: a few KiB).
 MAX_META_BYTES = 16 * 2**20
+
+
+#: Longest line of runs.jsonl [bytes]: one run's record is a few KiB.
+MAX_RECORD_BYTES = 4 * 2**20
+
+
+def check_record(rec: Any) -> str | None:
+    """Why ``rec`` (a parsed line of runs.jsonl) is not a record of
+    :func:`dampfit.study.task.run_task`, or None: an object with a string ``scenario``, an
+    integer ``replicate`` ≥ 0, an integer ``seed`` (if present) and ``rows`` a list of objects
+    whose ``estimator`` (if present) is a string and whose values are JSON scalars. (A record
+    that passes but does not match a run of the configuration — another seed or estimators —
+    is not used: its run is done again.)"""
+    if not isinstance(rec, dict):
+        return "not a JSON object"
+    if not isinstance(rec.get("scenario"), str):
+        return "'scenario' must be a string"
+    for key in ("replicate", "seed"):
+        v = rec.get(key, 0)
+        if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+            return f"'{key}' must be a non-negative integer"
+    rows = rec.get("rows")
+    if not isinstance(rows, list):
+        return "'rows' must be a list"
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict):
+            return f"rows[{i}] must be an object"
+        if not isinstance(row.get("estimator", ""), str):
+            return f"rows[{i}].estimator must be a string"
+        if any(isinstance(v, (dict, list)) for v in row.values()):
+            return f"rows[{i}] holds a nested value"
+    return None
 
 
 class Store:
@@ -122,6 +154,16 @@ class Store:
         if not stat.S_ISDIR(st.st_mode):
             raise InputError(f"{self.root} exists and is not a directory")
         meta = self._read_meta()
+        try:
+            runs = os.lstat(self.runs_path)
+        except FileNotFoundError:
+            runs = None
+        except OSError as exc:
+            raise InputError(f"cannot read {self.runs_path}: {_reason(exc)}") from None
+        if runs is not None and not stat.S_ISREG(runs.st_mode) and not (force and meta is not None):
+            raise InputError(f"{self.runs_path} is not a regular file (a link, FIFO, socket or "
+                             "device); a study stores its runs only in a file it wrote: remove "
+                             "it, or choose another --out")
         if meta is None:
             try:
                 other = [p.name for p in self.root.iterdir() if p.name != ".lock"]
@@ -151,18 +193,20 @@ class Store:
         path = self.lock_path
         for _ in range(20):
             created = True
+            flags = os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0)
             try:
-                fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+                fd = os.open(path, flags | os.O_CREAT | os.O_EXCL, 0o644)
             except FileExistsError:
                 created = False
                 try:
-                    fd = os.open(path, os.O_RDWR | os.O_NOFOLLOW)
+                    fd = os.open(path, flags)
                 except FileNotFoundError:
                     continue  # removed by its holder meanwhile: try again
                 except OSError as exc:
                     raise InputError(f"cannot open the lock file {path}: {_reason(exc)}") from None
             except OSError as exc:
                 raise InputError(f"cannot create the lock file {path}: {_reason(exc)}") from None
+            check_lock_file(fd, path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except OSError:
@@ -250,20 +294,33 @@ class Store:
 
     # -- runs ---------------------------------------------------------------------------
     def records(self) -> list[dict[str, Any]]:
-        """Every complete record in ``runs.jsonl`` (a later record of the same run wins)."""
+        """Every complete record in ``runs.jsonl`` (a later record of the same run wins).
+
+        A line that does not parse is a write torn by a kill and is skipped (its run is done
+        again); a line that parses but is not a record dampfit writes (:func:`check_record`)
+        or is longer than :data:`MAX_RECORD_BYTES` means the file was edited: refused, one
+        line naming it, before anything is run or written."""
         if self._discard or not self.runs_path.is_file():  # --force: not yet removed, not used
             return []
         out: dict[tuple[str, int], dict] = {}
-        with open(self.runs_path, encoding="utf-8", errors="replace") as fh:
-            for line in fh:
+        with open(self.runs_path, "rb") as fh:
+            for number, line in enumerate(iter(lambda: fh.readline(MAX_RECORD_BYTES + 1), b""), 1):
+                if len(line) > MAX_RECORD_BYTES:
+                    raise self._tampered(number, f"longer than {MAX_RECORD_BYTES // 2**20} MiB")
                 try:
-                    rec = json.loads(line)
-                    key = (str(rec["scenario"]), int(rec["replicate"]))
-                except (ValueError, KeyError, TypeError):
+                    rec = json.loads(line.decode("utf-8", "replace"))
+                except (ValueError, RecursionError):
                     continue  # a torn line
-                if isinstance(rec.get("rows"), list):
-                    out[key] = rec
+                why = check_record(rec)
+                if why is not None:
+                    raise self._tampered(number, why)
+                out[(rec["scenario"], rec["replicate"])] = rec
         return list(out.values())
+
+    def _tampered(self, number: int, why: str) -> InputError:
+        return InputError(f"{self.runs_path} line {number} is not a run record dampfit wrote "
+                          f"({why}); remove that line (its run is then repeated) or restart "
+                          "the study with --force")
 
     def append(self, record: dict[str, Any]) -> None:
         """Append one record durably (one write, flush, fsync)."""
