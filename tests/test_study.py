@@ -567,7 +567,7 @@ def test_a_runs_jsonl_that_is_a_fifo_or_link_is_refused_before_anything(tiny, tm
 
 def test_local_workers_are_capped_at_the_runs_to_do(tiny, tmp_path, capsys, monkeypatch):
     """--workers 4 for a study of 2 runs starts 2 worker processes, not 4."""
-    import distributed
+    from dampfit.study import cluster as local
 
     started = []
 
@@ -575,7 +575,7 @@ def test_local_workers_are_capped_at_the_runs_to_do(tiny, tmp_path, capsys, monk
         started.append(n_workers)
         raise InputError("stopped before starting workers")
 
-    monkeypatch.setattr(distributed, "LocalCluster", cluster)
+    monkeypatch.setattr(local, "local_cluster", cluster)
     out = tmp_path / "s"
     capsys.readouterr()
     assert main(["study", str(tiny), "--out", str(out), "--workers", "4"]) == 2

@@ -104,7 +104,7 @@ def command(args) -> int:
                              "experiment), not both")
         return _experiment(args)
     url = _check(args)
-    from dampfit._files import _signals_blocked
+    from dampfit._swap import signals_deferred
     from dampfit.cli.staging import result_folder
     from dampfit.record.live import LiveLine
     from dampfit.record.phyphox import PhyphoxClient
@@ -114,7 +114,7 @@ def command(args) -> int:
     live = LiveLine(sys.stderr, enabled=not args.quiet)
     with result_folder(out, "record", args.force) as folder:
         rec = record(PhyphoxClient(url, timeout=args.timeout), duration=args.duration, live=live)
-        with _signals_blocked(), folder.writing():  # Ctrl-C cannot drop the recording now
+        with signals_deferred(), folder.writing():  # Ctrl-C cannot drop the recording now
             write_recording(rec, folder.stage)
             folder.publish()
         kept = f"{rec.duration:.1f} s ({rec.time.size} samples) kept in {out / CSV} and {out / JSON}"
