@@ -50,7 +50,11 @@ def _decimals(lo: Any, hi: Any) -> int | None:
 def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
     """``x`` with ``dec`` decimals; in scientific notation with the same absolute precision
     when ``scale`` (the largest magnitude printed alongside, default |x|) is below 10⁻⁴ or
-    above 10⁹, where fixed point gets unwieldy."""
+    above 10⁹, where fixed point gets unwieldy.
+
+    In scientific notation every number has its own exponent (a normalised mantissa), with
+    as many mantissa digits as the absolute precision 10^−dec allows and at least one: 4·10⁻⁶
+    beside an upper bound of 2·10⁻⁵ prints as ``4e-06``, never ``0.4e-05``."""
     if x is None:
         return "—"
     x = float(x)
@@ -58,8 +62,10 @@ def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
         return _g(x, 6)
     scale = abs(x) if scale is None else scale
     if scale >= 1e9 or 0 < scale < 1e-4:
-        exp = math.floor(math.log10(scale))
-        return f"{x / 10.0**exp:.{max(1, exp + dec)}f}e{exp:+03d}"
+        if x == 0:
+            return "0"
+        digits = max(0, math.floor(math.log10(abs(x))) + dec)
+        return f"{x:.{digits}e}"
     return f"{x:.{max(0, dec)}f}"
 
 
@@ -103,13 +109,20 @@ def _baseline_mark(b: dict[str, Any]) -> str:
     """The caveat printed after a baseline: too little support, or disagreement."""
     marks = []
     if b.get("supported") is False:
+        # every reason the baseline gives (estimators.baselines: too few cycles, a decay
+        # within the noise, an end below the noise); the cycle count in short form
+        why = b.get("support_reason")
+        reasons = [r.strip() for r in why.split(";") if r.strip()] if isinstance(why, str) else []
         used, win = b.get("n_cycles_used"), b.get("n_cycles_window")
-        if used is not None and win is not None:
+        if isinstance(used, (int, float)) and isinstance(win, (int, float)) and (
+                not reasons or any(r.startswith("rests on only") for r in reasons)):
             whole = abs(used - round(used)) < 1e-9  # log decrement: whole cycles
             of = f"{win:.0f}" if whole or win >= 10 else f"{win:.1f}"
-            marks.append(f"only {_cycles(used)} of {of} cycles — not reliable")
+            rest = [r for r in reasons if not r.startswith("rests on only")]
+            marks.append(f"only {_cycles(used)} of {of} cycles — not reliable"
+                         + "".join(f"; {r}" for r in rest))
         else:
-            marks.append("not reliable: " + str(b.get("support_reason")))
+            marks.append("not reliable" + (": " + "; ".join(reasons) if reasons else ""))
     if b.get("agrees_with_posterior") is False:
         marks.append("disagrees with the posterior beyond its expected spread")
     return "".join(f" ({m})" for m in marks)
