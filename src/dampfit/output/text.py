@@ -187,6 +187,9 @@ def text(s: dict[str, Any]) -> str:
         f"({win['n_cycles']:.1f} cycles){'' if win['auto'] else ' (given)'}, "
         f"band {band['low_hz']:.4g}–{band['high_hz']:.4g} Hz, f0 = {s['dominant_frequency_hz']:.5g} Hz",
     ]
+    end = win.get("end_reason")
+    if win["auto"] and isinstance(end, str) and end:  # why (signal.window.END_REASONS)
+        lines.append(f"  window ends     {end}")
     m = s["mass"]
     if m["value"] is None:
         lines.append("  mass not given: c and k cannot be identified (give --mass KG)")
