@@ -206,6 +206,7 @@ def text(s: dict[str, Any]) -> str:
         lines.append(
             f"  {_LABELS[name]:15s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
             f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
+            + ("   reaches 0: no decay measured" if q.get("reaches_zero") is True else "")
         )
     ls = s["least_squares"]
     lines += ["", "  least squares   " + ", ".join(
@@ -230,18 +231,34 @@ def text(s: dict[str, Any]) -> str:
         amp = mc.get("amplitude_dependence") or {}
         verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
         pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
-        law = mc.get("verdict_law") or mc.get("preferred_model")
+        law = mc.get("verdict_law") or (mc.get("preferred_model") if "verdict_law" not in mc
+                                        else None)
+        reasons = mc.get("verdict_reasons")
+        first = reasons[0] if isinstance(reasons, list) and reasons and isinstance(
+            reasons[0], str) else None
         line = "  damping law     " + {
-            "adequate": f"viscous adequate (no amplitude dependence, {pv})",
-            "amplitude-dependent": f"{law} preferred (amplitude-dependent, {pv})",
+            "adequate": (f"viscous adequate ({first}; {pv})" if first and first.startswith(
+                "no amplitude dependence") else f"viscous adequate (no amplitude dependence, {pv})"),
+            "amplitude-dependent": (f"{law} preferred (amplitude-dependent, {pv})" if law else
+                                    f"amplitude-dependent; no damping law describes it reliably "
+                                    f"({pv})"),
             "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
-            "inconclusive": f"inconclusive: the evidence is too weak either way ({pv}, "
-                            f"{mc.get('preferred_model')} fits best)",
+            "inconclusive": (f"inconclusive: {first or 'the evidence is too weak either way'} "
+                             f"({pv}, {mc.get('preferred_model')} fits best)"),
         }.get(verdict, f"{verdict} ({pv})")
         ceq = s.get("c_equivalent")
+        why = (s.get("missing") or {}).get("c_equivalent") if isinstance(
+            s.get("missing"), dict) else None
+        if ceq is None and isinstance(why, str):
+            line += f"\n  c_equivalent    not given: {why}"
         if isinstance(ceq, dict):
+            extra = ""
+            if ceq.get("extrapolated") is True:
+                rng = ceq.get("recorded_amplitude_range_m") or [None, None]
+                extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
+                         if len(rng) == 2 else ", EXTRAPOLATED beyond the recorded amplitudes")
             where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
-                     f"amplitude){_law_state(s, ceq['model'])}")
+                     f"amplitude{extra}){_law_state(s, ceq['model'])}")
             if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
                 line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
                 where = ""
