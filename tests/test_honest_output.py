@@ -200,6 +200,23 @@ def test_a_baseline_caveat_gives_the_baselines_own_reason():
     assert f"(only 2 of 12 cycles — not reliable; {why})" in line
 
 
+def test_c_equivalent_absent_or_extrapolated_is_said_in_the_table():
+    s = nonviscous(True)
+    s["model_checks"].update(verdict="misfit", verdict_law=None)
+    s["c_equivalent"] = None
+    s["missing"] = {"c_equivalent": "the verdict is misfit: no damping law describes this "
+                                    "waveform, so the coulomb law's equivalent viscous c means "
+                                    "nothing"}
+    text = render.text(s)
+    assert "c_equivalent    not given: the verdict is misfit" in text
+    s = nonviscous(True)
+    s["c_equivalent"].update(amplitude_m=1.0, extrapolated=True,
+                             recorded_amplitude_range_m=[0.002, 0.02])
+    line = next(x for x in render.text(s).splitlines() if x.strip().startswith("c_equivalent"))
+    assert "coulomb law at 1 m displacement amplitude, EXTRAPOLATED beyond the recorded " \
+           "0.002–0.02 m" in line
+
+
 def test_mass_without_sd_says_so_instead_of_plus_minus_zero():
     text = render.text(summary())
     assert "mass 0.23 kg (sd not given)" in text and "± 0 kg" not in text
