@@ -94,6 +94,63 @@ def amplitude_dependent(i: int):
     return rec, zeta_ratio
 
 
+def _window_ratio(t, u, f, law_ratio):
+    """``zeta_ratio(window)``: the true ζ change across a window from the displacement
+    envelope ``u`` at times ``t`` [s] (frequency ``f`` [Hz]) and ``law_ratio(a_hi, a_lo)``."""
+    def zeta_ratio(window):
+        def amp(tc):
+            sel = (t >= tc - 1 / f) & (t <= tc + 1 / f)
+            return float(np.max(np.abs(u[sel])))
+        a1, a2 = amp(max(window[0], 1 / f)), amp(min(window[1], t[-1] - 1 / f))
+        return float(law_ratio(max(a1, a2), max(min(a1, a2), 1e-300)))
+    return zeta_ratio
+
+
+def power_dependent(i: int):
+    """A power-law damper F = c_α·|u̇|^α·sgn(u̇) (exact ODE), α ∈ {0.3, 0.5, 1.6, 2.0}: ζ_eq
+    ∝ a^(α−1). Returns the recording and ``zeta_ratio(window)``."""
+    from dampfit.model.laws import lam
+
+    r = np.random.default_rng(9000 + i)
+    f = float(np.exp(r.uniform(np.log(1.0), np.log(6.0))))
+    m, u0, fs = 0.5, 0.02, 100.0
+    w = 2 * np.pi * f
+    alpha = float(r.choice([0.3, 0.5, 1.6, 2.0]))
+    z0 = float(np.exp(r.uniform(np.log(0.004), np.log(0.015))))  # ζ_eq at u0, roughly
+    c_alpha = 2 * m * w * z0 / ((w * u0) ** (alpha - 1) * float(lam(alpha)) / np.pi)
+    t = np.arange(0, float(r.uniform(25, 45)), 1 / fs)
+    u, _, a = reference_decay(t, m, m * w * w, u0, c_alpha=c_alpha, alpha=alpha)
+    noise_sd = float(np.exp(r.uniform(np.log(0.003), np.log(0.03)))) * np.max(np.abs(a))
+    rec = noisy_recording(t, a, noise_sd, seed=i, lead=1.0)
+    return rec, _window_ratio(t, u, f, lambda hi, lo: (hi / lo) ** abs(alpha - 1))
+
+
+def moderate_dependent(i: int):
+    """As :func:`amplitude_dependent` with a smaller dependence (ζ_eq at u0 1.15–1.8× the
+    dashpot's): some decays change ζ by 1.25× or more across their window, some less."""
+    r = np.random.default_rng(11000 + i)
+    law = ("quadratic", "coulomb")[i % 2]
+    f = float(np.exp(r.uniform(np.log(1.0), np.log(6.0))))
+    m, u0, fs = 0.5, 0.02, 100.0
+    w = 2 * np.pi * f
+    z_lin = float(np.exp(r.uniform(np.log(0.003), np.log(0.01))))
+    ratio = float(r.uniform(1.15, 1.8))
+    c = 2 * m * w * z_lin
+    kw = (dict(c=c, c2=(ratio - 1) * c / (8 / (3 * np.pi) * w * u0)) if law == "quadratic"
+          else dict(c=c, F_c=0.3 * (ratio - 1) * c * np.pi * w * u0 / 4))
+    t = np.arange(0, float(r.uniform(25, 45)), 1 / fs)
+    u, _, a = reference_decay(t, m, m * w * w, u0, **kw)
+    noise_sd = float(np.exp(r.uniform(np.log(0.003), np.log(0.03)))) * np.max(np.abs(a))
+    rec = noisy_recording(t, a, noise_sd, seed=i, lead=1.0)
+
+    def zeta_eq(amp):
+        return (kw["c"] + 8 / (3 * np.pi) * kw.get("c2", 0.0) * w * amp
+                + 4 * kw.get("F_c", 0.0) / (np.pi * w * amp))
+
+    return rec, _window_ratio(t, u, f, lambda hi, lo: max(zeta_eq(hi), zeta_eq(lo))
+                              / min(zeta_eq(hi), zeta_eq(lo)))
+
+
 def distorted_viscous(i: int):
     """A viscous decay the linear model cannot describe: a 6–10 % 2nd harmonic of the
     acceleration (on the raw path, so that it reaches the fit), or pendulum-like softening
@@ -377,48 +434,70 @@ def _verdict_or_refusal(rec) -> tuple[str, object]:
     return res.verdict_name, prep
 
 
-def _rates(n: int):
-    out = {"phone": [], "lab": [], "amp": [], "amp_ratio": [], "dist": []}
+def _rates(n: int, classes=("phone", "lab", "amp", "pow", "mod", "dist")):
+    gens = {"amp": amplitude_dependent, "pow": power_dependent, "mod": moderate_dependent}
+    out = {k: [] for k in classes}
+    out.update({f"{k}_ratio": [] for k in gens if k in classes})
     for i in range(n):
-        out["phone"].append(_verdict_or_refusal(phone_viscous(i))[0])
-        out["lab"].append(_verdict_or_refusal(lab_viscous(i))[0])
-        rec, zeta_ratio = amplitude_dependent(i)
-        v, prep = _verdict_or_refusal(rec)
-        out["amp"].append(v)
-        out["amp_ratio"].append(zeta_ratio(prep.window) if prep is not None else np.nan)
-        rec, kind = distorted_viscous(i)
-        out["dist"].append((kind, _verdict_or_refusal(rec)[0]))
+        if "phone" in classes:
+            out["phone"].append(_verdict_or_refusal(phone_viscous(i))[0])
+        if "lab" in classes:
+            out["lab"].append(_verdict_or_refusal(lab_viscous(i))[0])
+        for k in (k for k in gens if k in classes):
+            rec, zeta_ratio = gens[k](i)
+            v, prep = _verdict_or_refusal(rec)
+            out[k].append(v)
+            out[f"{k}_ratio"].append(zeta_ratio(prep.window) if prep is not None else np.nan)
+        if "dist" in classes:
+            rec, kind = distorted_viscous(i)
+            out["dist"].append((kind, _verdict_or_refusal(rec)[0]))
     return out
 
 
 def _report(out) -> dict:
-    """Rates over the analysed replicates (refusals counted apart)."""
+    """Rates over the analysed replicates (refusals counted apart).
+
+    ``false_alarm_*``: a viscous decay called amplitude-dependent or misfit (a claim against
+    one viscous c); ``inconclusive_*``: the recording could not tell (short, small amplitude
+    span, residual structured at f0); ``detection``: amplitude-dependent or misfit when ζ
+    changes ≥ 1.5x across the window (quadratic/Coulomb, power law); ``false_adequate``:
+    "adequate" on a decay whose ζ changes ≥ 1.25x across its window (any class)."""
     def rate(vs, ok):
         vs = [v for v in vs if v != "refused"]
         return sum(v in ok for v in vs) / max(len(vs), 1)
 
-    big = [v for v, z in zip(out["amp"], out["amp_ratio"]) if z >= 1.5]
-    dist = [v for _, v in out["dist"]]
-    alarms = ("amplitude-dependent", "misfit", "inconclusive")
+    def with_ratio(k, lo):
+        return [v for v, z in zip(out.get(k, []), out.get(f"{k}_ratio", [])) if z >= lo]
+
+    big, big_pow = with_ratio("amp", 1.5), with_ratio("pow", 1.5)
+    matters = with_ratio("amp", 1.25) + with_ratio("pow", 1.25) + with_ratio("mod", 1.25)
+    dist = [v for _, v in out.get("dist", [])]
+    alarms = ("amplitude-dependent", "misfit")
     rates = {
-        "false_alarm_phone": rate(out["phone"], alarms),
-        "false_alarm_lab": rate(out["lab"], alarms),
-        "detection": rate(big, ("amplitude-dependent", "misfit")),
+        "false_alarm_phone": rate(out.get("phone", []), alarms),
+        "false_alarm_lab": rate(out.get("lab", []), alarms),
+        "inconclusive_phone": rate(out.get("phone", []), ("inconclusive",)),
+        "inconclusive_lab": rate(out.get("lab", []), ("inconclusive",)),
+        "detection": rate(big, alarms),
         "named_law": rate(big, ("amplitude-dependent",)),
+        "detection_power": rate(big_pow, alarms),
+        "false_adequate": rate(matters, ("adequate",)),
+        "inconclusive_dependent": rate(matters, ("inconclusive",)),
         "misfit_on_distorted": rate(dist, ("misfit",)),
         "law_on_distorted": rate(dist, ("amplitude-dependent",)),
-        "n_detect": len(big),
-        "refused": sum(v == "refused" for v in out["phone"] + out["lab"] + out["amp"] + dist)
-        / (4 * len(out["phone"])),
+        "n_detect": len(big), "n_detect_power": len(big_pow), "n_matters": len(matters),
     }
+    every = [v for k in ("phone", "lab", "amp", "pow", "mod") for v in out.get(k, [])] + dist
+    rates["refused"] = sum(v == "refused" for v in every) / max(len(every), 1)
     print({k: round(v, 3) for k, v in rates.items()})
     return rates
 
 
 def test_simulated_verdicts_few_replicates():
     """Four replicates of each class (the 100-replicate rates are in the slow test)."""
-    rates = _report(_rates(4))
+    rates = _report(_rates(4, ("phone", "lab", "amp", "dist")))
     assert rates["false_alarm_phone"] <= 0.25 and rates["false_alarm_lab"] <= 0.25
+    assert rates["inconclusive_phone"] <= 0.5 and rates["inconclusive_lab"] <= 0.25
     assert rates["n_detect"] >= 3 and rates["named_law"] == 1.0
     assert rates["misfit_on_distorted"] >= 0.75 and rates["law_on_distorted"] == 0.0
 
@@ -450,15 +529,30 @@ def test_summary_and_warnings_follow_the_verdict():
 # ----------------------------------------------------------------------------- slow
 @pytest.mark.slow
 def test_simulated_verdict_rates():
-    """100 replicates per class: false alarms ≤ 10 % on viscous phone-like and lab-like
-    recordings, detection ≥ 90 % when ζ changes ≥ 1.5× across the window, and distorted
-    viscous decays come out "misfit" (≥ 90 %), never as a damping law (≤ 5 %). Rates are over
-    the analysed replicates; a recording preprocessing refuses (no decay found) is counted
-    apart, ≤ 5 %."""
+    """100 replicates per class, through the real decision (Laplace posteriors).
+
+    Claims against one viscous c ("amplitude-dependent", "misfit") on viscous phone-like and
+    lab-like recordings ≤ 5 % each; "inconclusive" — the recording could not have seen a
+    dependence (a short decay or a small amplitude span: ζ could change ≥ 1.25x for all the
+    slope says; or a residual structured at f0) — ≤ 30 % of the phone-like and ≤ 15 % of the
+    lab-like ones; detection ≥ 90 % when ζ changes ≥ 1.5x across the window (quadratic drag
+    or Coulomb friction plus a dashpot, and power-law dampers); "adequate" on ≤ 5 % of the
+    decays whose ζ changes ≥ 1.25x across their window; distorted viscous decays come out
+    "misfit" (≥ 90 %), never as a damping law (≤ 5 %). Rates are over the analysed
+    replicates; a recording preprocessing refuses (no decay found) is counted apart, ≤ 5 %.
+
+    Until issue 19 "inconclusive" counted as a false alarm here (≤ 10 %): "adequate" needed
+    nothing against viscous. It now needs evidence that a dependence would have been seen,
+    so short or small-span viscous recordings are honestly "inconclusive"; the false alarms
+    proper are bounded separately and tighter.
+    """
     rates = _report(_rates(100))
     assert rates["refused"] <= 0.05
-    assert rates["false_alarm_phone"] <= 0.10 and rates["false_alarm_lab"] <= 0.10
+    assert rates["false_alarm_phone"] <= 0.05 and rates["false_alarm_lab"] <= 0.05
+    assert rates["inconclusive_phone"] <= 0.30 and rates["inconclusive_lab"] <= 0.15
     assert rates["n_detect"] >= 80 and rates["detection"] >= 0.90
+    assert rates["n_detect_power"] >= 60 and rates["detection_power"] >= 0.90
+    assert rates["n_matters"] >= 200 and rates["false_adequate"] <= 0.05
     assert rates["misfit_on_distorted"] >= 0.90 and rates["law_on_distorted"] <= 0.05
 
 
