@@ -69,13 +69,13 @@ The verdict, first match wins:
 4. **amplitude-dependent** — slope decisive or law decisive. The most probable usable
    non-viscous law is named (none, when the windows alone carry the verdict and every law
    sits on a prior bound or is ill-conditioned).
-5. **inconclusive** — weak evidence of a dependence: slope weak, any law evidence that is not decisive (flat windows, a law on its bound), or
-   P(viscous) < :data:`P_VISCOUS_ADEQUATE`.
-6. **inconclusive** — the data could not have seen a dependence: not *dependence bounded*
-   ("the amplitudes span too little to tell (ζ could change up to N× over the recorded S×
-   amplitude range)"), or not *white at f₀* ("the residual is structured at f0 (Ljung–Box
-   p = …)").
-7. **adequate** — the data bound any dependence below 1.25× and the viscous residual is
+5. **inconclusive** — weak evidence of a dependence (slope weak, any law evidence that is not
+   decisive: flat windows or a law on its bound, or P(viscous) < :data:`P_VISCOUS_ADEQUATE`),
+   or the data could not have seen one: not *dependence bounded* ("the amplitudes span too
+   little to tell (ζ could change up to N× over the recorded S× amplitude range)"), or not
+   *white at f₀* ("the residual is structured at f0 (Ljung–Box p = …)"). Every reason that
+   applies is listed first.
+6. **adequate** — the data bound any dependence below 1.25× and the viscous residual is
    white at f₀: one viscous c describes the decay.
 
 So "adequate" is never returned while any single criterion is decisive against it or while
@@ -351,9 +351,7 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
                            + "; ".join(f"{m}: {w}" for m, w in issues.items()) + ")")
         return out("amplitude-dependent", reasons, usable)
     weak = _weak_text(sc["s_weak"], law_ev, law_ok, p_viscous, best_nonlinear)
-    if weak:
-        return out("inconclusive", [weak] + reasons)
-    blind = []
+    blind = [weak] if weak else []
     if not sc["bounded"]:
         blind.append(_span_text(sc, span))
     if not white:
