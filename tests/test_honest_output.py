@@ -217,6 +217,19 @@ def test_c_equivalent_absent_or_extrapolated_is_said_in_the_table():
            "0.002–0.02 m" in line
 
 
+@pytest.mark.parametrize("odd", [5, "x", [1], [None, "a"], {"a": 1}, None, True])
+def test_edited_new_fields_render_without_a_crash(odd):
+    """The issue-19 fields of an edited summary.json (end_reason, missing, extrapolated,
+    reaches_zero, verdict_reasons) of any type: the table renders, nothing raises."""
+    s = nonviscous(True)
+    s["window"]["end_reason"] = odd
+    s["missing"] = odd if not isinstance(odd, dict) else {"c_equivalent": odd}
+    s["c_equivalent"].update(extrapolated=True, recorded_amplitude_range_m=odd)
+    s["model_checks"].update(verdict="inconclusive", verdict_reasons=odd, verdict_law=odd)
+    s["parameters"]["p"]["reaches_zero"] = odd
+    assert "c_equivalent" in render.text(s)
+
+
 def test_mass_without_sd_says_so_instead_of_plus_minus_zero():
     text = render.text(summary())
     assert "mass 0.23 kg (sd not given)" in text and "± 0 kg" not in text

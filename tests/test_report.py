@@ -291,6 +291,15 @@ def test_verdict_c_equivalent_and_zero_reaching_intervals_are_explained(summary)
     assert "No decay measured:" in md and "intervals reach 0" in md
     q_row = next(r for r in md.splitlines() if r.startswith(f"| {report.NAMES['Q']}"))
     assert ", ∞)" in q_row
+    # the new fields of an edited summary, of any type: rendered, never a crash
+    for odd in (5, "x", [1], [None, "a"], {"a": 1}, None, True, float("nan")):
+        t = copy.deepcopy(s)
+        t["c_equivalent"]["recorded_amplitude_range_m"] = odd
+        t["missing"]["c_equivalent"] = odd
+        t["model_checks"].update(decay=odd, verdict_law=odd)
+        t["parameters"]["Q"]["reaches_zero"] = odd
+        t["window"]["end_reason"] = odd
+        assert _render(t)[0].endswith("</html>\n")
 
 
 def test_not_converged_and_warnings_give_a_red_box(summary):

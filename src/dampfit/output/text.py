@@ -254,9 +254,11 @@ def text(s: dict[str, Any]) -> str:
         if isinstance(ceq, dict):
             extra = ""
             if ceq.get("extrapolated") is True:
-                rng = ceq.get("recorded_amplitude_range_m") or [None, None]
+                rng = ceq.get("recorded_amplitude_range_m")
+                ok = isinstance(rng, list) and len(rng) == 2 and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in rng)
                 extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
-                         if len(rng) == 2 else ", EXTRAPOLATED beyond the recorded amplitudes")
+                         if ok else ", EXTRAPOLATED beyond the recorded amplitudes")
             where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
                      f"amplitude{extra}){_law_state(s, ceq['model'])}")
             if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
