@@ -162,6 +162,8 @@ def test_c_equivalent_is_absent_where_it_means_nothing(cases):
     out = Analysis._damping_summary(SimpleNamespace(damping=misfit))
     assert out["c_equivalent"] is None
     assert out["missing"]["c_equivalent"].startswith("the verdict is misfit")
+    rep = out["damping_models"]["c_report"]  # the per-law section says the same
+    assert rep["c"] is None and rep["missing"] == out["missing"]["c_equivalent"]
     post = replace(res.posteriors["quadratic"], converged=False,
                    stop_reason="step budget reached (2000 steps)")
     stuck = replace(res, posteriors={**res.posteriors, "quadratic": post})
