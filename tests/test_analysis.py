@@ -239,6 +239,23 @@ def test_damping_law_checks_in_summary(analysed):
     assert not any("amplitude" in w for w in s["diagnostics"]["warnings"])
 
 
+def test_c_equivalent_missing_reason_reaches_the_summary(analysed):
+    """A non-viscous law's c_equivalent under "misfit" is absent from summary.json, with the
+    reason in "missing" beside (not instead of) the mass reasons."""
+    import copy
+    from dataclasses import replace
+
+    an, _ = analysed
+    other = copy.copy(an)
+    other.damping = replace(an.damping, chosen="coulomb",
+                            adequacy={**an.damping.adequacy, "verdict": "misfit"})
+    other._summary = None
+    s = other.summary()
+    assert s["c_equivalent"] is None
+    assert s["missing"]["c_equivalent"].startswith("the verdict is misfit")
+    assert an.summary()["missing"] == {} and an.summary()["c_equivalent"] is None
+
+
 def test_damping_options_are_validated_before_work(short_paper):
     rec, _ = short_paper
     with pytest.raises(InputError, match="unknown damping model 'linear'"):

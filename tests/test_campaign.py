@@ -236,6 +236,15 @@ def test_checks_amplitude_outlier_and_heterogeneity():
     assert checks.verdict(True, False, [], none, none, 0.5, ["a"] * 5)[0] == "consistent"
     flat = -1 + rng.normal(0, 0.01, 5)
     assert not checks.amplitude_regression(flat, s, amp)["explains_scatter"]
+    # two tests: no slope can be fitted whatever their amplitudes — say so, not "too alike"
+    two = checks.amplitude_regression(y[[0, 4]], s[:2], amp[[0, 4]])
+    assert two["slope"] is None
+    for consistent in (True, False):
+        text = checks.verdict(consistent, False, [], two, two, 3.0, ["a", "b"])[1]
+        assert "two tests cannot show an amplitude trend" in text and "alike" not in text
+    # three tests with equal amplitudes: the amplitudes are too alike
+    same = checks.amplitude_regression(y[:3], s[:3], np.full(3, 0.01))
+    assert "too alike" in checks.verdict(True, False, [], same, same, 0.5, ["a"] * 3)[1]
     assert checks.heterogeneity(flat, s)[1] > checks.ALPHA
     assert checks.loo_outliers(np.array([0.0, 0.01, -0.01, 0.005, 0.5]), s, 0.5) == [4]
     assert checks.loo_outliers(flat, s, 0.5) == []

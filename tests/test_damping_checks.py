@@ -146,6 +146,50 @@ def test_a_requested_law_is_reported_with_a_warning(cases):
     assert rep["model"] == "viscous" and rep["amplitude_m"] == 0.01
 
 
+def test_c_equivalent_is_absent_where_it_means_nothing(cases):
+    """Under "misfit", or from a law whose posterior did not converge or is ill-conditioned,
+    no c_equivalent: the reason is under "missing" (summary.json, table and report)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from dampfit.pipeline import Analysis
+
+    _, _, res = cases["quadratic"]
+    ok = Analysis._damping_summary(SimpleNamespace(damping=res))
+    assert ok["c_equivalent"]["model"] == "quadratic" and "missing" not in ok
+    assert ok["c_equivalent"]["c"]["q50"] > 0 and ok["c_equivalent"]["extrapolated"] is False
+    misfit = replace(res, adequacy={**res.adequacy, "verdict": "misfit"})
+    out = Analysis._damping_summary(SimpleNamespace(damping=misfit))
+    assert out["c_equivalent"] is None
+    assert out["missing"]["c_equivalent"].startswith("the verdict is misfit")
+    rep = out["damping_models"]["c_report"]  # the per-law section says the same
+    assert rep["c"] is None and rep["missing"] == out["missing"]["c_equivalent"]
+    post = replace(res.posteriors["quadratic"], converged=False,
+                   stop_reason="step budget reached (2000 steps)")
+    stuck = replace(res, posteriors={**res.posteriors, "quadratic": post})
+    why = Analysis._damping_summary(SimpleNamespace(damping=stuck))["missing"]["c_equivalent"]
+    assert "did not converge (step budget reached (2000 steps))" in why
+    ill = replace(post, converged=True, ill_conditioned=True,
+                  ill_conditioned_reason="drag_fraction = 1 is on its prior bound [0, 1]")
+    bad = replace(res, posteriors={**res.posteriors, "quadratic": ill})
+    assert "ill-conditioned (drag_fraction = 1" in bad.c_missing()
+
+
+def test_an_amplitude_outside_the_recorded_range_is_an_extrapolation(cases):
+    prep, fd, res = cases["quadratic"]
+    lo, hi = res.recorded_amplitudes
+    assert 0 < lo < hi <= 1.01 * U0
+    far = assess(prep, fd, None, None, mass=M, posterior="laplace", amplitude=50 * hi)
+    rep = far.c_report()
+    assert rep["extrapolated"] is True and rep["recorded_amplitude_range_m"] == [lo, hi]
+    assert "extrapolated" in rep["note"]
+    warn = next(w for w in far.warnings if w.startswith("--amplitude"))
+    assert f"outside the recorded displacement amplitudes {lo:.3g}–{hi:.3g} m" in warn
+    near = assess(prep, fd, None, None, mass=M, posterior="laplace", amplitude=(lo * hi) ** 0.5)
+    assert near.c_report()["extrapolated"] is False
+    assert not any(w.startswith("--amplitude") for w in near.warnings)
+
+
 def test_emcee_posterior_agrees_with_laplace(cases):
     """The nested Laplace approximation of (L3) against emcee on the same tempered likelihood."""
     prep, fd, res = cases["quadratic"]

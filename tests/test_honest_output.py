@@ -173,6 +173,63 @@ def test_digits_adapt_to_the_interval():
         assert width == pytest.approx(hi - lo, rel=0.1)
 
 
+def test_small_numbers_get_their_own_exponent():
+    """A median ten times smaller than its upper bound is 4e-06, not 0.4e-05 (one exponent
+    per number; the interval's absolute precision, at least one significant digit)."""
+    assert render.interval(4e-6, 1e-7, 2e-5) == ("4e-06", "1e-07", "2.0e-05")
+    assert render.interval(9.96e-6, 0.0, 2e-5) == ("1e-05", "0", "2.0e-05")  # rounds up
+    s = summary(c_equivalent={"model": "coulomb", "amplitude_m": 0.004,
+                              "c": {"q05": 1e-7, "q50": 4e-6, "q95": 2e-5}})
+    s["model_checks"] = {"verdict": "amplitude-dependent", "verdict_law": "coulomb",
+                         "amplitude_dependence": {"p_viscous": 1e-9}}
+    line = next(x for x in render.text(s).splitlines() if "c_equivalent" in x)
+    assert "4e-06 [1e-07, 2.0e-05] N s/m" in line and "0.4e-05" not in line
+    for text in render.interval(-4e-6, -2e-5, 1e-5):
+        assert not text.lstrip("-").startswith("0.") or text == "0"
+
+
+def test_a_baseline_caveat_gives_the_baselines_own_reason():
+    s = summary()
+    ld = s["baselines"]["log_decrement"]
+    why = "the measured decay ln(a0/an) = 0.02 is within 2 expected sd (0.03) of the noise"
+    ld.update(n_cycles_used=10.0, support_reason=why)
+    line = next(x for x in render.text(s).splitlines() if "log decrement" in x)
+    assert f"(not reliable: {why})" in line and "cycles — not reliable" not in line
+    ld.update(n_cycles_used=2.0, support_reason="rests on only 2 cycles (fewer than 5); " + why)
+    line = next(x for x in render.text(s).splitlines() if "log decrement" in x)
+    assert f"(only 2 of 12 cycles — not reliable; {why})" in line
+
+
+def test_c_equivalent_absent_or_extrapolated_is_said_in_the_table():
+    s = nonviscous(True)
+    s["model_checks"].update(verdict="misfit", verdict_law=None)
+    s["c_equivalent"] = None
+    s["missing"] = {"c_equivalent": "the verdict is misfit: no damping law describes this "
+                                    "waveform, so the coulomb law's equivalent viscous c means "
+                                    "nothing"}
+    text = render.text(s)
+    assert "c_equivalent    not given: the verdict is misfit" in text
+    s = nonviscous(True)
+    s["c_equivalent"].update(amplitude_m=1.0, extrapolated=True,
+                             recorded_amplitude_range_m=[0.002, 0.02])
+    line = next(x for x in render.text(s).splitlines() if x.strip().startswith("c_equivalent"))
+    assert "coulomb law at 1 m displacement amplitude, EXTRAPOLATED beyond the recorded " \
+           "0.002–0.02 m" in line
+
+
+@pytest.mark.parametrize("odd", [5, "x", [1], [None, "a"], {"a": 1}, None, True])
+def test_edited_new_fields_render_without_a_crash(odd):
+    """The issue-19 fields of an edited summary.json (end_reason, missing, extrapolated,
+    reaches_zero, verdict_reasons) of any type: the table renders, nothing raises."""
+    s = nonviscous(True)
+    s["window"]["end_reason"] = odd
+    s["missing"] = odd if not isinstance(odd, dict) else {"c_equivalent": odd}
+    s["c_equivalent"].update(extrapolated=True, recorded_amplitude_range_m=odd)
+    s["model_checks"].update(verdict="inconclusive", verdict_reasons=odd, verdict_law=odd)
+    s["parameters"]["p"]["reaches_zero"] = odd
+    assert "c_equivalent" in render.text(s)
+
+
 def test_mass_without_sd_says_so_instead_of_plus_minus_zero():
     text = render.text(summary())
     assert "mass 0.23 kg (sd not given)" in text and "± 0 kg" not in text

@@ -256,6 +256,52 @@ def test_optional_sections_present(folder, summary, tmp_path):
         [(d / "verify.png").read_bytes()]
 
 
+def test_verdict_c_equivalent_and_zero_reaching_intervals_are_explained(summary):
+    """Issue 19: the verdict words state the rule; a c_equivalent that means nothing is
+    absent with its reason; an extrapolated one says so; r / r_white below 1 is explained,
+    not shown as evidence; a decay not told from 0 is one-sided with Q unbounded."""
+    s = copy.deepcopy(summary)
+    mc = s["model_checks"]
+    mc.update(verdict="inconclusive", verdict_law=None, verdict_reasons=[
+        "the amplitudes span too little to tell (zeta could change up to 2.1x over the "
+        "recorded 1.3x amplitude range; one viscous c needs the data to rule out 1.25x)"])
+    mc["adequacy"]["fit_checks"]["viscous"]["r_excess"] = 0.42
+    s["missing"]["c_equivalent"] = ("the verdict is misfit: no damping law describes this "
+                                    "waveform, so the coulomb law's equivalent viscous c means "
+                                    "nothing")
+    s["c_equivalent"] = None
+    html, md = _render(s)
+    for text in (html, md):
+        assert "could not have seen a dependence" in text and "span too little to tell" in text
+        assert "Equivalent viscous damping not given:" in text and "means nothing" in text
+        assert "&lt; 1 (no excess)" in text or "< 1 (no excess)" in text
+        assert "0.42" not in text and "no evidence either way" in text
+    mc["verdict"] = "adequate"
+    assert "rule out a change of ζ by 1.25× or more" in _render(s)[1]
+    s["missing"].pop("c_equivalent")
+    s["c_equivalent"] = {"model": "coulomb", "amplitude_m": 1.0, "extrapolated": True,
+                         "recorded_amplitude_range_m": [0.002, 0.02],
+                         "zeta": {"q05": 0.01, "q50": 0.02, "q95": 0.03, "unit": "1"}}
+    md = _render(s)[1]
+    assert "Extrapolated:" in md and "0.002–0.02 m" in md
+    for name in ("p", "zeta", "delta"):
+        s["parameters"][name].update(q05=0.0, reaches_zero=True)
+    s["parameters"]["Q"].update(q95=None, mean=None, sd=None, reaches_zero=True)
+    md = _render(s)[1]
+    assert "No decay measured:" in md and "intervals reach 0" in md
+    q_row = next(r for r in md.splitlines() if r.startswith(f"| {report.NAMES['Q']}"))
+    assert ", ∞)" in q_row
+    # the new fields of an edited summary, of any type: rendered, never a crash
+    for odd in (5, "x", [1], [None, "a"], {"a": 1}, None, True, float("nan")):
+        t = copy.deepcopy(s)
+        t["c_equivalent"]["recorded_amplitude_range_m"] = odd
+        t["missing"]["c_equivalent"] = odd
+        t["model_checks"].update(decay=odd, verdict_law=odd)
+        t["parameters"]["Q"]["reaches_zero"] = odd
+        t["window"]["end_reason"] = odd
+        assert _render(t)[0].endswith("</html>\n")
+
+
 def test_not_converged_and_warnings_give_a_red_box(summary):
     s = copy.deepcopy(summary)
     s["diagnostics"].update(converged=False, posterior_converged=False,

@@ -33,6 +33,26 @@ def test_window_ends_before_a_rattle():
     assert "7.7" in note and "catch, rattle or contact" in note
 
 
+def test_the_reason_the_window_ends_is_carried_to_the_table():
+    """Prepared, summary.json (window.end_reason) and the CLI table say why the window ends:
+    the rattle, an impact, the noise floor — or that the user gave it."""
+    from dampfit.output import text as render
+    from tests.test_honest_output import summary
+
+    rattle = pp.prepare(decay(drop_at=7.7)).window_end_reason
+    assert rattle.startswith("abrupt envelope drop at 7.7") and "catch" in rattle
+    assert pp.prepare(decay(zeta=0.05)).window_end_reason == "the decay reaches 3x the noise floor"
+    knock = decay(zeta=0.002)
+    knock.accel[int(9.0 * FS), 0] += 400.0  # a knock 80x the oscillation
+    assert pp.prepare(knock).window_end_reason == "impact at 9.00 s (catch or knock)"
+    assert pp.prepare(decay(drop_at=7.7), window=(2.0, 15.0)).window_end_reason == "given"
+    s = summary()
+    s["window"]["end_reason"] = rattle
+    assert f"window ends     {rattle}" in render.text(s)
+    s["window"].update(auto=False, end_reason="given")
+    assert "window ends" not in render.text(s)
+
+
 def test_a_users_window_across_the_drop_is_kept_and_warned():
     prep = pp.prepare(decay(drop_at=7.7), window=(2.0, 15.0))
     assert prep.window == (2.0, 15.0)

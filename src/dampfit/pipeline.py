@@ -127,11 +127,14 @@ class Analysis(ResultViews):
             bound = (self.crlb or {}).get(name)
             if params[name] is not None and isinstance(bound, dict):
                 params[name]["crlb_sd"] = bound.get("sd_with_mass", bound["sd"])
+        self._reach_zero(params)
         missing = {}
         if self.mass is None:
             why = ("no mass given: a free decay identifies only the decay rate p and the "
                    "frequency f_n; c = 2·m·p and k = m·(2π·f_n)² need the mass (--mass KG)")
             missing = {"c": why, "k": why, "c_crit": why}
+        damping = self._damping_summary()
+        missing.update(damping.pop("missing", {}))
         ls = self.least_squares
         lsd = _ls_physical(ls, self.mass, self.noise.psd_ratio)
         lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
@@ -147,7 +150,8 @@ class Analysis(ResultViews):
             },
             "window": {"start_s": prep.window[0], "end_s": prep.window[1],
                        "auto": prep.window_auto,
-                       "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0},
+                       "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0,
+                       "end_reason": prep.window_end_reason},
             "band": {"low_hz": prep.band[0], "high_hz": prep.band[1], "auto": prep.band_auto},
             "dominant_frequency_hz": prep.f0,
             "mass": {"value": self.mass, "sd": self.mass_sd if self.mass is not None else None,
@@ -158,7 +162,7 @@ class Analysis(ResultViews):
             "baselines": _baselines_summary(self.baselines, params.get("p")),
             "noise_model": self.noise.summary(),
             "crlb": self.crlb,
-            **self._damping_summary(),
+            **damping,
             "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
                     "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
                     "t0_s": fd.t0},
@@ -181,15 +185,42 @@ class Analysis(ResultViews):
                            "python": platform.python_version(), "versions": _versions()},
         })
 
+    def _reach_zero(self, params: dict[str, Any]) -> None:
+        """p, ζ, c, δ (and Q) of a decay that cannot be told from 0 as one-sided intervals
+        reaching 0, under a prior uniform in p (:mod:`dampfit.inference.posterior`, "No
+        measured decay"); each gets ``"reaches_zero": true``. Resolved decays are untouched."""
+        decay = getattr(self.damping, "decay", None)
+        if not (isinstance(decay, dict) and decay.get("resolved") is False):
+            return
+        weights = self.draws("p")  # uniform over log-uniform prior density: ∝ p
+        for name in ("p", "zeta", "c", "delta", "Q"):
+            if params.get(name) is None:
+                continue
+            q = summarise(self.draws(name), PARAMETER_UNITS[name],
+                          self.sampling.diagnostics.get(name) or {}, weights=weights)
+            if "crlb_sd" in params[name]:
+                q["crlb_sd"] = params[name]["crlb_sd"]
+            if name == "Q":  # Q = 1/(2ζ) → ∞ as p → 0: a lower bound only
+                q.update(mean=None, sd=None, q95=None)
+            else:
+                q["q05"] = 0.0
+            q["reaches_zero"] = True
+            params[name] = q
+
     def _damping_summary(self) -> dict[str, Any]:
         """model_checks, damping_models, amplitude_curve and c_equivalent (the chosen
-        non-viscous law's energy-equivalent viscous c at a stated amplitude, else None)."""
+        non-viscous law's energy-equivalent viscous c at a stated amplitude, else None; None
+        with the reason under ``"missing"`` when it means nothing:
+        :meth:`dampfit.damping.DampingAssessment.c_missing`)."""
         if self.damping is None:
             return {"model_checks": None, "damping_models": None, "amplitude_curve": None,
                     "c_equivalent": None}
         out = dict(self.damping.summary())
-        out["c_equivalent"] = (self.damping.c_report() if self.damping.chosen != "viscous"
-                               else None)
+        out["c_equivalent"], why = None, None
+        if self.damping.chosen != "viscous":
+            out["c_equivalent"], why = self.damping.c_report(), self.damping.c_missing()
+        if why:  # under "misfit" or from a posterior that did not converge it means nothing
+            out["c_equivalent"], out["missing"] = None, {"c_equivalent": why}
         # each law's sampling facts: budget, stop reason, ill-conditioning (damping.sample)
         for name, entry in ((out.get("damping_models") or {}).get("models") or {}).items():
             post = self.damping.posteriors.get(name)

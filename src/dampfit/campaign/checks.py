@@ -298,7 +298,10 @@ def verdict(damping_consistent: bool, frequency_disagrees: bool, outliers: Seque
                 "the tests disagree beyond their own uncertainty, but the release amplitude "
                 f"explains it: {' and '.join(parts)} (a nonlinear damper or spring; see the "
                 "damping-law assessment of each test)")
-    if amplitude.get("slope") is None:
+    if len(names) < 3:  # amplitude_regression needs a residual degree of freedom
+        clause = ("two tests cannot show an amplitude trend (a slope against the release "
+                  "amplitude needs at least 3 tests)")
+    elif amplitude.get("slope") is None:
         clause = "the release amplitudes are too alike to tell whether the amplitude matters"
     else:
         clause = ("no effect of the release amplitude is resolved over the tested amplitudes"
@@ -315,6 +318,7 @@ def verdict(damping_consistent: bool, frequency_disagrees: bool, outliers: Seque
                 f"consistent with zero; {clause}")
     what = (f"by {tau_over_within:.1f}× their own uncertainty in the decay rate"
             if damping_off else "in frequency beyond their own uncertainty")
+    why = ("beyond what the amplitude explains" if amplitude.get("slope") is not None
+           else f"and {clause}")
     return ("scatter",
-            f"the tests disagree {what}, beyond what the amplitude explains: carry the "
-            "predictive interval, not one test's")
+            f"the tests disagree {what}, {why}: carry the predictive interval, not one test's")

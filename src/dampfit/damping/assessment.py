@@ -71,6 +71,7 @@ class DampingAssessment:
     warnings: list[str] = field(default_factory=list)
     adequacy: dict | None = None  # checks.adequacy(...) plus "fit_checks", "frequency_trend"
     warning: str | None = None  # the verdict's warning (also in warnings)
+    decay: dict | None = None  # law_fit.decay_test of the viscous fit: is a decay measured?
 
     @property
     def preferred(self) -> str:
@@ -91,10 +92,52 @@ class DampingAssessment:
             "c": quantities.summarise(q[name], "N s/m") if name in q else None,
             "zeta": quantities.summarise(q[zname], "1") if zname in q else None,
             "amplitude_m": self.amplitudes["ref"],
+            "recorded_amplitude_range_m": list(self.recorded_amplitudes),
+            "extrapolated": self.extrapolated,
             "note": ("viscous c" if self.chosen == "viscous" else
                      f"energy-equivalent viscous c of the {self.chosen} law at "
-                     f"{self.amplitudes['ref']:.3g} m displacement amplitude"),
+                     f"{self.amplitudes['ref']:.3g} m displacement amplitude"
+                     + (" (extrapolated: outside the recorded amplitudes)"
+                        if self.extrapolated else "")),
         }
+
+    def c_missing(self) -> str | None:
+        """Why the chosen non-viscous law's c_eq means nothing, or None: the verdict is
+        "misfit" (no law describes the waveform), or the law's posterior did not converge or
+        is ill-conditioned (its interval is not a posterior)."""
+        if self.chosen == "viscous":
+            return None
+        if self.verdict_name == "misfit":
+            return (f"the verdict is misfit: no damping law describes this waveform, so the "
+                    f"{self.chosen} law's equivalent viscous c means nothing")
+        post = self.posteriors.get(self.chosen)
+        if post is None or not len(post.a0):
+            return f"the {self.chosen} law has no posterior draws"
+        if post.ill_conditioned:
+            return (f"the {self.chosen} law is ill-conditioned "
+                    f"({post.ill_conditioned_reason or 'see the warnings'}): its equivalent "
+                    "viscous c has no trustworthy interval")
+        if not post.converged:
+            return (f"the {self.chosen} law's posterior did not converge "
+                    f"({post.stop_reason or 'see the warnings'}): its equivalent viscous c "
+                    "has no trustworthy interval")
+        return None
+
+    @property
+    def recorded_amplitudes(self) -> tuple[float, float]:
+        """Smallest and largest displacement amplitude [m] the window recorded (the windows'
+        amplitudes and the chosen law's start and end)."""
+        amps = [w.amplitude for w in self.windows if w.amplitude > 0]
+        amps += [a for a in (self.amplitudes["start"], self.amplitudes["end"])
+                 if np.isfinite(a) and a > 0]
+        return (float(min(amps)), float(max(amps))) if amps else (float("nan"),) * 2
+
+    @property
+    def extrapolated(self) -> bool:
+        """Is the reference amplitude outside :attr:`recorded_amplitudes`?"""
+        lo, hi = self.recorded_amplitudes
+        ref = self.amplitudes["ref"]
+        return bool(np.isfinite(lo) and not lo * (1 - 1e-9) <= ref <= hi * (1 + 1e-9))
 
     @property
     def verdict_name(self) -> str:
@@ -123,7 +166,8 @@ class DampingAssessment:
                             "decisive or " + amp["criterion"] + "; evidence_detected is the "
                             "evidence criterion alone")
         mc["adequacy"] = jsonable({k: ad.get(k) for k in ("criteria", "fit_checks",
-                                                          "frequency_trend")})
+                                                          "frequency_trend", "laws")})
+        mc["decay"] = jsonable(self.decay) if self.decay is not None else None
         return out
 
 
@@ -187,6 +231,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     r = ratio(best)
     fits = {m: dfit.laplace(mf, data, 1.0 / r, prep.band) for m, mf in fits.items()}
     table, verdict = compare.compare(fits, data, f0)
+    decay = dfit.decay_test(fits["viscous"], data, 1.0 / r)
     chosen = verdict["preferred"] if model == "auto" else model
 
     # posteriors
@@ -229,11 +274,19 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
         slope=slope, window_cycles=float(cyc), amplitudes=amps, mass=mass, quantities=qts,
         t0=float(fd.t0), warnings=warns,
         pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
+        decay=decay,
     )
     out.adequacy = _adequacy(out, prep, fd, data, n_cyc, noise_of, white_r=r_white, ls=ls)
-    out.warning = checks.verdict_warning(out.adequacy, _warning(out, out.adequacy.get("law")))
+    law = out.adequacy.get("law")
+    out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None)
     if out.warning:
         out.warnings.append(out.warning)
+    if amplitude is not None and chosen != "viscous" and out.extrapolated:
+        lo, hi = out.recorded_amplitudes
+        out.warnings.append(
+            f"--amplitude {amplitude:.3g} m is outside the recorded displacement amplitudes "
+            f"{lo:.3g}–{hi:.3g} m: the {chosen} law's c_equivalent there is an extrapolation "
+            "of the law beyond the data")
     if model != "auto" and model != verdict["preferred"]:
         out.warnings.append(
             f"the {model} damping law was requested, but the evidence prefers "
@@ -352,12 +405,42 @@ def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
     if pipe is not None:
         fc["viscous_pipeline"] = pipe
     best_model = names[-1] if names[-1] in fc else "viscous"
+    laws = _law_usability(a, amps)
+    q = a.quantities.get("power", {}).get("alpha")
+    power = None
+    if not laws.get("power", {}).get("issue") and q is not None and len(q):
+        q05, q50, q95 = np.quantile(np.asarray(q) - 1.0, [0.05, 0.5, 0.95])
+        power = {"q05": float(q05), "q50": float(q50), "q95": float(q95)}
     out = checks.adequacy(n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
                           p_viscous=a.verdict["p_viscous"], best_nonlinear=best_nl,
                           viscous=fc.get("viscous"), best=fc.get(best_model),
-                          best_model=best_model, pipeline=pipe)
+                          best_model=best_model, pipeline=pipe, laws=laws,
+                          power_slope=power, decay=a.decay)
     out["fit_checks"] = fc
     out["frequency_trend"] = freq
+    out["laws"] = laws
+    return out
+
+
+def _law_usability(a: DampingAssessment, amps: list[float]) -> dict[str, dict]:
+    """Per non-viscous law: its weight, why it cannot carry a verdict (not converged, shape on
+    its prior bound, ill-conditioned: :func:`dampfit.inference.law_sampler.conditioning`) or
+    None, and ζ(a_max)/ζ(a_min) [1] of its least-squares optimum over the windows' amplitudes."""
+    out = {}
+    for m, mf in a.fits.items():
+        if m == "viscous":
+            continue
+        issue = None if mf.converged else f"least squares did not converge ({mf.message})"
+        if issue is None:
+            issue = dsample.conditioning(mf)
+        post = a.posteriors.get(m)
+        if issue is None and post is not None and post.ill_conditioned:
+            issue = post.ill_conditioned_reason or "ill-conditioned"
+        ratio = None
+        if mf.converged and len(amps) >= 2 and mf.a0 > 0:
+            rho = models.local_rate(m, mf.theta, np.array([max(amps), min(amps)]) / mf.a0)
+            ratio = float(rho[0] / rho[1]) if rho[1] > 0 and np.all(np.isfinite(rho)) else None
+        out[m] = {"weight": _weight(a.table, m), "issue": issue, "zeta_ratio": ratio}
     return out
 
 

@@ -72,22 +72,35 @@ def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,
     return out
 
 
-def summarise(x: np.ndarray, unit: str, diagnostics: dict[str, float] | None = None) -> dict:
+def summarise(x: np.ndarray, unit: str, diagnostics: dict[str, float] | None = None,
+              weights: np.ndarray | None = None) -> dict:
     """``{"unit", "mean", "sd", "q05", "q50", "q95"}`` of draws ``x`` (NaN-free part).
 
     With ``diagnostics`` (the sampler's ``{"r_hat", "ess_bulk"}`` of this quantity, computed
     once by the posterior stage), ``r_hat`` [1] and ``ess_bulk`` [draws] are appended (NaN when
-    absent); they are not recomputed here.
+    absent); they are not recomputed here. ``weights`` (≥ 0, one per draw) makes every
+    statistic an importance-weighted one (quantiles of the weighted empirical distribution).
     """
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    if x.size == 0:
+    x = np.asarray(x, dtype=float).ravel()
+    w = np.ones_like(x) if weights is None else np.asarray(weights, dtype=float).ravel()
+    keep = np.isfinite(x) & np.isfinite(w) & (w >= 0)
+    x, w = x[keep], w[keep]
+    if x.size == 0 or not w.sum() > 0:
         out = {"unit": unit, "mean": None, "sd": None, "q05": None, "q50": None, "q95": None}
-    else:
+    elif weights is None:
         q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
         sd = float(x.std(ddof=1)) if x.size > 1 else 0.0
         out = {"unit": unit, "mean": float(x.mean()), "sd": sd,
                "q05": float(q05), "q50": float(q50), "q95": float(q95)}
+    else:
+        order = np.argsort(x)
+        xs, cw = x[order], np.cumsum(w[order]) / w.sum()
+        q05, q50, q95 = (float(xs[min(np.searchsorted(cw, q), xs.size - 1)])
+                         for q in (0.05, 0.5, 0.95))
+        mean = float(np.sum(w * x) / w.sum())
+        out = {"unit": unit, "mean": mean,
+               "sd": float(np.sqrt(np.sum(w * (x - mean) ** 2) / w.sum())),
+               "q05": q05, "q50": q50, "q95": q95}
     if diagnostics is not None:
         nan = float("nan")
         out["r_hat"] = float(diagnostics.get("r_hat", nan))

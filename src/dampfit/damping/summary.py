@@ -143,6 +143,16 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
     }
 
 
+def _c_report(a: "DampingAssessment") -> dict[str, Any]:
+    """:meth:`~dampfit.damping.assessment.DampingAssessment.c_report`, its numbers null with
+    the reason (``"missing"``) where the equivalent c means nothing (``c_missing``)."""
+    rep = a.c_report()
+    why = a.c_missing()
+    if why:
+        rep.update(c=None, zeta=None, missing=why)
+    return rep
+
+
 def summary(a: "DampingAssessment") -> dict[str, Any]:
     """The plain-data view of ``a`` (module docstring)."""
     return jsonable({
@@ -157,7 +167,7 @@ def summary(a: "DampingAssessment") -> dict[str, Any]:
             "preferred_model": a.preferred,
             "chosen_model": a.chosen,
             "reference_amplitude_m": a.amplitudes["ref"],
-            "c_report": a.c_report(),
+            "c_report": _c_report(a),
             "models": {name: _model_entry(a, name) for name in a.fits},
         },
         "amplitude_curve": _curve(a),

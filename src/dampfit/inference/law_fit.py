@@ -56,7 +56,7 @@ from dampfit.model.laws import P_RANGE
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, FitData, padded_length
 
 __all__ = ["Data", "ModelFit", "ShapeGrid", "fit_model", "laplace", "log_prior", "loglik_batch",
-           "profile", "information", "jacobian", "P_RANGE"]
+           "profile", "information", "jacobian", "decay_test", "P_RANGE", "Z_DECAY"]
 
 #: Central-difference step in θ [1] (ln-rates, fraction or exponent, ln ω).
 STEP = 1e-6
@@ -431,3 +431,51 @@ def _constrain(mf: ModelFit, data: Data) -> ModelFit:
     )
 
 
+
+
+#: Signed root of the likelihood ratio against no decay above which the decay is measured:
+#: the one-sided 95 % point of N(0, 1), i.e. the 90 % interval of p excludes 0.
+Z_DECAY = float(1.6448536269514722)
+#: Decay rate, as a fraction of ω, that stands for "no decay" (p·T ≈ 2π·10⁻¹²·cycles).
+P_ZERO = 1e-12
+
+
+def decay_test(mf: ModelFit, data: Data, temper: float) -> dict:
+    r"""Can the decay of the viscous fit ``mf`` be told from no decay at all?
+
+    Likelihood ratio of p = 0 (:data:`P_ZERO`·ω, any recording's p·T below 10⁻⁸) against the
+    optimum, with ω (and the phase terms held) re-optimised at p = 0, tempered like the
+    evidence (``temper`` = 1/r):
+
+        Λ = temper·(ℓ(θ̂) − max_ω ℓ(p = 0, ω)),   z = √(2Λ),                      (D1)
+
+    z is the signed root of the likelihood ratio, ≈ N(0, 1) under p = 0 (one-sided: p ≥ 0 is
+    on the boundary); the decay is *resolved* when z > :data:`Z_DECAY` — the 90 % interval
+    of p then excludes 0. A steady sine (forced or self-sustained vibration) gives z ≈ 0–1.6.
+
+    Returns ``{"z", "ln_lr", "resolved", "p_hat" [1/s]}`` (``resolved`` None when ℓ cannot
+    be evaluated).
+    """
+    theta = np.asarray(mf.theta, dtype=float)
+    iw = models.omega_index(mf.model)
+    ll_hat = float(mf.loglik)
+    if not (np.all(np.isfinite(theta)) and np.isfinite(ll_hat) and temper > 0):
+        return {"z": None, "ln_lr": None, "resolved": None, "p_hat": None}
+    sd = float(np.sqrt(mf.cov[iw, iw])) if mf.cov is not None and np.isfinite(
+        mf.cov[iw, iw]) and mf.cov[iw, iw] > 0 else 1e-4
+    best_w, best_ll = theta[iw], -np.inf
+    for half in (6.0 * sd, 0.5 * sd):  # a coarse grid in ln ω, then a fine one about its best
+        lnw = best_w + np.linspace(-half, half, 33)
+        th = np.repeat(theta[None, :], lnw.size, axis=0)
+        th[:, iw] = lnw
+        th[:, 0] = lnw + np.log(P_ZERO)
+        ll = loglik_batch(mf.model, th, data)
+        i = int(np.argmax(ll))
+        if ll[i] > best_ll:
+            best_w, best_ll = float(lnw[i]), float(ll[i])
+    if not np.isfinite(best_ll):
+        return {"z": None, "ln_lr": None, "resolved": None, "p_hat": float(np.exp(theta[0]))}
+    lam = max(temper * (ll_hat - best_ll), 0.0)
+    z = float(np.sqrt(2.0 * lam))
+    return {"z": z, "ln_lr": float(lam), "resolved": bool(z > Z_DECAY),
+            "p_hat": float(np.exp(theta[0]))}

@@ -17,6 +17,22 @@ Model and priors
 * u₀ [m]: for every posterior sample of θ, (A, B) are drawn from their conditional Gaussian
   N(β̂(θ), s²·r·(XᵀX)⁻¹) and u₀ = √(A² + B²)/(ω_n²·|G|) (eq. M2, G the filter gain).
 
+No measured decay
+-----------------
+The log-uniform prior on p is right for a decay the data resolve (the posterior then forgets
+the prior), but not for one they cannot tell from 0 — a steady sine, a forced or
+self-sustained vibration. The likelihood is then flat from p = 0 up to some p_max, and a
+log-uniform prior puts as much mass on every decade below p_max as on the last one: the
+"interval" of ζ stops at a lower end set only by the prior's floor 10⁻⁶·ω_d (and its upper
+end moves with that floor). When the decay test of :func:`dampfit.inference.law_fit.decay_test`
+(signed-root likelihood ratio against p = 0, tempered like the posterior) cannot tell the
+decay from 0, :func:`dampfit.analyze` reports p, ζ, c and δ as one-sided: q05 = 0, and the
+other statistics under a prior *uniform* in p on [0, ω_d] — importance weights ∝ p on the
+same draws (the ratio of the two prior densities), which need no second run because the
+log-uniform draws cover [floor, p_max]. The 90 % interval [0, q95] is then a 95 % upper bound
+that does not depend on the floor; Q = 1/(2ζ) has no upper bound (q95, mean and sd null).
+A decay the data resolve (z > 1.645) keeps the log-uniform posterior unchanged.
+
 Sampling
 --------
 emcee's ensemble (64 walkers; kernel-density independence proposals mixed with

@@ -489,15 +489,26 @@ def _parameter_table(s: dict, names: tuple[str, ...]) -> list[Block]:
             rows.append([NAMES[name], UNITS[name], "not identified" if why else "—"]
                         + ["—"] * (len(head) - 3))
             continue
+        shown = _interval(q)
+        if q.get("reaches_zero") is True and _finite(q.get("q05")) and not _finite(q.get("q95")):
+            shown = f"[{_num(q['q05'], 3)}, ∞)"  # Q = 1/(2ζ) of a decay not told from 0
         row = [NAMES[name], q.get("unit") or UNITS[name], _median(q), _median(q, "mean"),
-               _num(q.get("sd"), 3), _interval(q)]
+               _num(q.get("sd"), 3), shown]
         if show_crlb:
             c = q.get("crlb_sd") if _isnum(q.get("crlb_sd")) else _crlb_sd(crlb, name)
             sd = q.get("sd")
             ratio = sd / c if _isnum(c) and c > 0 and _isnum(sd) else None
             row += [_num(c, 3), _fixed(ratio, ".2f")]
         rows.append(row + [_fixed(q.get("r_hat"), ".4f"), _fixed(q.get("ess_bulk"), ".0f")])
-    return [("table", head, rows)]
+    out: list[Block] = [("table", head, rows)]
+    zero = [NAMES[n].split(",")[0].split(" =")[0] for n in names
+            if isinstance(params.get(n), dict) and params[n].get("reaches_zero") is True]
+    if zero:
+        out.append(("p", [("b", "No decay measured: "), ", ".join(zero) + " cannot be told "
+                          "from no decay (forced or self-sustained vibration?); their 90 % "
+                          "intervals reach 0 (one-sided, under a prior uniform in p) and Q "
+                          "has no upper bound."]))
+    return out
 
 
 def _crlb_sd(crlb: dict, name: str) -> float | None:
@@ -746,32 +757,48 @@ def _diagnostics(s: dict) -> list[Block]:
     return out + _generic({k: v for k, v in d.items() if k != "warnings"})
 
 
-#: The adequacy verdicts (:data:`dampfit.damping.checks.VERDICTS`) in plain words.
+#: The adequacy verdicts (:data:`dampfit.damping.checks.VERDICTS`) in plain words — the rule
+#: of :func:`dampfit.damping.checks.adequacy`, which needs evidence both ways.
 VERDICT_WORDS = {
-    "adequate": "one viscous damping coefficient c describes the whole decay; no amplitude "
-                "dependence was found.",
-    "amplitude-dependent": "damping depends on amplitude; the {law} law describes it best. A "
-                           "single viscous c holds at one amplitude only (the equivalent c below).",
+    "adequate": "one viscous damping coefficient c describes the whole decay: the data rule out "
+                "a change of ζ by 1.25× or more over the recorded amplitudes, and the residual "
+                "is white at f₀.",
+    "amplitude-dependent": "damping depends on amplitude — the windowed ζ(A) slope shows it, or "
+                           "decisive evidence for a damping law that the windows confirm; the "
+                           "{law} law describes it best. A single viscous c holds at one "
+                           "amplitude only (the equivalent c below).",
+    "amplitude-dependent-nolaw": "damping depends on amplitude (the windowed ζ(A) slope shows "
+                                 "it), but no damping law describes it reliably (each sits on a "
+                                 "prior bound or is ill-conditioned). A single viscous c holds "
+                                 "at one amplitude only.",
     "misfit": "the free-decay model does not describe this waveform and no damping law explains "
               "it, so c and its interval are not trustworthy; check the window and the set-up.",
-    "inconclusive": "the evidence is too weak to say whether damping depends on amplitude.",
+    "inconclusive": "the recording cannot tell whether one viscous c is adequate: either it "
+                    "could not have seen a dependence (the amplitudes span too little, or the "
+                    "residual is structured at f₀), or the evidence of one is weak, or no decay "
+                    "was measured — the first reason below says which.",
 }
 #: The adequacy criteria (``model_checks.adequacy.criteria``) in plain words.
 CRITERIA_WORDS = {
     "slope_decisive": "the windowed ζ(A) slope is decisive", "slope_weak": "the windowed slope is weak evidence",
     "slope_null": "the windowed slope rules out a change of ζ that matters",
+    "dependence_bounded": "the data rule out a change of ζ that matters (windowed slope or "
+                          "power law)",
+    "white_at_f0": "the viscous residual is white at f₀",
     "law_evidence": "the evidence favours a non-viscous law",
-    "law_decisive": "the evidence for a non-viscous law is decisive",
+    "law_usable": "that law can carry a verdict (not on a prior bound, not ill-conditioned)",
+    "law_decisive": "the evidence for a non-viscous law is decisive and the windows confirm it",
     "frequency_drift": "the frequency drifts with amplitude",
     "viscous_misfit": "the viscous fit is a misfit", "best_law_misfit": "the best law is a misfit",
     "pipeline_misfit": "the constant-frequency fit is a misfit",
     "phase_drift": "the frequency drifts along the decay", "few_cycles": "too few cycles",
+    "no_decay": "no decay measured (forced or self-sustained vibration?)",
 }
 #: Parameters shown per damping law in the laws table (first present set wins).
 _LAW_PARAMS = ("c", "F_c", "mu_c", "c2", "beta", "c_alpha", "gamma", "alpha")
 _MC_KNOWN = ("warning", "verdict", "verdict_reasons", "verdict_law", "preferred_model",
              "chosen_model", "requested_model", "single_viscous_c_adequate", "residual_whiteness",
-             "amplitude_dependence", "adequacy")
+             "amplitude_dependence", "adequacy", "decay")
 
 
 def _laws(s: dict) -> list[Block]:
@@ -835,9 +862,10 @@ def _fit_checks(mc: dict) -> list[Block]:
         b = lb.get(law) if isinstance(lb.get(law), dict) else {}
         p = f.get("ljung_box_p", b.get("p_value"))
         frac = f.get("resid_fraction")
+        rex = f.get("r_excess")
         rows.append([_label(law).replace("viscous pipeline", "constant-frequency viscous"),
                      _num(p, 2), _num(b.get("n_cycles")), _num(f.get("r_raw"), 3),
-                     _num(f.get("r_excess"), 3),
+                     ("< 1 (no excess)" if _finite(rex) and rex < 1 else _num(rex, 3)),
                      _num(100 * frac, 3) if _finite(frac) else "—", _num(f.get("noise_excess"), 3)])
     if not rows:
         return []
@@ -845,8 +873,13 @@ def _fit_checks(mc: dict) -> list[Block]:
             ("table", ["fit", "Ljung–Box p at f₀", "cycles", "r", "r / r for white noise",
                        "residual [% of signal]", "residual / sensor noise"], rows),
             ("p", ["A small Ljung–Box p means the residual, demodulated at f₀ and averaged per "
-                   "cycle, is structured: the envelope (damping law) leaves misfit. r is the "
-                   "Whittle factor of that fit's residuals (see “Noise model”)."])]
+                   "cycle, is structured: the envelope (damping law) leaves misfit; one viscous "
+                   "c is called adequate only with p ≥ 0.01 for the viscous fit. r is the "
+                   "Whittle factor of that fit's residuals (see “Noise model”). r / r for white "
+                   "noise below 1 means less residual power near f₀ than white sensor noise "
+                   "would leave (noise coloured away from f₀): it is no evidence either way, "
+                   "and the likelihood then uses the white-noise value; only values above 3 "
+                   "count against a fit."])]
 
 
 def _amplitude_evidence(mc: dict) -> list[Block]:
@@ -888,6 +921,9 @@ def _amplitude_evidence(mc: dict) -> list[Block]:
 
 def _c_equivalent(s: dict) -> list[Block]:
     ce = s.get("c_equivalent")
+    why = _get(s, "missing", "c_equivalent")
+    if ce is None and isinstance(why, str) and why:
+        return [("p", [("b", "Equivalent viscous damping not given: "), why, "."])]
     if not isinstance(ce, dict):
         return []
     items = []
@@ -899,9 +935,16 @@ def _c_equivalent(s: dict) -> list[Block]:
         return []
     where = f" at {_num(ce.get('amplitude_m'), 3)} m displacement amplitude" \
         if _finite(ce.get("amplitude_m")) else ""
-    return [("p", [("b", "Equivalent viscous damping"),
-                   f" of the {_num(ce.get('model'))} law{where}: " + ", ".join(items)
-                   + " (median [90 %]); use it only near that amplitude."])]
+    out: list[Block] = [("p", [("b", "Equivalent viscous damping"),
+                               f" of the {_num(ce.get('model'))} law{where}: " + ", ".join(items)
+                               + " (median [90 %]); use it only near that amplitude."])]
+    if ce.get("extrapolated") is True:
+        rng = ce.get("recorded_amplitude_range_m")
+        span = (f" {_num(rng[0], 3)}–{_num(rng[1], 3)} m" if isinstance(rng, list)
+                and len(rng) == 2 else "")
+        out.append(("p", [("b", "Extrapolated: "), "that amplitude is outside the recorded "
+                          f"displacement amplitudes{span}; the law is used beyond the data."]))
+    return out
 
 
 def _model_checks(s: dict, directory: Path) -> list[Block]:
@@ -911,13 +954,21 @@ def _model_checks(s: dict, directory: Path) -> list[Block]:
     out: list[Block] = []
     verdict = mc.get("verdict")
     if verdict is not None:
-        law = mc.get("verdict_law") or mc.get("preferred_model") or "non-viscous"
-        words = VERDICT_WORDS.get(verdict, "") if isinstance(verdict, str) else ""
+        law = mc.get("verdict_law") or ("non-viscous" if "verdict_law" in mc
+                                        else mc.get("preferred_model") or "non-viscous")
+        key = ("amplitude-dependent-nolaw" if verdict == "amplitude-dependent"
+               and "verdict_law" in mc and not mc.get("verdict_law") else verdict)
+        words = VERDICT_WORDS.get(key, "") if isinstance(key, str) else ""
         out.append(("p", [("b", f"Verdict: {_num(verdict)}")]
                     + ([" — " + words.format(law=_num(law))] if words else [])))
         reasons = mc.get("verdict_reasons")
         if isinstance(reasons, list) and reasons:
             out += [("p", ["Why:"]), ("ul", [[_num(r)] for r in reasons])]
+    decay = mc.get("decay")
+    if isinstance(decay, dict) and _finite(decay.get("z")):
+        out.append(("p", [f"Decay measured: {'yes' if decay.get('resolved') else 'NO'} "
+                          f"(likelihood-ratio z = {_num(decay['z'], 3)} against no decay; "
+                          "above 1.64 the 90 % interval of p excludes 0)."]))
     crit = _get(mc, "adequacy", "criteria")
     if isinstance(crit, dict):
         held = [CRITERIA_WORDS.get(k, _label(k)) for k, v in crit.items() if v is True]

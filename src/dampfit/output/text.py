@@ -50,7 +50,11 @@ def _decimals(lo: Any, hi: Any) -> int | None:
 def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
     """``x`` with ``dec`` decimals; in scientific notation with the same absolute precision
     when ``scale`` (the largest magnitude printed alongside, default |x|) is below 10⁻⁴ or
-    above 10⁹, where fixed point gets unwieldy."""
+    above 10⁹, where fixed point gets unwieldy.
+
+    In scientific notation every number has its own exponent (a normalised mantissa), with
+    as many mantissa digits as the absolute precision 10^−dec allows and at least one: 4·10⁻⁶
+    beside an upper bound of 2·10⁻⁵ prints as ``4e-06``, never ``0.4e-05``."""
     if x is None:
         return "—"
     x = float(x)
@@ -58,8 +62,10 @@ def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
         return _g(x, 6)
     scale = abs(x) if scale is None else scale
     if scale >= 1e9 or 0 < scale < 1e-4:
-        exp = math.floor(math.log10(scale))
-        return f"{x / 10.0**exp:.{max(1, exp + dec)}f}e{exp:+03d}"
+        if x == 0:
+            return "0"
+        digits = max(0, math.floor(math.log10(abs(x))) + dec)
+        return f"{x:.{digits}e}"
     return f"{x:.{max(0, dec)}f}"
 
 
@@ -103,13 +109,20 @@ def _baseline_mark(b: dict[str, Any]) -> str:
     """The caveat printed after a baseline: too little support, or disagreement."""
     marks = []
     if b.get("supported") is False:
+        # every reason the baseline gives (estimators.baselines: too few cycles, a decay
+        # within the noise, an end below the noise); the cycle count in short form
+        why = b.get("support_reason")
+        reasons = [r.strip() for r in why.split(";") if r.strip()] if isinstance(why, str) else []
         used, win = b.get("n_cycles_used"), b.get("n_cycles_window")
-        if used is not None and win is not None:
+        if isinstance(used, (int, float)) and isinstance(win, (int, float)) and (
+                not reasons or any(r.startswith("rests on only") for r in reasons)):
             whole = abs(used - round(used)) < 1e-9  # log decrement: whole cycles
             of = f"{win:.0f}" if whole or win >= 10 else f"{win:.1f}"
-            marks.append(f"only {_cycles(used)} of {of} cycles — not reliable")
+            rest = [r for r in reasons if not r.startswith("rests on only")]
+            marks.append(f"only {_cycles(used)} of {of} cycles — not reliable"
+                         + "".join(f"; {r}" for r in rest))
         else:
-            marks.append("not reliable: " + str(b.get("support_reason")))
+            marks.append("not reliable" + (": " + "; ".join(reasons) if reasons else ""))
     if b.get("agrees_with_posterior") is False:
         marks.append("disagrees with the posterior beyond its expected spread")
     return "".join(f" ({m})" for m in marks)
@@ -174,6 +187,9 @@ def text(s: dict[str, Any]) -> str:
         f"({win['n_cycles']:.1f} cycles){'' if win['auto'] else ' (given)'}, "
         f"band {band['low_hz']:.4g}–{band['high_hz']:.4g} Hz, f0 = {s['dominant_frequency_hz']:.5g} Hz",
     ]
+    end = win.get("end_reason")
+    if win["auto"] and isinstance(end, str) and end:  # why (signal.window.END_REASONS)
+        lines.append(f"  window ends     {end}")
     m = s["mass"]
     if m["value"] is None:
         lines.append("  mass not given: c and k cannot be identified (give --mass KG)")
@@ -190,6 +206,7 @@ def text(s: dict[str, Any]) -> str:
         lines.append(
             f"  {_LABELS[name]:15s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
             f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
+            + ("   reaches 0: no decay measured" if q.get("reaches_zero") is True else "")
         )
     ls = s["least_squares"]
     lines += ["", "  least squares   " + ", ".join(
@@ -214,18 +231,36 @@ def text(s: dict[str, Any]) -> str:
         amp = mc.get("amplitude_dependence") or {}
         verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
         pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
-        law = mc.get("verdict_law") or mc.get("preferred_model")
+        law = mc.get("verdict_law") or (mc.get("preferred_model") if "verdict_law" not in mc
+                                        else None)
+        reasons = mc.get("verdict_reasons")
+        first = reasons[0] if isinstance(reasons, list) and reasons and isinstance(
+            reasons[0], str) else None
         line = "  damping law     " + {
-            "adequate": f"viscous adequate (no amplitude dependence, {pv})",
-            "amplitude-dependent": f"{law} preferred (amplitude-dependent, {pv})",
+            "adequate": (f"viscous adequate ({first}; {pv})" if first and first.startswith(
+                "no amplitude dependence") else f"viscous adequate (no amplitude dependence, {pv})"),
+            "amplitude-dependent": (f"{law} preferred (amplitude-dependent, {pv})" if law else
+                                    f"amplitude-dependent; no damping law describes it reliably "
+                                    f"({pv})"),
             "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
-            "inconclusive": f"inconclusive: the evidence is too weak either way ({pv}, "
-                            f"{mc.get('preferred_model')} fits best)",
+            "inconclusive": (f"inconclusive: {first or 'the evidence is too weak either way'} "
+                             f"({pv}, {mc.get('preferred_model')} fits best)"),
         }.get(verdict, f"{verdict} ({pv})")
         ceq = s.get("c_equivalent")
+        why = (s.get("missing") or {}).get("c_equivalent") if isinstance(
+            s.get("missing"), dict) else None
+        if ceq is None and isinstance(why, str):
+            line += f"\n  c_equivalent    not given: {why}"
         if isinstance(ceq, dict):
+            extra = ""
+            if ceq.get("extrapolated") is True:
+                rng = ceq.get("recorded_amplitude_range_m")
+                ok = isinstance(rng, list) and len(rng) == 2 and all(
+                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in rng)
+                extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
+                         if ok else ", EXTRAPOLATED beyond the recorded amplitudes")
             where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
-                     f"amplitude){_law_state(s, ceq['model'])}")
+                     f"amplitude{extra}){_law_state(s, ceq['model'])}")
             if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
                 line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
                 where = ""

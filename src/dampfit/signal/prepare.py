@@ -117,6 +117,9 @@ class Prepared:
     n_spikes: int
     notes: tuple[str, ...] = field(default_factory=tuple)
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    #: Why the window ends where it does (:data:`dampfit.signal.window.END_REASONS`, with the
+    #: time of a drop or impact; "given" for a window the user gave).
+    window_end_reason: str = "given"
 
 
 @dataclass(frozen=True, eq=False)
@@ -448,7 +451,8 @@ def prepare(
         )
 
     if window is None:
-        w0, w1, wnotes = detect_window(grid, env, f0, floor, impacts(t, y, usable, spikes & ~clipped, f0))
+        w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor,
+                                                   impacts(t, y, usable, spikes & ~clipped, f0))
         notes.extend(wnotes)
         guard = max(0.5 / f0, 3.0 / bnd[1])
         if (w1 - min(w0 + guard, w1)) * f0 < MIN_CYCLES:
@@ -463,7 +467,7 @@ def prepare(
             raise InputError(
                 f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
             )
-        window_auto = False
+        window_auto, end_reason = False, "given"
         i0, i1 = np.searchsorted(grid, [w0, w1])
         for tc, factor in envelope_drops(grid, env, f0, floor, int(i0), int(i1)):
             warnings.append(f"the window {w0:g}–{w1:g} s contains an abrupt envelope drop at "
@@ -481,6 +485,7 @@ def prepare(
         amplitude=amp, f0=f0, band=bnd, band_auto=band is None, window=(w0, w1),
         window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
+        window_end_reason=end_reason,
     )
 
 

@@ -12,7 +12,9 @@ From the Hilbert envelope [m/s²] of the band-passed signal on a uniform grid [s
   oscillation runs on through that spike unchanged (:func:`passes_through`: an isolated
   glitch, masked like any spike, not a catch or knock).
 
-:func:`detect_window` returns the window [s] and notes saying why it ends there.
+:func:`detect_window` returns the window [s], notes saying why it ends there and the reason
+in a few words (``end_reason``: what the CLI table and ``summary.json`` ``window.end_reason``
+show; one of :data:`END_REASONS`, with the time of a drop or impact).
 """
 
 from __future__ import annotations
@@ -22,9 +24,9 @@ from scipy import ndimage
 
 from dampfit.signal.spectrum import noise_density
 
-__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "RAYLEIGH_MEAN", "PEAK_NOISE", "PEAK_RIPPLE",
-           "envelope_drops", "detect_window", "noise_floor", "impacts", "passes_through",
-           "release_time", "running_median"]
+__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "END_REASONS", "RAYLEIGH_MEAN", "PEAK_NOISE",
+           "PEAK_RIPPLE", "envelope_drops", "detect_window", "noise_floor", "impacts",
+           "passes_through", "release_time", "running_median"]
 
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
@@ -40,6 +42,13 @@ THROUGH_PERIODS, THROUGH_FACTOR = 2.0, 1.5
 #: over which a drop is measured, the running-median span of the decay trend [periods], the
 #: excess loss factor that ends the window, and the envelope-to-noise-floor ratio needed.
 DROP_PERIODS, DROP_TREND_PERIODS, DROP_FACTOR, DROP_MIN_SNR = 2.0, 15.0, 2.0, 20.0
+#: Why an automatic window ends (``end_reason`` of :func:`detect_window`; a drop or an impact
+#: adds its time): the decay reached the noise floor, the envelope rose again, an abrupt drop,
+#: an impact spike, or the recording ended first.
+END_REASONS = ("the decay reaches 3x the noise floor",
+               "the envelope rises again (catch or new excitation)",
+               "abrupt envelope drop (catch, rattle or contact)", "impact (catch or knock)",
+               "end of the recording")
 #: Mean and 10th percentile of a Rayleigh envelope, in units of the in-band noise σ.
 RAYLEIGH_MEAN, RAYLEIGH_P10 = float(np.sqrt(np.pi / 2)), float(np.sqrt(-2 * np.log(0.9)))
 
@@ -171,8 +180,11 @@ def passes_through(sm: np.ndarray, i: int, per: int, floor: float, i_pk: int) ->
 
 def detect_window(
     grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events: np.ndarray
-) -> tuple[float, float, list[str]]:
+) -> tuple[float, float, list[str], str]:
     """Free-decay window [s] from the smoothed envelope; see the module docstring.
+
+    Returns (start [s], end [s], notes, end_reason): ``end_reason`` is the one cause that set
+    the end (:data:`END_REASONS`), the last of the notes.
 
     ``events`` = (times [s], size ratios [1]) of masked impact spikes (:func:`impacts`). A
     spike ends the free decay (a catch, or a knock that resets the oscillator) if it is more
@@ -196,14 +208,17 @@ def detect_window(
     low = np.flatnonzero(robust[i_pk:] < 3.0 * floor)
     rise = np.flatnonzero((robust[i_pk:] > 1.5 * run_min) & (robust[i_pk:] > 5.0 * floor))
     i_end = len(sm) - 1 - edge
-    if low.size:
-        i_end = min(i_end, i_pk + int(low[0]))
+    reason = END_REASONS[4]
+    if low.size and i_pk + int(low[0]) < i_end:
+        i_end = i_pk + int(low[0])
         notes.append("window ends where the decay reaches 3x the noise floor")
+        reason = END_REASONS[0]
     if rise.size:
         i_rise = i_pk + int(rise[0]) - per
         if i_rise < i_end:
             i_end = i_rise
             notes.append("window ends before the envelope rises again (catch or new excitation)")
+            reason = END_REASONS[1]
     drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
     if drops:
         tc, factor = drops[0]
@@ -211,6 +226,7 @@ def detect_window(
         notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
                      f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
                      "catch, rattle or contact)")
+        reason = f"abrupt envelope drop at {tc:.2f} s (catch, rattle or contact)"
     ev_t, ev_a = events
     after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
     through: list[float] = []
@@ -225,13 +241,14 @@ def detect_window(
                 continue
             i_end = max(i - per // 2, i_pk)
             notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
+            reason = f"impact at {tc:.2f} s (catch or knock)"
             break
     if through:
         shown = ", ".join(f"{x:.2f}" for x in through[:3]) + (", …" if len(through) > 3 else "")
         notes.insert(0, f"{len(through)} spike(s) over {IMPACT_RATIO:g}x the oscillation (at "
                         f"{shown} s) are masked but do not end the window: the decay runs on "
                         "through them unchanged (glitches, not a catch or knock)")
-    return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes
+    return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes, reason
 
 
 def release_time(grid: np.ndarray, env: np.ndarray, start: float, f0: float) -> float:
