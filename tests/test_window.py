@@ -43,7 +43,9 @@ def test_the_reason_the_window_ends_is_carried_to_the_table():
     assert rattle.startswith("abrupt envelope drop at 7.7") and "catch" in rattle
     assert pp.prepare(decay(zeta=0.05)).window_end_reason == "the decay reaches 3x the noise floor"
     knock = decay(zeta=0.002)
-    knock.accel[int(9.0 * FS), 0] += 400.0  # a knock 80x the oscillation
+    i = int(9.0 * FS)  # a catch: a knock 80x the oscillation that stops it (a glitch the
+    knock.accel[i, 0] += 400.0  # decay runs through unchanged does not end the window)
+    knock.accel[i + 1:, 0] *= np.exp(-3.0 * (knock.time[i + 1:] - 9.0))
     assert pp.prepare(knock).window_end_reason == "impact at 9.00 s (catch or knock)"
     assert pp.prepare(decay(drop_at=7.7), window=(2.0, 15.0)).window_end_reason == "given"
     s = summary()
