@@ -2,7 +2,7 @@
 
 Run:  python examples/02_estimator_comparison.py   (about 15 s)
 
-Every estimator of ``dampfit.estimators.registry`` sees the same recording, window and band. For a
+Every estimator of ``dampfit.study.registry`` sees the same recording, window and band. For a
 study over many replicates and scenarios (bias, RMSE/CRLB, coverage) use
 ``dampfit study examples/study_ranking.toml``.
 """
@@ -11,7 +11,7 @@ import numpy as np
 
 from dampfit import simulate
 from dampfit.inference import crlb
-from dampfit.estimators import registry as estimators
+from dampfit.study import registry
 from dampfit.io.recording import STANDARD_GRAVITY
 
 MASS = 5.3  # [kg]
@@ -19,7 +19,7 @@ cfg = simulate.from_modal(MASS, 2.0, 0.01, u0=0.02, duration=60.0, sample_rate=2
                           noise_density=2000.0, seed=3)
 rec, truth = simulate.recording(cfg)
 
-results = estimators.run(list(estimators.ESTIMATORS), rec, mass=MASS, seed=0)
+results = registry.run(list(registry.ESTIMATORS), rec, mass=MASS, seed=0)
 
 # the bound for this design: the samples after release, the simulated white-noise level
 sigma = crlb.from_noise_density(cfg.noise_density * 1e-6 * STANDARD_GRAVITY, cfg.sample_rate)

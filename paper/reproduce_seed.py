@@ -20,7 +20,7 @@ a spring of stiffness k = 676.169 N/m (676.2 N/m in the LS-DYNA section), oscill
   implied by k and m against the measured 1.72 Hz; the log decrement implied by p = 0.0179 1/s
   at 1.72 Hz against eq. 10; the spread of the three c values the paper calls consistent.
 
-Wherever dampfit has a function for a relation it is used (``physics.from_decay``,
+Wherever dampfit has a function for a relation it is used (``physics.quantities``,
 ``to_decay``, ``zeta_from_log_decrement``, ``log_decrement_from_zeta``, ``critical_damping``);
 only the peak-ratio logarithm of eq. 10 and the factors of eq. 21 are plain arithmetic.
 
@@ -103,10 +103,10 @@ def rows() -> list[dict]:
     w_meas = 2.0 * np.pi * F_MEAS  # measured (damped) angular frequency [rad/s]
 
     # eq. 3 / line after eq. 4: c = 2 m p.
-    c_mems = physics.from_decay(P, w_meas, mass=M)["c"]
+    c_mems = physics.quantities(P, w_meas, mass=M)["c"]
     out.append(_row(
         "c = 2·m·p (MEMS envelope)", "3, after 4", 0.1897, c_mems, 4,
-        "p = 0.0179 1/s, m = 5.3 kg; physics.from_decay(...)['c'] = 2·m·p.",
+        "p = 0.0179 1/s, m = 5.3 kg; physics.quantities(...)['c'] = 2·m·p.",
     ))
     c_as_typeset = -(-P) * M  # noqa: B002 - the paper's typeset expression, on purpose
     out.append(_row(
@@ -154,7 +154,7 @@ def rows() -> list[dict]:
     factor = 2.0 * M / T_SLOW
     log_ratio = np.log(U_S0 / U_ST)
     p_slow = log_ratio / T_SLOW
-    c_slow = physics.from_decay(p_slow, w_meas, mass=M)["c"]
+    c_slow = physics.quantities(p_slow, w_meas, mass=M)["c"]
     out.append(_row(
         "2m/t = 2·5.3/4.98", "21", 2.128, factor, 4,
         f"= {factor:.6f}: the paper truncates (rounding gives 2.129).",
@@ -163,7 +163,7 @@ def rows() -> list[dict]:
     out.append(_row(
         "c = (2m/t)·ln(u_a0/u_a(t)) (slow motion)", "21", 0.27, c_slow, 2,
         f"= {float(c_slow):.5f} N·s/m (p = ln(3.3/2.9)/4.98 = {float(p_slow):.5f} 1/s through "
-        f"physics.from_decay), which rounds to 0.28; the paper's product of its printed "
+        f"physics.quantities), which rounds to 0.28; the paper's product of its printed "
         f"factors, 2.128·0.1292 = {2.128 * 0.1292:.5f}, rounds to 0.27.",
     ))
 
@@ -195,8 +195,8 @@ def rows() -> list[dict]:
 
     # (b) k and m imply f_n = 1.797 Hz, not the measured 1.72 Hz.
     p_k, wd_k = physics.to_decay(c_mems, K_LSDYNA, M)
-    f_n = physics.from_decay(p_k, wd_k)["f_n"]
-    k_meas = physics.from_decay(P, w_meas, mass=M)["k"]
+    f_n = physics.quantities(p_k, wd_k)["f_n"]
+    k_meas = physics.quantities(P, w_meas, mass=M)["k"]
     out.append(_row(
         "(b) f_n = √(k/m)/2π, k=676.2, m=5.3", "Figs. 15–16", F_MEAS, f_n, 3,
         f"k = 676.2 N/m with m = 5.3 kg gives f_n = {float(f_n):.4f} Hz, not the measured "
@@ -205,12 +205,12 @@ def rows() -> list[dict]:
     out.append(_row(
         "(b) k = m·ω_n² at 1.72 Hz, m=5.3", "Figs. 15–16", K_LSDYNA, k_meas, 4,
         f"1.72 Hz with m = 5.3 kg implies k = {float(k_meas):.1f} N/m "
-        "(physics.from_decay(p, 2π·1.72, m)['k']), not 676.2 N/m.",
+        "(physics.quantities(p, 2π·1.72, m)['k']), not 676.2 N/m.",
     ))
 
     # (c) log decrement implied by p = 0.0179 1/s at the measured 1.72 Hz.
-    delta_p = physics.from_decay(P, w_meas)["delta"]
-    delta_p_alt = physics.log_decrement_from_zeta(physics.from_decay(P, w_meas)["zeta"])
+    delta_p = physics.quantities(P, w_meas)["delta"]
+    delta_p_alt = physics.log_decrement_from_zeta(physics.quantities(P, w_meas)["zeta"])
     out.append(_row(
         "(c) δ = p·T, p=0.0179, f=1.72 Hz", "11 vs 10", 0.0182827682, delta_p, 9,
         f"p = 0.0179 1/s at 1.72 Hz gives δ = p·T = {float(delta_p):.4f} "

@@ -104,6 +104,16 @@ class FakeCampaign:
     def to_json(self, path):
         Path(path).write_text(json.dumps(self._s, indent=2) + "\n")
 
+    def save(self, folder, **kw):  # the real writing path
+        from dampfit.campaign.analysis import CampaignAnalysis
+
+        return CampaignAnalysis.save(self, folder, **kw)
+
+    def _write(self, folder, figures):
+        from dampfit.campaign.analysis import CampaignAnalysis
+
+        return CampaignAnalysis._write(self, folder, figures)
+
     def to_netcdf(self, path):
         import arviz as az
         import numpy as np

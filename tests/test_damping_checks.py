@@ -152,7 +152,7 @@ def test_c_equivalent_is_absent_where_it_means_nothing(cases):
     from dataclasses import replace
     from types import SimpleNamespace
 
-    from dampfit.pipeline import Analysis
+    from dampfit.analysis import Analysis
 
     _, _, res = cases["quadratic"]
     ok = Analysis._damping_summary(SimpleNamespace(damping=res))

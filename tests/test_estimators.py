@@ -1,4 +1,4 @@
-"""Tests of the common estimator interface (:mod:`dampfit.estimators.registry`).
+"""Tests of the common estimator interface (:mod:`dampfit.study.registry`).
 
 Recovery tier: every estimator on one simulated white-noise free decay (f_n = 2 Hz, ζ = 0.01,
 60 s at 200 Hz), with a tolerance that reflects the estimator's known efficiency; the
@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 
 from dampfit.inference import crlb
-from dampfit.estimators import registry as estimators
+from dampfit.study import registry
 from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.errors import InputError
-from dampfit.estimators.registry import ESTIMATORS, Estimate
+from dampfit.study.registry import ESTIMATORS, Estimate
 
 MASS = 1.0  # [kg]
 NOISE = 2000.0  # [µg/√Hz]: σ ≈ 0.2 m/s² per sample against a 6.3 m/s² initial amplitude
@@ -104,10 +104,10 @@ def test_no_mass_gives_no_c(decay):
 def test_run_returns_one_estimate_per_name_in_order(decay):
     rec, truth, _ = decay
     names = ["matrix_pencil", "hilbert", "log_decrement", "hilbert"]
-    out = estimators.run(names, rec, mass=MASS)
+    out = registry.run(names, rec, mass=MASS)
     assert [e.estimator for e in out] == names
     assert all(e.ok for e in out)
-    assert [e.estimator for e in estimators.run("half_power", rec)] == ["half_power"]
+    assert [e.estimator for e in registry.run("half_power", rec)] == ["half_power"]
 
 
 def test_a_failing_estimator_is_data_not_an_exception(decay, monkeypatch):
@@ -116,8 +116,8 @@ def test_a_failing_estimator_is_data_not_an_exception(decay, monkeypatch):
     def broken(*args, **kwargs):
         raise np.linalg.LinAlgError("SVD did not converge")
 
-    monkeypatch.setattr(estimators, "_pencil_poles", broken)
-    out = estimators.run(["hilbert", "matrix_pencil", "log_decrement"], rec, mass=MASS)
+    monkeypatch.setattr(registry, "_pencil_poles", broken)
+    out = registry.run(["hilbert", "matrix_pencil", "log_decrement"], rec, mass=MASS)
     bad = out[1]
     assert not bad.ok and "LinAlgError" in bad.message and "SVD did not converge" in bad.message
     assert math.isnan(bad.p) and bad.c is None
@@ -131,7 +131,7 @@ def test_a_window_too_short_for_an_estimator_fails_softly(decay, monkeypatch):
     with pytest.raises(InputError, match="peak"):
         ESTIMATORS["log_decrement"](prepare(rec, window=short), MASS)  # direct call: raises
     monkeypatch.setattr(preprocess, "prepare", lambda r: prepare(r, window=short))
-    out = estimators.run(["log_decrement", "hilbert", "half_power"], rec, mass=MASS)
+    out = registry.run(["log_decrement", "hilbert", "half_power"], rec, mass=MASS)
     assert not out[0].ok and "InputError" in out[0].message and "peak" in out[0].message
     assert not out[1].ok and "cycles" in out[1].message
     assert out[2].ok  # a spectrum needs no peaks (its estimate is biased, see above)
@@ -140,25 +140,25 @@ def test_a_window_too_short_for_an_estimator_fails_softly(decay, monkeypatch):
 def test_unknown_estimator_names_the_valid_ones(decay):
     rec, _, _ = decay
     with pytest.raises(InputError, match=r"unknown estimator\(s\) 'prony'.*valid: bayes, least_squares"):
-        estimators.run(["hilbert", "prony"], rec)
+        registry.run(["hilbert", "prony"], rec)
 
 
 def test_bad_mass_is_an_input_error(decay):
     for bad in (-1.0, float("nan"), "heavy"):
         with pytest.raises(InputError, match="mass must be a positive"):
-            estimators.run(["hilbert"], decay[0], mass=bad)
+            registry.run(["hilbert"], decay[0], mass=bad)
 
 
 def test_an_unusable_recording_propagates_the_input_error():
     rec, _ = _record(u0=0.0, duration=20.0)  # noise only
     with pytest.raises(InputError, match="no free.decay|not clearly above the noise"):
-        estimators.run(["hilbert"], rec)
+        registry.run(["hilbert"], rec)
 
 
 def test_as_dict_is_json_and_csv_safe(decay, monkeypatch):
     rec, _, _ = decay
-    monkeypatch.setattr(estimators, "_pencil_poles", lambda *a: 1 / 0)
-    for est in estimators.run(["least_squares", "matrix_pencil"], rec, mass=MASS):
+    monkeypatch.setattr(registry, "_pencil_poles", lambda *a: 1 / 0)
+    for est in registry.run(["least_squares", "matrix_pencil"], rec, mass=MASS):
         d = est.as_dict()
         assert list(d) == [f.name for f in fields(Estimate)]
         assert all(v is None or isinstance(v, (str, bool, int, float)) for v in d.values())
@@ -191,7 +191,7 @@ def test_ranking_of_rmse_over_crlb_on_white_noise():
     for seed in range(40):
         rec, truth = _record(seed=100 + seed)
         bound = _crlb_p(preprocess.prepare(rec), truth)
-        for est in estimators.run(names, rec, mass=MASS, seed=seed):
+        for est in registry.run(names, rec, mass=MASS, seed=seed):
             assert est.ok, (est.estimator, est.message)
             err[est.estimator].append((est.p - truth["p"]) / bound)
     ratio = {n: math.sqrt(np.mean(np.square(e))) for n, e in err.items()}

@@ -17,7 +17,8 @@ from dampfit import simulate as sim
 from dampfit.cli import main
 from dampfit.output import figure_process as fp
 from dampfit.output.figures import NEEDS, save_figures
-from dampfit.pipeline import Analysis, analyze
+from dampfit.analysis import Analysis
+from dampfit.pipeline import analyze
 
 CORES = fp._usable_cores()
 needs_two_cores = pytest.mark.skipif(CORES < 2, reason=f"the figure process needs 2 usable "

@@ -16,7 +16,7 @@ import pytest
 
 from dampfit.estimators import baselines
 from dampfit.output import text as render
-from dampfit.pipeline import _baselines_summary
+from dampfit.analysis import _baselines_summary
 from dampfit.inference.law_sampler import (MIN_BUDGET_STEPS, STEP_FACTOR, TIME_ALLOWANCE_S, Budget,
                                     conditioning, sample_emcee, sample_laplace)
 

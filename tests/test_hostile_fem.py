@@ -25,6 +25,7 @@ from pathlib import Path
 import pytest
 
 from dampfit.fem import calculix, keyword, lsdyna, opensees, sanitize, sdof, units
+from dampfit.errors import shown
 from dampfit.fem.export import build
 from tests.hostile import assert_one_line_error, assert_unchanged, run, run_subprocess, snapshot
 from tests.test_fem_export import write_summary
@@ -193,14 +194,14 @@ def test_each_sanitiser_neutralises_hostile_text(text):
         assert all(x.isascii() and x.isprintable() for x in lines)
     title = sanitize.lsdyna_title(text)
     assert 0 < len(title) <= 80 and title.isascii() and not title.startswith(("*", "$"))
-    one = sanitize.shown(text)
+    one = shown(text)
     assert "\n" not in one and "\r" not in one and len(one) <= 200
 
 
 def test_sanitisers_keep_ordinary_text_readable():
     assert sanitize.ascii_line("Messungen/Dämpfer 1") == "Messungen/Dampfer 1"
     assert sanitize.python_comment("/data/run 3") == "/data/run 3"
-    assert sanitize.shown("/data/run 3") == "/data/run 3"
+    assert shown("/data/run 3") == "/data/run 3"
     assert sanitize.lsdyna_comment("") == ["$"]
 
 

@@ -203,7 +203,7 @@ def _h5py_like(*a, **k):  # h5py/h5netcdf wrap the system error in their own exc
 def test_full_disk_while_writing_keeps_old_result(work, capsys, fast, monkeypatch, writer):
     out = make_result(work, "res", capsys, fast)
     before = snapshot(work)
-    monkeypatch.setattr("dampfit.pipeline.Analysis.to_netcdf", writer)
+    monkeypatch.setattr("dampfit.analysis.Analysis.to_netcdf", writer)
     code, _, err = run(analyze_argv(work, out, "--force"), capsys)
     line = assert_one_line_error(code, err, match="No space left on device")
     assert "previous result is unchanged" in line and str(out) in line
@@ -320,7 +320,7 @@ def test_ctrl_c_while_writing_leaves_old_result_and_no_debris(work, capsys, fast
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr("dampfit.pipeline.Analysis.to_signals", interrupted)
+    monkeypatch.setattr("dampfit.analysis.Analysis.to_signals", interrupted)
     code, _, err = run(analyze_argv(work, out, "--force"), capsys)
     assert code == 130 and "Traceback" not in err
     assert err.strip().splitlines() == ["dampfit: interrupted; no partial output was left behind"]
@@ -331,7 +331,7 @@ def test_sigterm_while_writing_leaves_no_debris(work, capsys, fast, monkeypatch)
     def killed(self, path):
         os.kill(os.getpid(), signal.SIGTERM)  # dampfit's handler turns it into an exception
 
-    monkeypatch.setattr("dampfit.pipeline.Analysis.to_signals", killed)
+    monkeypatch.setattr("dampfit.analysis.Analysis.to_signals", killed)
     before = snapshot(work)
     handler = signal.getsignal(signal.SIGTERM)
     code, _, err = run(analyze_argv(work, work / "res"), capsys)

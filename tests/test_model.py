@@ -140,7 +140,7 @@ def test_drift_basis_is_well_conditioned():
 @pytest.mark.parametrize("zeta", [1e-4, 0.05, 0.5])
 def test_physics_round_trip(zeta):
     p, wd, wn = params(3.3, zeta)
-    d = physics.from_decay(p, wd, mass=M)
+    d = physics.quantities(p, wd, mass=M)
     p2, wd2 = physics.to_decay(d["c"], d["k"], M)
     assert p2 == pytest.approx(p, rel=1e-12) and wd2 == pytest.approx(wd, rel=1e-12)
     assert d["zeta"] == pytest.approx(zeta, rel=1e-12)

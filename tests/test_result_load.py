@@ -1,7 +1,7 @@
 """Result folders read back: :func:`dampfit.load` and the one reader of summary.json.
 
 Every result folder the CLI writes (``analyze`` plain, with ``--report``, with
-``--no-figures``; ``demo``) loads into the :class:`~dampfit.pipeline.Analysis` that wrote it:
+``--no-figures``; ``demo``) loads into the :class:`~dampfit.analysis.Analysis` that wrote it:
 the same summary (as written, and as the live analysis computes it), posterior and signals;
 report, export and verify work from the loaded result; a foreign or broken folder is one error
 line (exit 2) that says it is not a dampfit result folder, the same through every command.
@@ -22,7 +22,7 @@ import dampfit
 from dampfit import simulate as sim
 from dampfit.cli import main
 from dampfit.errors import DampfitError, InputError
-from dampfit.pipeline import Analysis
+from dampfit.analysis import Analysis
 from dampfit.result import SCHEMA_VERSION, read_summary
 
 FOREIGN = "is not a dampfit result folder"

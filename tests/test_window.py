@@ -116,7 +116,7 @@ def _light(zeta: float, **kw) -> Recording:
 
 
 def _zeta(prep) -> float:
-    from dampfit.pipeline import fit_stages
+    from dampfit.stages import fit_stages
 
     ls = fit_stages(prep, 0.5).least_squares
     return ls.p / np.hypot(ls.p, ls.omega_d)

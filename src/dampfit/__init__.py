@@ -8,35 +8,33 @@ Typical use::
     rec = dampfit.read("Raw Data.csv")
     result = dampfit.analyze(rec, mass=5.3, mass_sd=0.02, seed=1)
     result.summary()["parameters"]["c"]      # posterior summary of c [N·s/m]
-    result.posterior                         # arviz InferenceData
-    result.to_json("summary.json")
-    again = dampfit.load("Raw Data.csv.dampfit")   # a result folder read back: same class
+    print(result.report())                   # the table the CLI prints
+    result.save("decay.dampfit")             # the folder `dampfit analyze` writes
+    again = dampfit.load("decay.dampfit")    # read back: the same class
 
     rec, truth = dampfit.simulate.recording(dampfit.simulate.preset("paper"))
+
+The names are imported on first use (PEP 562) from :mod:`dampfit.api` and the modules below,
+so ``import dampfit`` — and every CLI command that needs no analysis — does not pay for JAX,
+SciPy and arviz.
 """
 
 from importlib import import_module as _import_module
-from importlib import metadata as _metadata
 
+from dampfit._meta import __version__ as __version__
 from dampfit.errors import DampfitError as DampfitError
 from dampfit.errors import InputError as InputError
 
-try:
-    __version__ = _metadata.version("dampfit")
-except _metadata.PackageNotFoundError:  # pragma: no cover - source tree without install
-    __version__ = "unknown"
-
-#: Public names and the module each comes from. They are imported on first use (PEP 562), so
-#: ``import dampfit`` — and every CLI command that needs no analysis, such as ``dampfit report``
-#: or ``dampfit --help`` — does not pay for JAX, SciPy and arviz.
+#: Public names and the module each comes from (None: the module itself).
 _LAZY = {
-    "Analysis": ("dampfit.pipeline", "Analysis"),
-    "analyze": ("dampfit.pipeline", "analyze"),
-    "load": ("dampfit.result", "load"),
-    "read": ("dampfit.io.readers", "read"),
+    "Analysis": ("dampfit.api", "Analysis"),
+    "CampaignAnalysis": ("dampfit.api", "CampaignAnalysis"),
+    "analyze": ("dampfit.api", "analyze"),
+    "analyze_campaign": ("dampfit.api", "analyze_campaign"),
+    "load": ("dampfit.api", "load"),
+    "read": ("dampfit.api", "read"),
     "Recording": ("dampfit.io.recording", "Recording"),
     "crlb": ("dampfit.inference.crlb", None),
-    "estimators": ("dampfit.estimators", None),
     "simulate": ("dampfit.simulate", None),
 }
 
@@ -57,7 +55,4 @@ def __dir__() -> list[str]:
     return sorted(set(globals()) | set(_LAZY))
 
 
-__all__ = [
-    "Analysis", "DampfitError", "InputError", "Recording", "__version__", "analyze", "load",
-    "read", "crlb", "estimators", "simulate",
-]
+__all__ = ["__version__", "DampfitError", "InputError", *_LAZY]

@@ -34,9 +34,9 @@ from dampfit.errors import InputError
 
 __all__ = [
     "quantities",
-    "from_decay",
     "to_decay",
     "check_mass",
+    "MAX_MASS",
     "UNITS",
     "zeta_from_log_decrement",
     "log_decrement_from_zeta",
@@ -77,9 +77,14 @@ def stiffness(mass, omega_n):
     return mass * omega_n**2
 
 
-def quantities(p, omega_d, mass=None, *, accel_amplitude=None) -> dict[str, np.ndarray]:
+def quantities(p, omega_d=None, mass=None, *, omega_n=None,
+               accel_amplitude=None) -> dict[str, np.ndarray]:
     """Every reported physical quantity from decay rate ``p`` [1/s] and damped angular
     frequency ``omega_d`` [rad/s] — point values or arrays of draws (broadcast together).
+
+    Or from ``p`` and the natural angular frequency ``omega_n`` [rad/s] instead of ``omega_d``
+    (a campaign's population draws, :mod:`dampfit.campaign`): then ω_d = √(ω_n² − p²), NaN
+    where p ≥ ω_n (and with it f_d and δ), while p, ζ, f_n, Q, c, k and c_crit stay finite.
 
     Mass-free (identified by the recording alone):
 
@@ -101,9 +106,18 @@ def quantities(p, omega_d, mass=None, *, accel_amplitude=None) -> dict[str, np.n
 
     ``p`` and ``omega_d`` are returned as given (as float arrays). Q is infinite for p = 0.
     """
-    p, omega_d = _real(p), _real(omega_d)
-    wn2 = p**2 + omega_d**2
-    omega_n = _sqrt(wn2)
+    if (omega_d is None) == (omega_n is None):
+        raise TypeError("quantities() takes exactly one of omega_d and omega_n")
+    p = _real(p)
+    if omega_d is not None:
+        omega_d = _real(omega_d)
+        wn2 = p**2 + omega_d**2
+        omega_n = _sqrt(wn2)
+    else:
+        omega_n = _real(omega_n)
+        wn2 = omega_n**2
+        with np.errstate(invalid="ignore"):
+            omega_d = np.sqrt(np.where(wn2 > p**2, wn2 - p**2, np.nan))
     zeta = p / omega_n
     out = {
         "p": p,
@@ -124,10 +138,6 @@ def quantities(p, omega_d, mass=None, *, accel_amplitude=None) -> dict[str, np.n
         out["u0"] = _real(accel_amplitude) / wn2
     return out
 
-
-def from_decay(p, omega_d, mass=None) -> dict[str, np.ndarray]:
-    """:func:`quantities` without an amplitude (the earlier name, kept for its callers)."""
-    return quantities(p, omega_d, mass)
 
 
 def to_decay(c, k, mass) -> tuple[np.ndarray, np.ndarray]:
@@ -160,11 +170,16 @@ def critical_damping(k, mass):
     return 2.0 * np.sqrt(np.asarray(k, dtype=float) * np.asarray(mass, dtype=float))
 
 
+#: Largest oscillating or added mass dampfit accepts [kg] (simulated, analysed, studied; the
+#: library and the CLI alike): far above any spring–mass test, far below overflow.
+MAX_MASS = 1e6
+
+
 def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     """The one check of an oscillating mass ``mass`` [kg] and its standard uncertainty
     ``mass_sd`` [kg]; returns ``(mass, mass_sd)`` as floats (``(None, 0.0)`` without a mass).
 
-    A mass must be a finite number > 0; ``mass_sd`` (None = 0) a finite number ≥ 0 and at most
+    A mass must be a finite number > 0 and at most :data:`MAX_MASS`; ``mass_sd`` (None = 0) a finite number ≥ 0 and at most
     half the mass (the mass prior is a normal truncated at 0: a wider one is no longer a
     measured mass); a non-zero ``mass_sd`` needs a mass. Raises :class:`InputError` with one
     line otherwise.
@@ -178,6 +193,8 @@ def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     if not (math.isfinite(m) and m > 0.0):
         raise InputError("mass must be positive: the oscillating mass must be a positive "
                          f"number of kilograms, got {mass!r}")
+    if m > MAX_MASS:
+        raise InputError(f"mass = {m:g} kg is beyond the limit of {MAX_MASS:g} kg")
     if not (math.isfinite(sd) and sd >= 0.0):
         raise InputError(f"mass_sd, the mass standard deviation, must be ≥ 0 kg, got {mass_sd!r}")
     if sd > 0.5 * m:

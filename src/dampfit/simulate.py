@@ -38,7 +38,6 @@ off does not change the others.
 from __future__ import annotations
 
 import dataclasses
-import importlib.metadata
 import math
 from dataclasses import dataclass
 from collections.abc import Sequence
@@ -46,6 +45,8 @@ from typing import Any
 
 import numpy as np
 
+from dampfit._meta import __version__
+from dampfit.physics import MAX_MASS as MAX_MASS
 from dampfit.errors import InputError
 from dampfit.physics import check_mass, critical_damping, quantities, stiffness, to_decay
 from dampfit.io.recording import STANDARD_GRAVITY, Recording
@@ -249,9 +250,6 @@ def from_modal(mass: float, f_n: float, zeta: float, **kw: Any) -> SimulationCon
     return _build(mass=mass, k=k, c=zeta * float(critical_damping(k, mass)), **kw)
 
 
-#: Largest mass [kg] accepted (simulated, analysed, studied): far above any spring–mass test,
-#: far below overflow.
-MAX_MASS = 1e6
 #: Largest simulated recording [samples] (duration × sample rate): ≈ 2 GB of arrays.
 MAX_SIM_SAMPLES = 5e7
 #: Highest sample rate [Hz] simulated (MEMS accelerometers sample at ≤ 32 kHz).
@@ -406,16 +404,9 @@ def _truth(cfg: SimulationConfig, t_catch: float | None, direction: np.ndarray) 
         "direction": [float(x) for x in direction],
         "noise_sigma": _noise_sigma(cfg),
         "config": config,
-        "dampfit_version": _version(),
+        "dampfit_version": __version__,
     }
 
-
-def _version() -> str:
-    """Installed dampfit version, or ``"unknown"``."""
-    try:
-        return importlib.metadata.version("dampfit")
-    except importlib.metadata.PackageNotFoundError:
-        return "unknown"
 
 
 def envelope_at(truth: dict[str, Any], t) -> float | np.ndarray:
@@ -760,5 +751,5 @@ def _campaign_truth(base: SimulationConfig, spread: float, seed: int, dm: list[f
         "seed": seed,
         "seeds": [t["config"]["seed"] for t in truths],
         "tests": truths,
-        "dampfit_version": _version(),
+        "dampfit_version": __version__,
     }

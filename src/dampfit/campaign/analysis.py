@@ -25,7 +25,7 @@ Stages
    in the joint density is common to both, so (C6) is exact); each walker's draws are
    resampled by w (systematic resampling). The importance ESS fraction is reported; below
    :data:`MIN_IMPORTANCE_FRACTION` the result is flagged not converged.
-5. **Quantities** per draw (:func:`_from_rates`, :mod:`dampfit.physics`): the population damper from
+5. **Quantities** per draw (:func:`dampfit.physics.quantities` from p and ω_n): the population damper from
    the location parameters (mass mode: c = 2·m·e^{μ_p} [N·s/m], k = m·e^{2μ_ω} [N/m] with m
    drawn normal(m, sd) truncated at 0 as in :func:`dampfit.inference.posterior.mass_draws`;
    added-mass mode: c, k, m₀ directly, p = c/(2m₀), ω_n² = k/m₀ for the bare system), the
@@ -53,7 +53,9 @@ from typing import Any, Sequence
 import numpy as np
 
 from dampfit._files import atomic_write, atomic_write_text
+from dampfit import physics
 from dampfit._json import jsonable
+from dampfit._meta import __version__
 from dampfit.errors import DampfitError, InputError
 from dampfit.result.views import ResultViews
 
@@ -158,6 +160,19 @@ class CampaignAnalysis(ResultViews):
     date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
     _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
 
+    @classmethod
+    def from_loaded(cls, loaded) -> "CampaignAnalysis":
+        """The campaign of a result folder read by :func:`dampfit.result.folder.open_result`
+        (what :func:`dampfit.load` returns for it): its summary as stored, the joint posterior
+        read from posterior.nc on first use; the per-test analyses are not stored (``tests``
+        is empty)."""
+        d = loaded.summary
+        diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
+        warns = [w for items in (diag.get("warnings"), d.get("warnings"))
+                 if isinstance(items, list) for w in items if isinstance(w, str)]
+        return cls(tests=[], sampling=None, warnings=list(dict.fromkeys(warns)),
+                   folder=loaded.folder, _loaded=loaded)
+
     @property
     def model(self) -> str:
         """"hierarchical" (known or no mass) or "added-mass"."""
@@ -175,20 +190,20 @@ class CampaignAnalysis(ResultViews):
 
     def signals(self) -> list[dict[str, np.ndarray]]:
         """Each test's measured and modelled signals on its analysis window, in the order of
-        ``tests``: the arrays and scalars of :meth:`dampfit.pipeline.Analysis.signals` (``t``
+        ``tests``: the arrays and scalars of :meth:`dampfit.analysis.Analysis.signals` (``t``
         [s], ``accel``, ``accel_model`` [m/s²], ``displacement``, ``displacement_model`` [m]
         — the measured displacement is NaN: a campaign keeps no envelope-pipeline baseline —
         ``fs`` [Hz], ``p`` [1/s], ``omega_d`` [rad/s], ``t0`` [s]) from the test's own least
         squares. A campaign loaded from its folder (:func:`dampfit.load`) has none: the folder
         stores no signals.npz; that raises a :class:`~dampfit.errors.DampfitError`."""
         if self._loaded is not None:
-            from dampfit.fem.sanitize import shown
+            from dampfit.errors import shown
 
             raise DampfitError(f"signals() is not available: this campaign was loaded from "
                                f"{shown(self.folder)}, which stores summary.json and "
                                "posterior.nc only (no per-test signals); run "
                                "dampfit.analyze([rec1, rec2, …]) on the recordings for them")
-        from dampfit.pipeline import window_signals
+        from dampfit.stages import window_signals
 
         return [window_signals(t.prepared, t.fit_data, t.least_squares) for t in self.tests]
 
@@ -210,6 +225,52 @@ class CampaignAnalysis(ResultViews):
         """Write the joint posterior (arviz InferenceData) to a NetCDF file."""
         return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
                             suffix=".nc")
+
+    # --------------------------------------------------------------- renderings
+    def report(self) -> str:
+        """The text table the CLI prints (:func:`dampfit.output.campaign.text`)."""
+        from dampfit.output import campaign
+
+        return campaign.text(self.summary())
+
+    def _repr_html_(self) -> str:
+        """A short HTML table of the population's headline numbers, for notebooks."""
+        from dampfit.output import text
+
+        return text.html_table(self.summary())
+
+    def save(self, folder, *, force: bool = False, figures: bool = True,
+             report: bool = False) -> Path:
+        """Write the campaign folder ``dampfit analyze FILE FILE…`` writes (summary.json,
+        posterior.nc, ``forest.png`` and, of the added-mass design, ``added_mass.png``; with
+        ``report`` report.html/.md) and return its path — written whole as
+        :meth:`dampfit.analysis.Analysis.save` does. ``folder`` may be an open
+        :class:`dampfit._files.ResultFolder` (the CLI's): the files go into its staging folder
+        and the caller publishes it."""
+        from dampfit._files import ResultFolder, result_folder
+
+        if isinstance(folder, ResultFolder):
+            self._write(folder, figures)
+            return folder.stage
+        inputs = [t.recording.path for t in self.tests if t.recording.path]
+        with result_folder(folder, "campaign", force, inputs=inputs) as target:
+            self._write(target, figures)
+            out = target.publish()
+        if report:
+            from dampfit.output.report import write_report
+
+            write_report(out)
+        return out
+
+    def _write(self, folder, figures: bool) -> None:
+        stage = folder.stage
+        with folder.writing():
+            self.to_json(stage / "summary.json")
+            self.to_netcdf(stage / "posterior.nc")
+            if figures:
+                from dampfit.output.campaign import save_figures
+
+                save_figures(self.summary(), stage)
 
 
 # ----------------------------------------------------------------------------- the job
@@ -310,16 +371,16 @@ def _fit_test(i: int, rec, axis, window, band, mass, dm) -> TestFit:
 def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
     import jax
 
-    from dampfit import pipeline
+    from dampfit import stages
     from dampfit.campaign import model
-    from dampfit.signal import prepare as preprocess
+    from dampfit.signal import prepare
 
     warns: list[str] = []
-    pipeline._refuse_impossible_time(rec)
-    prep = preprocess.prepare(rec, axis=axis, window=window, band=band)
+    stages.refuse_impossible_time(rec)
+    prep = prepare.prepare(rec, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
-    warns.extend(pipeline.unit_plausibility(rec, prep, mass))
-    st = pipeline.fit_stages(prep, mass)
+    warns.extend(stages.unit_plausibility(rec, prep, mass))
+    st = stages.fit_stages(prep, mass)
     warns.extend(st.warnings)
     fd, ls, nm = st.fit_data, st.least_squares, st.noise
     temper = 1.0 / nm.psd_ratio
@@ -339,7 +400,7 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
     from dampfit.signal.window import release_time
 
     skipped = max(fd.t0 - release_time(prep.grid, prep.envelope, prep.window[0], prep.f0), 0.0)
-    amp = float(pipeline.ls_quantities(ls)["u0"] * np.exp(ls.p * skipped))
+    amp = float(stages.ls_quantities(ls)["u0"] * np.exp(ls.p * skipped))
     verdict = _damping_verdict(prep, fd, ls, nm, mass, warns)
     return TestFit(index=i, recording=rec, prepared=prep, fit_data=fd, least_squares=ls,
                    noise=nm, temper=temper, theta_hat=theta, cov_theta=cov, ll_max=ll_max,
@@ -657,18 +718,18 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
         if m is not None:
             post["mass"] = m
         test_mass = None if m is None else np.broadcast_to(m[:, None], (n_total, n_tests))
-    q = _from_rates(p, wn, m)
+    q = physics.quantities(p, mass=m, omega_n=wn)
     for name in ("c", "k", "zeta", "f_n", "p", "c_crit"):
         if name in q:
             post[name] = q[name]
     z = rng.standard_normal((n_total, 2))
     p_new, wn_new = p * np.exp(tau_p * z[:, 0]), wn * np.exp(tau_w * z[:, 1])
-    qn = _from_rates(p_new, wn_new, m)
+    qn = physics.quantities(p_new, mass=m, omega_n=wn_new)
     for name in ("c", "k", "zeta", "f_n", "p"):
         if name in qn:
             post[f"predictive_{name}"] = qn[name]
     p_i, wn_i = np.exp(psi[..., 0]), np.exp(psi[..., 1])
-    qi = _from_rates(p_i, wn_i, test_mass)
+    qi = physics.quantities(p_i, mass=test_mass, omega_n=wn_i)
     for name in ("c", "k", "zeta", "f_n", "p"):
         if name in qi:
             post[f"{name}_test"] = qi[name]
@@ -690,20 +751,6 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
                    "per_test_likelihood": "exact tempered profile (importance-resampled)"},
         )
 
-
-def _from_rates(p, omega_n, mass) -> dict[str, np.ndarray]:
-    """Reported quantities from the decay rate p [1/s], ω_n [rad/s] and the mass [kg] (None:
-    the mass-free ones only): c = 2·m·p [N·s/m], k = m·ω_n² [N/m], c_crit = 2·m·ω_n
-    [N·s/m], ζ = p/ω_n, f_n = ω_n/2π [Hz] (:mod:`dampfit.physics`; no ω_d needed, so a draw
-    with p ≥ ω_n stays finite)."""
-    from dampfit import physics
-
-    out = {"p": np.asarray(p, float), "zeta": p / omega_n, "f_n": omega_n / (2 * np.pi)}
-    if mass is not None:
-        out["c"] = physics.damping_coefficient(mass, p)
-        out["k"] = physics.stiffness(mass, omega_n)
-        out["c_crit"] = 2.0 * mass * omega_n
-    return out
 
 
 def _diagnostics(idata) -> dict[str, dict[str, float]]:
@@ -730,7 +777,6 @@ def _p_shared(a: CampaignAnalysis) -> float:
 
 
 def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
-    from dampfit import pipeline
     from dampfit.campaign import checks, model
     from dampfit.damping.quantities import summarise
     from dampfit.result.schema import SCHEMA_VERSION
@@ -788,7 +834,7 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
         z = rng.multivariate_normal(t.psi_hat, t.sigma_psi, OWN_DRAWS)
         p, wn = np.exp(z[:, 0]), np.exp(z[:, 1])
         mass_i = (m0_draws + t.added_mass_kg) if added else m_own
-        q = _from_rates(p, wn, mass_i)
+        q = physics.quantities(p, mass=mass_i, omega_n=wn)
         own = {name: (q3(q[name]) if name in q else None) for name in ("c", "zeta", "f_n", "p")}
         pooled = {}
         for name in ("c", "zeta", "f_n", "p"):
@@ -870,7 +916,7 @@ def _summarise(a: CampaignAnalysis) -> dict[str, Any]:
     return jsonable({
         "schema_version": SCHEMA_VERSION,
         "kind": "campaign",
-        "dampfit_version": pipeline._version(),
+        "dampfit_version": __version__,
         "design": {"n_tests": n, "model": a.model,
                    "mass": ({"value": a.mass, "sd": a.mass_sd, "unit": "kg"}
                             if a.mass is not None else None),

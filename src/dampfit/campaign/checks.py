@@ -57,7 +57,7 @@ from scipy import optimize, stats
 
 from dampfit import physics
 from dampfit.errors import InputError
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 
 __all__ = ["MAX_FREQUENCY_RATIO", "MIN_FREQUENCY_CHANGE_SD", "ALPHA", "check_design",
            "duplicate_recordings",

@@ -84,7 +84,7 @@ def get_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="dampfit", description=(
         "Damping coefficient c [N s/m], stiffness k [N/m] and initial amplitude u0 [m] "
         "from a free-decay accelerometer recording, with a Bayesian posterior."))
-    from dampfit import __version__
+    from dampfit._meta import __version__
 
     p.add_argument("--version", action="version", version=f"dampfit {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

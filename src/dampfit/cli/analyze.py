@@ -32,8 +32,7 @@ from pathlib import Path
 from dampfit.cli.options import MAX_MASS, _integer, _real, seed_arg
 from dampfit.cli.options import add_analysis_options as _analysis_options
 from dampfit.cli.options import check_analysis_options as _check_analysis_options
-from dampfit.cli.staging import (old_demo_folder, result_folder, write_campaign_outputs,
-                                  write_outputs, write_report)
+from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
 __all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into", "campaign_command",
@@ -157,7 +156,7 @@ def command(args) -> int:
             an = analyse_into(args, folder, figs, path)
             folder.publish()
             if args.report:
-                write_report(out)
+                _write_report(out)
     _print_result(an, out, args.json)
     return 0
 
@@ -193,7 +192,7 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
                  max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
                  on_stage=figs.send)
     gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
-    write_outputs(an, folder, not args.no_figures, figs)
+    an.save(folder, figures=not args.no_figures, figure_process=figs)
     return an
 
 
@@ -271,12 +270,19 @@ def campaign_command(args, files: list[str]) -> int:
                               band=tuple(args.band) if args.band else None, seed=args.seed,
                               progress=not args.quiet and sys.stderr.isatty(),
                               max_steps=args.max_steps, **kw)
-        write_campaign_outputs(an, folder, not args.no_figures)
+        an.save(folder, figures=not args.no_figures)
         folder.publish()
         if args.report:
-            write_report(out)
+            _write_report(out)
     _print_campaign(an, out, args.json)
     return 0
+
+
+def _write_report(out: Path) -> None:
+    """report.html + report.md in the published folder (the report names the folder's commands)."""
+    from dampfit.output.report import write_report
+
+    write_report(out)
 
 
 def demo(args) -> int:
@@ -307,10 +313,10 @@ def demo(args) -> int:
         an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
                      progress=not args.quiet and sys.stderr.isatty(),
                      on_stage=figs.send)
-        write_outputs(an, folder, not args.no_figures, figs)
+        an.save(folder, figures=not args.no_figures, figure_process=figs)
         folder.publish()
         if args.report:
-            write_report(out)
+            _write_report(out)
     _print_result(an, out, False)
     c = an.summary()["parameters"]["c"]
     inside = c["q05"] <= truth["c"] <= c["q95"]

@@ -2,7 +2,7 @@
 
 A converter raises :class:`argparse.ArgumentTypeError` with the reason (``must be WHAT, got
 TEXT``); the parser (:class:`Parser`) turns it into one :class:`~dampfit.errors.InputError`
-line, exit code 2. The limits are the library's (:data:`dampfit.simulate.MAX_MASS`,
+line, exit code 2. The limits are the library's (:data:`dampfit.physics.MAX_MASS`,
 :data:`dampfit.simulate.MAX_SIM_SAMPLES`), so the CLI and the library refuse the same values.
 """
 
@@ -12,7 +12,7 @@ import argparse
 import math
 
 from dampfit.errors import InputError
-from dampfit.simulate import MAX_MASS as MAX_MASS
+from dampfit.physics import MAX_MASS as MAX_MASS
 from dampfit.simulate import MAX_SIM_SAMPLES as MAX_SIM_SAMPLES
 
 __all__ = ["MAX_MASS", "MAX_SIM_SAMPLES", "MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",

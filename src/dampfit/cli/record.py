@@ -147,7 +147,7 @@ def command(args) -> int:
 def _analyse(args, folder, out: Path, notes, names):
     """Step 2: the analysis into a new staging folder beside copies of the recording files."""
     from dampfit.cli.analyze import _figure_process, analyse_into
-    from dampfit.cli.staging import write_report
+    from dampfit.output.report import write_report
 
     stage = folder.restage()
     with folder.writing():

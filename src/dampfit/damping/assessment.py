@@ -295,7 +295,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
 
 
 def from_analysis(an, **kw) -> DampingAssessment:
-    """:func:`assess` on the stages of a :class:`dampfit.pipeline.Analysis` (same mass, seed)."""
+    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
     kw.setdefault("seed", an.seed)
     return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
 

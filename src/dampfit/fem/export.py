@@ -37,7 +37,7 @@ from dampfit.errors import InputError
 from dampfit.fem import sdof as sdof_mod
 from dampfit.fem import timestep
 from dampfit.fem import units as units_mod
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 from dampfit.result.schema import folder_of
 
 __all__ = ["FORMATS", "build", "export", "output_interval"]

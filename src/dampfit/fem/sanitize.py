@@ -15,8 +15,7 @@ card. Every such value goes through the function of its format:
   or ``$``);
 * :func:`calculix_comment` — ``**`` comment lines (≤ 80 columns, CalculiX reads at most 132)
   of a CalculiX deck;
-* :func:`shown` — a value inside a one-line error message (escapes newlines and other
-  non-printable characters, shortens very long text).
+(A value inside a one-line error message goes through :func:`dampfit.errors.shown`.)
 
 The deck sanitisers reduce text to printable ASCII (letters with accents lose the accent,
 ``Dämpfer`` → ``Dampfer``; other characters become ``?``), turn every line break and control
@@ -29,7 +28,7 @@ import textwrap
 import unicodedata
 
 __all__ = ["ascii_line", "calculix_comment", "lsdyna_comment", "lsdyna_title", "python_comment",
-           "python_literal", "shown"]
+           "python_literal"]
 
 #: Longest text kept from one value in a comment [characters].
 COMMENT_LIMIT = 500
@@ -92,11 +91,3 @@ def calculix_comment(text: object, limit: int | None = COMMENT_LIMIT) -> list[st
     """``** …`` comment lines of at most 80 columns holding ``text`` (see :func:`ascii_line`)."""
     return _comment_lines("** ", text, 80, limit)
 
-
-def shown(text: object, limit: int = 200) -> str:
-    """``text`` for a one-line message: unchanged if printable, else with ``repr``-style
-    escapes (``\\n``, ``\\x1b``…); shortened beyond ``limit`` characters."""
-    text = str(text)
-    if not text.isprintable():
-        text = repr(text)[1:-1]
-    return _shorten(text, limit)

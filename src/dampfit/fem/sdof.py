@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from dampfit.errors import InputError
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 from dampfit.fem.units import STANDARD_GRAVITY
 from dampfit.result.schema import MAX_MAGNITUDE as MAX_MAGNITUDE
 from dampfit.result.schema import MAX_SUMMARY_BYTES as MAX_SUMMARY_BYTES

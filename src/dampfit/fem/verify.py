@@ -45,7 +45,7 @@ from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response as compare
 from dampfit.fem import sdof as sdof_mod
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 from dampfit.result.schema import is_campaign
 from dampfit.result.folder import SIGNAL_KEYS as SIGNAL_KEYS
 from dampfit.result.folder import load_signals as load_signals

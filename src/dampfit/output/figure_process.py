@@ -17,7 +17,7 @@ core — a second Python process draws what is ready on the other core:
    folder), :meth:`FigureProcess.send` passes each stage's fields as they appear
    (``dampfit.analyze(..., on_stage=…)``), and the process draws every figure whose fields
    have all arrived;
-3. :meth:`FigureProcess.finish` passes the finished :class:`~dampfit.pipeline.Analysis`,
+3. :meth:`FigureProcess.finish` passes the finished :class:`~dampfit.analysis.Analysis`,
    waits for the last figures and returns the files written.
 
 Messages are pickles, each preceded by its length (8 bytes, big-endian), written to the
@@ -165,7 +165,7 @@ class FigureProcess:
         self._write({"outdir": str(outdir), "dpi": self._dpi})
 
     def send(self, stage: str, fields: dict[str, Any]) -> None:
-        """Fields of :class:`~dampfit.pipeline.Analysis` that the stage ``stage`` produced
+        """Fields of :class:`~dampfit.analysis.Analysis` that the stage ``stage`` produced
         (the ``on_stage`` callback of :func:`dampfit.analyze`)."""
         self._write({"fields": dict(fields)})
 
@@ -228,7 +228,7 @@ def main() -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    from dampfit import pipeline  # noqa: F401 - unpickling an analysis needs it
+    from dampfit import analysis  # noqa: F401 - unpickling an analysis needs it
     from dampfit.inference import posterior  # noqa: F401
     from dampfit.output import figures
 
@@ -249,7 +249,7 @@ def main() -> int:
             if outdir is None:
                 continue
             if end:
-                an = pipeline.Analysis(**fields)
+                an = analysis.Analysis(**fields)
                 written = figures.save_figures(an, outdir, dpi=dpi, skip=tuple(done))
                 names = sorted({n for n, p in done.items() if p is not None} | set(written))
                 sys.stdout.write(json.dumps({"ok": True, "written": names}) + "\n")
@@ -258,7 +258,7 @@ def main() -> int:
             ready = [n for n in figures.FIGURES
                      if n not in done and figures.NEEDS[n] <= fields.keys()]
             if ready:
-                an = pipeline.Analysis(**{**_EMPTY, **fields})
+                an = analysis.Analysis(**{**_EMPTY, **fields})
                 done.update(figures.render(an, ready, outdir, dpi))
     except Exception as exc:  # noqa: BLE001 - reported; the parent draws the figures itself
         text = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]

@@ -1,4 +1,4 @@
-"""Figures of an :class:`~dampfit.pipeline.Analysis` (PNG files for the report).
+"""Figures of an :class:`~dampfit.analysis.Analysis` (PNG files for the report).
 
 Every figure has its own function returning a :class:`matplotlib.figure.Figure` built with
 the object API (no pyplot, no global state), so a report can reuse it; :func:`save_figures`
@@ -48,7 +48,7 @@ from dampfit._files import atomic_write
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-    from dampfit.pipeline import Analysis
+    from dampfit.analysis import Analysis
 
 __all__ = [
     "save_figures",
@@ -303,9 +303,9 @@ def _fmt_interval(q05: float, q50: float, q95: float) -> str:
 
 
 def _ls_values(an: "Analysis") -> dict[str, float]:
-    """Least-squares physical values (:func:`dampfit.pipeline.ls_quantities`, i.e.
+    """Least-squares physical values (:func:`dampfit.stages.ls_quantities`, i.e.
     :func:`dampfit.physics.quantities`; c, k and the mass only with a mass)."""
-    from dampfit.pipeline import ls_quantities
+    from dampfit.stages import ls_quantities
 
     out = {name: float(v) for name, v in ls_quantities(an.least_squares, an.mass).items()}
     if an.mass is not None:
@@ -315,8 +315,8 @@ def _ls_values(an: "Analysis") -> dict[str, float]:
 
 def _model_curve(an: "Analysis", n: int) -> tuple[np.ndarray, np.ndarray]:
     """The least-squares model on a fine grid over the fitted span: (t [s], a [m/s²])
-    (:func:`dampfit.pipeline.fitted_curve`)."""
-    from dampfit.pipeline import fitted_curve
+    (:func:`dampfit.stages.fitted_curve`)."""
+    from dampfit.stages import fitted_curve
 
     return fitted_curve(an.fit_data, an.least_squares, n)
 
@@ -1012,7 +1012,7 @@ FIGURES: dict[str, Callable[["Analysis"], Any]] = {
     "trace": trace_figure,
 }
 
-#: The :class:`~dampfit.pipeline.Analysis` fields each figure reads (``amplitude``: the one
+#: The :class:`~dampfit.analysis.Analysis` fields each figure reads (``amplitude``: the one
 #: :func:`save_figures` adds): a figure can be drawn as soon as its stage has produced them
 #: (:mod:`dampfit.output.figure_process` draws the early ones while the posterior is sampled).
 NEEDS: dict[str, frozenset[str]] = {

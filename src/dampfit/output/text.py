@@ -14,12 +14,13 @@ printing ``± 0``.
 
 from __future__ import annotations
 
+import html
 import math
 from typing import Any
 
 from dampfit.physics import UNITS
 
-__all__ = ["text", "interval"]
+__all__ = ["headline", "html_table", "interval", "text"]
 
 #: Row label of each posterior quantity: name and unit (:data:`dampfit.physics.UNITS`).
 _LABELS = {name: f"{name:6s} [{UNITS[name]}]"
@@ -278,3 +279,54 @@ def text(s: dict[str, Any]) -> str:
         lines.append("")
         lines += [f"  WARNING: {w}" for w in d["warnings"]]
     return "\n".join(lines)
+
+
+def _rows(s: dict[str, Any]) -> list[tuple[str, str, str, str]]:
+    """(quantity, median, 90 % interval, unit) of the headline quantities present in ``s``."""
+    out = []
+    params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
+    for name in ("c", "k", "u0", "zeta", "f_n"):
+        q = params.get(name)
+        if not isinstance(q, dict):
+            continue
+        med, lo, hi = interval(q.get("q50"), q.get("q05"), q.get("q95"))
+        out.append((name, med, f"[{lo}, {hi}]", UNITS[name]))
+    return out
+
+
+def _verdict(s: dict[str, Any]) -> str | None:
+    mc = s.get("model_checks")
+    v = mc.get("verdict") if isinstance(mc, dict) else None
+    return v if isinstance(v, str) else None
+
+
+def headline(s: dict[str, Any]) -> str:
+    """One line: c, k and ζ with their 90 % intervals, the verdict and convergence."""
+    parts = [f"{name} = {med} {iv} {unit}".rstrip() for name, med, iv, unit in _rows(s)
+             if name in ("c", "k", "zeta")]
+    v = _verdict(s)
+    if v:
+        parts.append(f"verdict {v}")
+    d = s.get("diagnostics")
+    if isinstance(d, dict) and d.get("converged") is False:
+        parts.append("NOT converged")
+    return ", ".join(parts) or "no parameters"
+
+
+def html_table(s: dict[str, Any]) -> str:
+    """A short HTML table of the headline quantities (median, 90 % interval, unit), the verdict
+    and whether the result converged — what a notebook shows for an analysis. Every value is
+    escaped (a summary.json may have been edited)."""
+    e = html.escape
+    rows = "".join(f"<tr><td>{e(n)}</td><td>{e(m)}</td><td>{e(i)}</td><td>{e(u)}</td></tr>"
+                   for n, m, i, u in _rows(s))
+    foot = []
+    v = _verdict(s)
+    if v:
+        foot.append(f"damping law verdict: <b>{e(v)}</b>")
+    d = s.get("diagnostics")
+    if isinstance(d, dict) and isinstance(d.get("converged"), bool):
+        foot.append("converged" if d["converged"] else "<b>NOT converged</b>")
+    return ("<table><thead><tr><th>quantity</th><th>median</th><th>90 % interval</th>"
+            f"<th>unit</th></tr></thead><tbody>{rows}</tbody></table>"
+            + (f"<p>{'; '.join(foot)}</p>" if foot else ""))

@@ -308,7 +308,7 @@ class _Session:
 def _info(client, config, phone, sensor, t, start_time, started_wall, clock, stopped_by,
           detector, dropped, final, duration) -> dict:
     """The content of recording.json (JSON-safe; strings from the phone cleaned)."""
-    from dampfit import __version__
+    from dampfit._meta import __version__
 
     rate = float(1.0 / np.median(np.diff(t))) if t.size > 1 else None
     if start_time is None:  # no START event: this computer's clock at cmd=start

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from dampfit.errors import InputError
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 
 __all__ = ["MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "Unusable",
            "open_regular", "read_optional", "read_regular"]

@@ -1,10 +1,11 @@
-"""A result folder read back: :func:`load` returns the :class:`dampfit.pipeline.Analysis` the
-folder was written from, with what the folder holds — or, for a campaign folder (summary.json
-with ``"kind": "campaign"``, several recordings of one damper), the
-:class:`dampfit.campaign.analysis.CampaignAnalysis` (its stored summary; the joint posterior
-from posterior.nc on first use; no signals.npz, no per-test analyses).
+"""A result folder read back as plain data: :func:`open_result` gives a :class:`Loaded`, from
+which :func:`dampfit.load` builds the :class:`dampfit.analysis.Analysis` the folder was written
+from — or, for a campaign folder (summary.json with ``"kind": "campaign"``, several recordings
+of one damper), the :class:`dampfit.campaign.result.CampaignAnalysis` (its stored summary; the
+joint posterior from posterior.nc on first use; no per-test analyses). Nothing here imports
+those classes: this module sits below them.
 
-What ``dampfit analyze`` / ``dampfit demo`` write (:mod:`dampfit.cli.staging`) and how it is read:
+What :meth:`dampfit.analysis.Analysis.save` writes and how it is read:
 
 * ``summary.json`` — :func:`dampfit.result.schema.read_summary` (the one validating reader),
   eagerly: ``Analysis.summary()`` returns it as written, nothing is recomputed;
@@ -32,12 +33,13 @@ from pathlib import Path
 from typing import Any
 
 from dampfit.errors import DampfitError, InputError
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 from dampfit.result.files import Unusable, open_regular
 from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
 
-__all__ = ["MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES", "MAX_SIGNALS_BYTES", "SIGNAL_KEYS",
-           "load", "load_signals", "read_posterior"]
+__all__ = ["LIVE_FIELDS", "Loaded", "MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES",
+           "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "Unavailable", "load_signals", "open_result",
+           "read_posterior", "real"]
 
 #: Arrays and scalars ``signals.npz`` must hold.
 SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
@@ -50,66 +52,35 @@ MAX_SIGNALS_BYTES = 2 * 2**30
 MAX_DECLARED_RATIO = 1100
 #: Declared bytes allowed beyond that ratio (HDF5 headers of a tiny file) [bytes].
 DECLARED_SLACK_BYTES = 64 * 2**20
-#: Fields of :class:`dampfit.pipeline.Analysis` that exist only in a live analysis.
+#: Fields of :class:`dampfit.analysis.Analysis` that exist only in a live analysis.
 LIVE_FIELDS = ("recording", "prepared", "fit_data", "least_squares", "noise", "sampling",
                "baselines", "damping")
 
 
-def load(folder: str | os.PathLike):
-    """The :class:`~dampfit.pipeline.Analysis` of result ``folder`` (see the module).
-
-    ``summary()`` is the folder's summary.json; ``posterior`` and ``signals()`` are read when
-    first used; ``folder`` is the folder. A campaign folder (``"kind": "campaign"``) gives a
-    :class:`~dampfit.campaign.analysis.CampaignAnalysis` (:func:`_load_campaign`).
+def open_result(folder: str | os.PathLike) -> "Loaded":
+    """What result ``folder`` holds, read lazily (see the module): its checked summary.json
+    now, posterior.nc and signals.npz on first use. :func:`dampfit.load` turns it into the
+    :class:`~dampfit.analysis.Analysis` (or, for a campaign folder, the
+    :class:`~dampfit.campaign.result.CampaignAnalysis`) the folder was written from.
     :class:`~dampfit.errors.InputError` (one line) if ``folder`` is not a usable result folder.
     """
-    s = read_summary(folder)
-    d = s.data
-    loaded = _Loaded(s)
-    if is_campaign(d):
-        return _load_campaign(s, loaded)
-    from dampfit.pipeline import Analysis
-
-    mass = d.get("mass") if isinstance(d.get("mass"), dict) else {}
-    prov = d.get("provenance") if isinstance(d.get("provenance"), dict) else {}
-    diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
-    warns = diag.get("warnings")
-    live = {name: _Unavailable(name, s.folder) for name in LIVE_FIELDS}
-    return Analysis(
-        **live, crlb=d.get("crlb") if isinstance(d.get("crlb"), dict) else None,
-        mass=mass.get("value") if _real(mass.get("value")) else None,
-        mass_sd=mass.get("sd") if _real(mass.get("sd")) else 0.0,
-        seed=prov.get("seed") if isinstance(prov.get("seed"), int) else None,
-        options=prov.get("options") if isinstance(prov.get("options"), dict) else {},
-        warnings=[w for w in warns if isinstance(w, str)] if isinstance(warns, list) else [],
-        date=prov.get("date") if isinstance(prov.get("date"), str) else None,
-        folder=s.folder, _loaded=loaded)
+    return Loaded(read_summary(folder))
 
 
-def _load_campaign(s: Summary, loaded: "_Loaded"):
-    """The :class:`~dampfit.campaign.analysis.CampaignAnalysis` of a campaign folder: its
-    summary as stored, the joint posterior read from posterior.nc on first use; the per-test
-    single-recording analyses are not stored (``tests`` is empty)."""
-    from dampfit.campaign.analysis import CampaignAnalysis
-
-    d = s.data
-    diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
-    warns = [w for items in (diag.get("warnings"), d.get("warnings")) if isinstance(items, list)
-             for w in items if isinstance(w, str)]
-    return CampaignAnalysis(tests=[], sampling=None, warnings=list(dict.fromkeys(warns)),
-                            folder=s.folder, _loaded=loaded)
-
-
-def _real(x: Any) -> bool:
+def real(x: Any) -> bool:
+    """``x`` is a finite int or float (not a bool)."""
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
-class _Loaded:
-    """What a loaded analysis holds: the summary, and posterior and signals read on first use."""
+class Loaded:
+    """What a result folder holds: the summary (checked), and posterior and signals read on
+    first use; ``folder`` the folder, ``is_campaign`` whether it holds a campaign."""
 
     def __init__(self, summary: Summary):
         self.source = summary
         self.summary = summary.data
+        self.folder = summary.folder
+        self.is_campaign = is_campaign(summary.data)
         self._posterior = None
         self._signals: dict[str, Any] | None = None
 
@@ -130,7 +101,12 @@ class _Loaded:
         return isinstance(diag, dict) and diag.get("converged") is True
 
     def live_only(self, what: str) -> DampfitError:
+        """The error for ``what``, a live-only object, of this loaded result."""
         return _live_error(what, self.source.folder)
+
+    def unavailable(self, names=LIVE_FIELDS) -> dict[str, "Unavailable"]:
+        """``{name: Unavailable}`` for the live-only fields ``names`` of this loaded result."""
+        return {name: Unavailable(name, self.source.folder) for name in names}
 
 
 def _live_error(what: str, folder: Path) -> DampfitError:
@@ -139,7 +115,7 @@ def _live_error(what: str, folder: Path) -> DampfitError:
                         "dampfit.analyze() on the recording for the live pipeline objects")
 
 
-class _Unavailable:
+class Unavailable:
     """Stands for a live pipeline object of a loaded analysis: any use of it raises
     :class:`~dampfit.errors.DampfitError` naming the result folder."""
 

@@ -42,7 +42,7 @@ from typing import Any
 
 from dampfit._files import MARKER
 from dampfit.errors import InputError
-from dampfit.fem.sanitize import shown
+from dampfit.errors import shown
 from dampfit.result import files
 
 __all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MAX_WARNINGS_SHOWN",
@@ -50,7 +50,7 @@ __all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MAX_WARNINGS_SHOW
            "not_a_result", "number", "parse_json", "read_regular", "read_summary",
            "unique_warnings"]
 
-#: Version of the summary.json layout :meth:`dampfit.pipeline.Analysis.summary` writes (its
+#: Version of the summary.json layout :meth:`dampfit.analysis.Analysis.summary` writes (its
 #: ``schema_version``). 0: written before the field existed (same layout as 1).
 SCHEMA_VERSION = 1
 #: Largest summary.json read [bytes]; a real one is a few kB.

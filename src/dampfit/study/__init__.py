@@ -1,7 +1,7 @@
 """A resumable simulation study comparing damping estimators (``dampfit study CONFIG.toml``).
 
 Every scenario of a TOML grid (:mod:`dampfit.study.config`) is simulated ``replicates`` times;
-each recording goes through every estimator of :mod:`dampfit.estimators.registry` and is compared with
+each recording goes through every estimator of :mod:`dampfit.study.registry` and is compared with
 the truth and with the Cramér–Rao lower bound (:mod:`dampfit.inference.crlb`). Runs execute on Dask
 ``distributed`` (:mod:`dampfit.study.runner`: a local cluster, or ``scheduler=ADDRESS``),
 are stored as they finish (:mod:`dampfit.study.store`) so an interrupted study resumes, and
@@ -30,13 +30,13 @@ __all__ = ["load", "run_study"]
 
 def load(path, available=None):
     """Read and validate a study file (see :func:`dampfit.study.config.load`); estimator names
-    are checked against ``available`` (default: :data:`dampfit.estimators.registry.ESTIMATORS`)."""
+    are checked against ``available`` (default: :data:`dampfit.study.registry.ESTIMATORS`)."""
     from dampfit.study.config import load as _load
 
     if available is None:
-        from dampfit.estimators import registry as estimators
+        from dampfit.study import registry
 
-        available = list(estimators.ESTIMATORS)
+        available = list(registry.ESTIMATORS)
     return _load(path, available)
 
 

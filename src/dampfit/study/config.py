@@ -6,7 +6,7 @@ A study file has three tables (and an optional fourth, ``[campaign]``, below)::
     name = "ranking"            # title of the summary (optional; default: the file's stem)
     replicates = 40             # simulated recordings per scenario (≥ 1)
     seed = 0                    # study seed (≥ 0)
-    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.estimators.registry
+    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.study.registry
     mass = 5.3                  # [kg]; known exactly to the estimators. Omit it to study ζ (no c)
     max_replicates = { bayes = 5 }   # optional: an expensive estimator on the first 5 only
 

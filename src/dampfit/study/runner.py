@@ -217,7 +217,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
     unreachable scheduler or unusable workers, and :class:`StudyIncomplete` if some runs did
     not finish (the finished ones are kept: run again to complete the study).
     """
-    from dampfit import __version__
+    from dampfit._meta import __version__
 
     stdout = stdout or sys.stdout
     stderr = stderr or sys.stderr

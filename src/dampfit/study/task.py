@@ -4,7 +4,7 @@ r"""One study run, executed on a Dask worker: simulate, estimate, bound. Pure: n
 :func:`run_campaign_task`, scored by :mod:`dampfit.study.campaign`.)
 
 :func:`run_task` simulates one recording of a scenario, runs every estimator of the task on
-that same recording (:func:`dampfit.estimators.registry.run`, which never raises for a numerical
+that same recording (:func:`dampfit.study.registry.run`, which never raises for a numerical
 failure) and computes the Cramér–Rao lower bound of the design (:func:`dampfit.inference.crlb.bound`).
 It returns a plain, JSON-safe record; the client stores it.
 
@@ -43,7 +43,7 @@ QUANTITIES = ("p", "f_n", "zeta", "c")
 
 def worker_info() -> dict[str, Any]:
     """Identity of the process this runs in (checked by the client before submitting)."""
-    from dampfit import __version__
+    from dampfit._meta import __version__
 
     return {"dampfit": __version__, "pid": os.getpid(), "host": socket.gethostname()}
 
@@ -146,7 +146,7 @@ def run_task(task: Task) -> dict[str, Any]:
     """
     if task.campaign is not None:
         return run_campaign_task(task)
-    from dampfit.estimators import registry as estimators
+    from dampfit.study import registry
     from dampfit import simulate as sim
 
     started = time.time()
@@ -160,7 +160,7 @@ def run_task(task: Task) -> dict[str, Any]:
         sd, record["crlb_note"] = _bound(rec, truth, mass)
         # the estimators' seed: a second stream of the run's seed sequence
         est_seed = int(np.random.SeedSequence(task.seed).generate_state(1)[0])
-        results = estimators.run(list(task.estimators), rec, mass, seed=est_seed)
+        results = registry.run(list(task.estimators), rec, mass, seed=est_seed)
         record["rows"] = [_row(e, truth, sd, task.mass_known) for e in results]
     except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
         record["rows"] = _failed_rows(task, truth, f"run failed: {type(exc).__name__}: {exc}")

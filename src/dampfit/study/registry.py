@@ -37,7 +37,7 @@ from scipy import signal
 
 from dampfit.estimators import baselines
 from dampfit.signal import filters
-from dampfit.signal import prepare as preprocess
+from dampfit.signal import prepare
 from dampfit.errors import InputError
 from dampfit import physics
 from dampfit.signal.prepare import Prepared
@@ -134,7 +134,7 @@ def _estimator(name: str):
 # --------------------------------------------------------------------------- estimators
 @_estimator("bayes")
 def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
-    """dampfit's viscous posterior (:func:`dampfit.pipeline.viscous_stages`, the stages of
+    """dampfit's viscous posterior (:func:`dampfit.stages.viscous_stages`, the stages of
     :func:`dampfit.pipeline.analyze` after the preparation): medians, 90 % credible intervals.
 
     It runs on ``prep`` itself — the samples every other estimator sees — with
@@ -142,7 +142,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     (``mass_sd`` = 0). No damping-law comparison is made. ``ok`` is False when the least
     squares or the chain did not converge (the numbers are still reported).
     """
-    from dampfit.pipeline import viscous_stages
+    from dampfit.stages import viscous_stages
 
     st = viscous_stages(prep, mass, 0.0, seed=seed, min_ess=BAYES_MIN_ESS)
     post = st.sampling.idata.posterior
@@ -163,35 +163,29 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
 
 @_estimator("least_squares")
 def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
-    """Variable-projection least squares of the decay model (:func:`dampfit.inference.least_squares.least_squares`).
+    """The least squares every analysis reports (summary.json's ``least_squares``): the same
+    stage (:func:`dampfit.stages.fit_stages`: started from the log decrement, noise
+    calibrated with the Whittle factor r floored at its white-noise value) and the same
+    1-σ (:func:`dampfit.stages.ls_summary`); the 90 % intervals are normal in the logs,
+    p·(1 ± 1.645·sd(ln p)) and ζ·(1 ± 1.645·sd(ln ζ)).
 
-    Started from the :func:`hilbert` decay rate. The covariance of θ = (ln p, ln ω_d) is the
-    Jacobian covariance times the noise calibration factor r of :func:`dampfit.inference.noise.estimate`
-    (as in :func:`dampfit.pipeline.analyze`); the 90 % intervals are normal,
-    p·(1 ± 1.645·sd(ln p)) and ζ·(1 ± 1.645·sd(ln ζ)) with
-    sd(ln ζ) = (1 − ζ²)·√(C₁₁ − 2C₁₂ + C₂₂) (ln ζ = ln p − ½·ln(p² + ω_d²)).
+    A window the stage refuses (no free decay) is ``ok=False`` with its reason.
     """
-    from dampfit import pipeline as analysis
-    from dampfit.inference import least_squares as fit
-    from dampfit.inference import noise
+    from dampfit import stages
 
-    fd = preprocess.fit_data(prep)
     try:
-        p0 = _hilbert_fit(prep)[0]
-    except (InputError, ValueError, np.linalg.LinAlgError):
-        p0 = float("nan")  # fit.least_squares falls back to ζ = 1e-3
-    ls = fit.least_squares(fd, p0, prep.f0)
-    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params)
-    cov = ls.cov[:2, :2] * nm.psd_ratio
-    p, wd = ls.p, ls.omega_d
-    zeta = float(physics.quantities(p, wd)["zeta"])
-    sd_lnp = math.sqrt(cov[0, 0]) if np.isfinite(cov[0, 0]) else float("nan")
-    sd_lnz = (1 - zeta**2) * math.sqrt(max(cov[0, 0] - 2 * cov[0, 1] + cov[1, 1], 0.0))
+        st = stages.fit_stages(prep, mass)
+    except InputError as exc:
+        return _failed("least_squares", str(exc))
+    ls = st.least_squares
+    s = stages.ls_summary(ls, mass, st.noise.psd_ratio)
+    p, zeta = s["p"], s["zeta"]
+    nan = float("nan")
+    sd_lnp = s["p_sd"] / p if "p_sd" in s and p > 0 else nan
+    sd_lnz = s["zeta_sd"] / zeta if "zeta_sd" in s and zeta > 0 else nan
     ok, msg = ls.converged, ("" if ls.converged else ls.message)
-    if ok and ls.explained < analysis.MIN_EXPLAINED:
-        ok, msg = False, f"a damped oscillation explains only {100 * ls.explained:.0f} % of the window"
     return _result(
-        "least_squares", p, wd / (2 * np.pi), mass, ok=ok, message=msg,
+        "least_squares", p, ls.omega_d / (2 * np.pi), mass, ok=ok, message=msg,
         p_int=(p * (1 - Z90 * sd_lnp), p * (1 + Z90 * sd_lnp)),
         zeta_int=(zeta * (1 - Z90 * sd_lnz), zeta * (1 + Z90 * sd_lnz)),
     )
@@ -360,7 +354,7 @@ def run(names: Iterable[str] | str, recording: Recording, mass: float | None = N
             f"unknown estimator(s) {', '.join(map(repr, unknown))}; valid: {', '.join(ESTIMATORS)}"
         )
     mass = physics.check_mass(mass)[0]
-    prep = preprocess.prepare(recording)
+    prep = prepare.prepare(recording)
     out = []
     for name in names:
         t0 = time.perf_counter()

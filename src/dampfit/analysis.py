@@ -1,0 +1,361 @@
+"""The result of one recording: :class:`Analysis`, live (from :func:`dampfit.pipeline.analyze`)
+or loaded from its folder (:func:`dampfit.load`).
+
+An :class:`Analysis` renders and saves itself: :meth:`Analysis.summary` is the plain-data
+summary (summary.json, schema in :mod:`dampfit.result.schema`), :meth:`Analysis.report` the
+text table, :meth:`Analysis._repr_html_` a short HTML table for notebooks,
+:meth:`Analysis.save` the whole result folder ``dampfit analyze`` writes (summary.json,
+posterior.nc, signals.npz, figures, optionally report.html/.md).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import os
+import platform
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dampfit import physics
+from dampfit import stages
+from dampfit._json import jsonable
+from dampfit._files import atomic_write, atomic_write_text
+from dampfit._meta import __version__, versions
+from dampfit.damping.quantities import summarise
+from dampfit.estimators import baselines
+from dampfit.inference import least_squares
+from dampfit.inference import noise
+from dampfit.inference import posterior
+from dampfit.io.recording import Recording
+from dampfit.result.folder import real
+from dampfit.result.views import ResultViews
+from dampfit.signal import prepare
+
+__all__ = ["Analysis", "PARAMETER_UNITS"]
+
+#: Unit of every reported parameter.
+PARAMETER_UNITS = {name: physics.UNITS[name] for name in (
+    "c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta", "Q", "c_crit")}
+
+
+@dataclass
+class Analysis(ResultViews):
+    """Everything :func:`analyze` computed. ``summary()`` is the plain-data view of it.
+
+    The same class is what :func:`dampfit.load` returns for a result folder: then
+    :meth:`summary` is the folder's summary.json as written (not recomputed), ``posterior`` is
+    read from posterior.nc and :meth:`signals` from signals.npz when first used, ``folder`` is
+    the folder, and the live pipeline objects (``recording``, ``prepared``, ``fit_data``,
+    ``least_squares``, ``noise``, ``sampling``, ``baselines``, ``damping``) raise a
+    :class:`~dampfit.errors.DampfitError` saying the result was loaded from that folder.
+    """
+
+    recording: Recording
+    prepared: prepare.Prepared
+    fit_data: prepare.FitData
+    least_squares: least_squares.LeastSquaresResult
+    noise: noise.NoiseModel
+    sampling: posterior.PosteriorResult
+    baselines: dict[str, baselines.BaselineResult | None]
+    crlb: dict[str, Any] | None
+    mass: float | None
+    mass_sd: float
+    seed: int
+    options: dict[str, Any]
+    warnings: list[str] = field(default_factory=list)
+    damping: Any = None  # dampfit.damping.DampingAssessment (None when not assessed)
+    date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    #: Result folder this analysis was loaded from (:func:`dampfit.load`); None when live.
+    folder: Path | None = None
+    #: What :func:`dampfit.result.folder.load` read (summary, lazily posterior and signals).
+    _loaded: Any = field(default=None, repr=False, compare=False)
+    _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
+
+    @classmethod
+    def from_loaded(cls, loaded) -> "Analysis":
+        """The analysis of a result folder read by :func:`dampfit.result.folder.open_result`
+        (what :func:`dampfit.load` returns): its summary as written, the live-only fields
+        standing for objects that raise an error naming the folder."""
+        d = loaded.summary
+        mass = d.get("mass") if isinstance(d.get("mass"), dict) else {}
+        prov = d.get("provenance") if isinstance(d.get("provenance"), dict) else {}
+        diag = d.get("diagnostics") if isinstance(d.get("diagnostics"), dict) else {}
+        warns = diag.get("warnings")
+        return cls(
+            **loaded.unavailable(), crlb=d.get("crlb") if isinstance(d.get("crlb"), dict) else None,
+            mass=mass.get("value") if real(mass.get("value")) else None,
+            mass_sd=mass.get("sd") if real(mass.get("sd")) else 0.0,
+            seed=prov.get("seed") if isinstance(prov.get("seed"), int) else None,
+            options=prov.get("options") if isinstance(prov.get("options"), dict) else {},
+            warnings=[w for w in warns if isinstance(w, str)] if isinstance(warns, list) else [],
+            date=prov.get("date") if isinstance(prov.get("date"), str) else None,
+            folder=loaded.folder, _loaded=loaded)
+
+    # --------------------------------------------------------------- views
+    # posterior, converged: dampfit.result.views.ResultViews
+    def _live_converged(self) -> bool:
+        """Least squares and posterior both converged."""
+        return bool(self.least_squares.converged and self.sampling.converged)
+
+    def draws(self, name: str) -> np.ndarray:
+        """All posterior draws of one quantity, flattened."""
+        return np.asarray(self.posterior.posterior[name]).ravel()
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON-safe summary (schema in the README; ``schema_version``
+        :data:`dampfit.result.schema.SCHEMA_VERSION`), a fresh copy on every call.
+
+        Computed once per analysis and cached; of a loaded result it is the summary.json read.
+        """
+        if self._summary is None:
+            if self._loaded is not None:
+                self._summary = self._loaded.summary
+            else:
+                from dampfit.result.schema import SCHEMA_VERSION
+
+                self._summary = {"schema_version": SCHEMA_VERSION, **self._compute_summary()}
+        return copy.deepcopy(self._summary)
+
+    def _compute_summary(self) -> dict[str, Any]:
+        """The summary of the live pipeline objects (see :meth:`summary`)."""
+        rec, prep, fd = self.recording, self.prepared, self.fit_data
+        post = self.posterior.posterior
+        params: dict[str, Any] = {}
+        for name in PARAMETER_UNITS:
+            params[name] = (_param_summary(self.posterior, name, self.sampling.diagnostics)
+                            if name in post else None)
+            bound = (self.crlb or {}).get(name)
+            if params[name] is not None and isinstance(bound, dict):
+                params[name]["crlb_sd"] = bound.get("sd_with_mass", bound["sd"])
+        self._reach_zero(params)
+        missing = {}
+        if self.mass is None:
+            why = ("no mass given: a free decay identifies only the decay rate p and the "
+                   "frequency f_n; c = 2·m·p and k = m·(2π·f_n)² need the mass (--mass KG)")
+            missing = {"c": why, "k": why, "c_crit": why}
+        damping = self._damping_summary()
+        missing.update(damping.pop("missing", {}))
+        ls = self.least_squares
+        lsd = stages.ls_summary(ls, self.mass, self.noise.psd_ratio)
+        lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
+        s = self.sampling
+        return jsonable({
+            "dampfit_version": __version__,
+            "input": {
+                "path": os.path.abspath(rec.path) if rec.path else rec.path, "format": rec.format, "sha256": rec.sha256,
+                "n_samples": rec.n_samples, "sample_rate_hz": prep.fs,
+                "duration_s": rec.duration, "timing_jitter": prep.jitter,
+                "axis": prep.axis, "axis_direction": prep.direction,
+                "gravity_removed": rec.gravity_removed, "notes": list(rec.notes),
+            },
+            "window": {"start_s": prep.window[0], "end_s": prep.window[1],
+                       "auto": prep.window_auto,
+                       "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0,
+                       "end_reason": prep.window_end_reason},
+            "band": {"low_hz": prep.band[0], "high_hz": prep.band[1], "auto": prep.band_auto},
+            "dominant_frequency_hz": prep.f0,
+            "mass": {"value": self.mass, "sd": self.mass_sd if self.mass is not None else None,
+                     "unit": "kg"},
+            "parameters": params,
+            "missing": missing,
+            "least_squares": lsd,
+            "baselines": _baselines_summary(self.baselines, params.get("p")),
+            "noise_model": self.noise.summary(),
+            "crlb": self.crlb,
+            **damping,
+            "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
+                    "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
+                    "t0_s": fd.t0},
+            "preprocessing": {"n_stale_dropped": prep.n_stale, "n_clipped": prep.n_clipped,
+                              "n_spikes": prep.n_spikes,
+                              "noise_density": prep.noise_density,
+                              "noise_density_unit": "m/s^2/sqrt(Hz)",
+                              "notes": list(prep.notes)},
+            "diagnostics": {
+                "converged": self.converged,
+                "posterior_converged": s.converged,
+                "max_r_hat": s.max_r_hat, "min_ess_bulk": s.min_ess_bulk,
+                "n_steps": s.n_steps, "burn_in": s.burn_in, "thin": s.thin,
+                "n_walkers": posterior.N_WALKERS,
+                "autocorr_time_steps": [float(x) for x in s.autocorr_time],
+                "acceptance_fraction": s.acceptance,
+                "warnings": list(self.warnings),
+            },
+            "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
+                           "python": platform.python_version(), "versions": versions()},
+        })
+
+    def _reach_zero(self, params: dict[str, Any]) -> None:
+        """p, ζ, c, δ (and Q) of a decay that cannot be told from 0 as one-sided intervals
+        reaching 0, under a prior uniform in p (:mod:`dampfit.inference.posterior`, "No
+        measured decay"); each gets ``"reaches_zero": true``. Resolved decays are untouched."""
+        decay = getattr(self.damping, "decay", None)
+        if not (isinstance(decay, dict) and decay.get("resolved") is False):
+            return
+        weights = self.draws("p")  # uniform over log-uniform prior density: ∝ p
+        for name in ("p", "zeta", "c", "delta", "Q"):
+            if params.get(name) is None:
+                continue
+            q = summarise(self.draws(name), PARAMETER_UNITS[name],
+                          self.sampling.diagnostics.get(name) or {}, weights=weights)
+            if "crlb_sd" in params[name]:
+                q["crlb_sd"] = params[name]["crlb_sd"]
+            if name == "Q":  # Q = 1/(2ζ) → ∞ as p → 0: a lower bound only
+                q.update(mean=None, sd=None, q95=None)
+            else:
+                q["q05"] = 0.0
+            q["reaches_zero"] = True
+            params[name] = q
+
+    def _damping_summary(self) -> dict[str, Any]:
+        """model_checks, damping_models, amplitude_curve and c_equivalent (the chosen
+        non-viscous law's energy-equivalent viscous c at a stated amplitude, else None; None
+        with the reason under ``"missing"`` when it means nothing:
+        :meth:`dampfit.damping.DampingAssessment.c_missing`)."""
+        if self.damping is None:
+            return {"model_checks": None, "damping_models": None, "amplitude_curve": None,
+                    "c_equivalent": None}
+        out = dict(self.damping.summary())
+        out["c_equivalent"], why = None, None
+        if self.damping.chosen != "viscous":
+            out["c_equivalent"], why = self.damping.c_report(), self.damping.c_missing()
+        if why:  # under "misfit" or from a posterior that did not converge it means nothing
+            out["c_equivalent"], out["missing"] = None, {"c_equivalent": why}
+        # each law's sampling facts: budget, stop reason, ill-conditioning (damping.sample)
+        for name, entry in ((out.get("damping_models") or {}).get("models") or {}).items():
+            post = self.damping.posteriors.get(name)
+            if post is not None and isinstance(entry.get("posterior"), dict):
+                entry["posterior"].update(jsonable(post.diagnostics()))
+        return out
+
+    def to_json(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`summary` as JSON to ``path`` (atomically)."""
+        return atomic_write_text(path, json.dumps(self.summary(), indent=2) + "\n")
+
+    def true_quadratures(self) -> tuple[float, float]:
+        """Least-squares acceleration quadratures (A, B) [m/s²] at the window start, filter
+        gain removed (:meth:`dampfit.inference.least_squares.LeastSquaresResult.true_quadratures`)."""
+        if self._loaded is not None:
+            raise self._loaded.live_only("true_quadratures()")
+        return self.least_squares.true_quadratures()
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Measured and modelled signals on the analysis window (plain arrays, SI units).
+
+        ``t`` [s] uniform grid of the window (recording time base), ``accel`` [m/s²]
+        band-passed measured acceleration of the analysed axis, ``accel_model`` [m/s²] the
+        least-squares decay (drift excluded, filter gain removed), ``displacement`` [m] the
+        measured displacement of the paper's pipeline (band-pass, ∫∫, band-pass; NaN when that
+        baseline failed), ``displacement_model`` [m]; scalars ``fs`` [Hz], ``p`` [1/s],
+        ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0).
+
+        Of a loaded result: the arrays of its signals.npz (a copy).
+        """
+        if self._loaded is not None:
+            return self._loaded.signals()
+        return stages.window_signals(self.prepared, self.fit_data, self.least_squares,
+                              self.baselines.get("envelope_pipeline"))
+
+    def to_signals(self, path: str | os.PathLike) -> Path:
+        """Write :meth:`signals` to an ``.npz`` file (atomically)."""
+        arrays = self.signals()
+        return atomic_write(path, lambda tmp: np.savez_compressed(tmp, **arrays), suffix=".npz")
+
+    # --------------------------------------------------------------- renderings
+    def report(self) -> str:
+        """The text table the CLI prints (:func:`dampfit.output.text.text` of :meth:`summary`)."""
+        from dampfit.output import text
+
+        return text.text(self.summary())
+
+    def _repr_html_(self) -> str:
+        """A short HTML table of the headline numbers, for notebooks."""
+        from dampfit.output import text
+
+        return text.html_table(self.summary())
+
+    def __repr__(self) -> str:
+        where = f" loaded from {self.folder}" if self.folder is not None else ""
+        return f"<dampfit Analysis{where}: {self._headline()}>"
+
+    def _headline(self) -> str:
+        from dampfit.output import text
+
+        return text.headline(self.summary())
+
+    def save(self, folder, *, force: bool = False, figures: bool = True, report: bool = False,
+             figure_process=None) -> Path:
+        """Write the result folder ``dampfit analyze`` writes and return its path.
+
+        ``folder`` is a path: the folder is written whole (staged beside the target, locked,
+        swapped in at the end; an existing folder is replaced only with ``force`` and only if
+        dampfit wrote it) with summary.json, posterior.nc, signals.npz, the figures unless
+        ``figures`` is False, and with ``report`` report.html and report.md. Or ``folder`` is
+        an open :class:`dampfit._files.ResultFolder` (the CLI opens it before the analysis, so
+        that a folder that cannot be written is refused before the work): the files go into
+        its staging folder and the caller publishes it. ``figure_process`` (the CLI's
+        :class:`dampfit.output.figure_process.FigureProcess`) draws the figures when given.
+        """
+        from dampfit._files import ResultFolder, result_folder
+
+        if isinstance(folder, ResultFolder):
+            self._write(folder, figures, figure_process)
+            return folder.stage
+        inputs = [] if self._loaded is not None or not self.recording.path else [
+            self.recording.path]
+        with result_folder(folder, "analyze", force, inputs=inputs) as target:
+            self._write(target, figures, figure_process)
+            out = target.publish()
+        if report:
+            from dampfit.output.report import write_report
+
+            write_report(out)
+        return out
+
+    def _write(self, folder, figures: bool, figure_process) -> None:
+        """summary.json, posterior.nc, signals.npz and the figures into ``folder.stage``."""
+        stage = folder.stage
+        with folder.writing():
+            self.to_json(stage / "summary.json")
+            self.to_netcdf(stage / "posterior.nc")
+            self.to_signals(stage / "signals.npz")
+            if figures and figure_process is not None:
+                figure_process.finish(self, stage)
+            elif figures:
+                from dampfit.output.figures import save_figures
+
+                save_figures(self, stage)
+
+    def to_netcdf(self, path: str | os.PathLike) -> Path:
+        """Write the posterior (arviz InferenceData) to a NetCDF file."""
+        return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
+                            suffix=".nc")
+
+
+def _baselines_summary(base: dict, p_post: dict | None) -> dict[str, Any]:
+    """Each baseline's summary with its support (:mod:`dampfit.estimators.baselines`) and whether it
+    agrees with the posterior of p within its expected spread (``agrees_with_posterior``,
+    ``note``; :func:`dampfit.estimators.baselines.agreement`)."""
+    out: dict[str, Any] = {}
+    for name, b in base.items():
+        if b is None:
+            out[name] = None
+            continue
+        d = b.summary()
+        d.update(baselines.agreement(d, (p_post or {}).get("q50"), (p_post or {}).get("sd")))
+        out[name] = d
+    return out
+
+
+def _param_summary(idata, name: str, diagnostics: dict[str, dict[str, float]]) -> dict[str, Any]:
+    """Quantiles of one posterior quantity (:func:`dampfit.damping.quantities.summarise`) with
+    the R-hat and bulk ESS the posterior stage computed
+    (:attr:`dampfit.inference.posterior.PosteriorResult.diagnostics`; NaN for ≤ 4 draws)."""
+    x = np.asarray(idata.posterior[name])
+    return summarise(x, PARAMETER_UNITS[name],
+                     (diagnostics.get(name) or {}) if x.shape[1] > 4 else {})

@@ -1,0 +1,78 @@
+"""The package face: read a recording, analyse one or several, load a result folder back.
+
+* :func:`read` — a recording file → :class:`~dampfit.io.recording.Recording`;
+* :func:`analyze` — one recording → :class:`~dampfit.analysis.Analysis`; several recordings
+  of one damper → :class:`~dampfit.campaign.CampaignAnalysis` (every campaign option passed
+  through; options that only apply to one recording are refused, never dropped);
+* :func:`analyze_campaign` — several recordings, explicitly;
+* :func:`load` — a result folder → the :class:`~dampfit.analysis.Analysis` or
+  :class:`~dampfit.campaign.CampaignAnalysis` it was written from.
+
+Each result renders and saves itself (``summary()``, ``report()``, ``save(dir)``).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Sequence
+
+from dampfit.analysis import Analysis
+from dampfit.campaign import CampaignAnalysis, analyze_campaign
+from dampfit.errors import InputError
+from dampfit.io.readers import read
+from dampfit.io.recording import Recording
+from dampfit.pipeline import analyze as analyze_one
+from dampfit.result.folder import open_result
+
+__all__ = ["Analysis", "CampaignAnalysis", "analyze", "analyze_campaign", "load", "read"]
+
+#: Options of :func:`analyze` that only apply to one recording.
+SINGLE_ONLY = ("model", "amplitude", "on_stage")
+
+
+def analyze(recording: Recording | Sequence[Recording], mass: float | None = None,
+            mass_sd: float | None = None, *, axis: str = "auto",
+            window: tuple[float, float] | Sequence | None = None,
+            band: tuple[float, float] | Sequence | None = None, seed: int = 0,
+            progress: bool = False, max_steps: int = 20000, min_ess: float = 1000.0,
+            model: str = "auto", amplitude: float | None = None, on_stage=None,
+            added_mass: Sequence[float] | None = None,
+            added_mass_sd: float | None = None) -> Analysis | CampaignAnalysis:
+    """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording
+    (:func:`dampfit.pipeline.analyze`, which documents every option), or jointly from several
+    recordings of one damper (a list or tuple: :func:`dampfit.campaign.analyze_campaign`,
+    which documents ``added_mass`` [kg] per recording and ``added_mass_sd`` [kg]; ``window``
+    and ``band`` may then be one per recording).
+
+    ``model``, ``amplitude`` and ``on_stage`` apply to one recording and ``added_mass``,
+    ``added_mass_sd`` to several: giving one where it does not apply is a one-line
+    :class:`~dampfit.errors.InputError`, never silently ignored.
+    """
+    if isinstance(recording, (list, tuple)):
+        given = {"model": model != "auto", "amplitude": amplitude is not None,
+                 "on_stage": on_stage is not None}
+        wrong = [name for name in SINGLE_ONLY if given[name]]
+        if wrong:
+            raise InputError(f"{', '.join(wrong)} apply to a single recording, not to a "
+                             f"campaign of {len(recording)}; analyse one recording for them")
+        return analyze_campaign(recording, mass, mass_sd, added_mass=added_mass,
+                                added_mass_sd=0.0 if added_mass_sd is None else added_mass_sd,
+                                axis=axis, window=window, band=band, seed=seed,
+                                progress=progress, max_steps=max_steps, min_ess=min_ess)
+    if added_mass is not None or added_mass_sd is not None:
+        raise InputError("added_mass applies to several recordings (one per added mass), got "
+                         "one recording")
+    return analyze_one(recording, mass, mass_sd, axis=axis, window=window, band=band,
+                       seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
+                       model=model, amplitude=amplitude, on_stage=on_stage)
+
+
+def load(folder: str | os.PathLike) -> Analysis | CampaignAnalysis:
+    """The result of ``folder`` (written by ``dampfit analyze`` or ``save``): an
+    :class:`~dampfit.analysis.Analysis`, or for a campaign folder a
+    :class:`~dampfit.campaign.CampaignAnalysis`. ``summary()`` is the folder's summary.json as
+    written; the posterior and signals are read on first use; live-only pipeline objects raise
+    a :class:`~dampfit.errors.DampfitError` naming the folder. One-line
+    :class:`~dampfit.errors.InputError` if ``folder`` is not a usable result folder."""
+    loaded = open_result(folder)
+    return (CampaignAnalysis if loaded.is_campaign else Analysis).from_loaded(loaded)

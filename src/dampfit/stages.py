@@ -1,0 +1,324 @@
+"""The single-recording stages: what :func:`dampfit.pipeline.analyze`, each test of a campaign
+(:mod:`dampfit.campaign`) and the study's estimators (:mod:`dampfit.study.registry`) share.
+
+In order, for one :class:`~dampfit.io.recording.Recording`:
+
+1. :func:`refuse_impossible_time` — a time base no accelerometer can have is refused up front;
+   :func:`unit_plausibility` — warnings naming a likely unit mix-up;
+2. (:func:`dampfit.signal.prepare.prepare` — axis, band, window; not repeated here);
+3. :func:`fit_stages` — the seed paper's baselines (initial guess, reported), the
+   variable-projection least squares (:mod:`dampfit.inference.least_squares`) and the noise
+   calibration (:mod:`dampfit.inference.noise`); refuses a window with no free decay;
+4. :func:`viscous_stages` — the same plus the viscous posterior (:mod:`dampfit.inference.posterior`);
+5. :func:`crlb_stage` — the Cramér–Rao bound of this recording's design;
+6. :func:`assess_damping` — damping laws, ζ(amplitude) and the adequacy verdict
+   (:mod:`dampfit.damping`).
+
+:func:`ls_summary` is the one least-squares summary (values, 1-σ from the calibrated Jacobian
+covariance): summary.json's ``least_squares`` and the study's ``least_squares`` estimator both
+report it. :func:`window_signals` are the measured and modelled signals of the window.
+
+Nothing here reads or writes files; every refusal is a one-line
+:class:`~dampfit.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dampfit import physics
+from dampfit.errors import InputError
+from dampfit.estimators import baselines
+from dampfit.inference import least_squares
+from dampfit.inference import noise
+from dampfit.inference import posterior
+from dampfit.io.recording import Recording
+from dampfit.signal import prepare
+
+__all__ = ["FitStages", "ViscousStages", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
+           "PLAUSIBLE_K_N_PER_M", "POSSIBLE_RATE_HZ", "R_WARN", "assess_damping",
+           "check_damping_options", "crlb_stage", "fit_stages", "fitted_curve",
+           "initial_decay_rate", "ls_quantities", "ls_summary", "refuse_impossible_time",
+           "unit_plausibility", "viscous_stages", "window_signals"]
+
+#: A PSD ratio r above this many times its white-noise value signals residual structure.
+R_WARN = noise.R_WARN
+
+#: A free decay must explain at least this fraction of the window's variance beyond the drift
+#: (a real decay explains ≈ 1 − 1/SNR; random hand motion or noise far less).
+MIN_EXPLAINED = 0.5
+
+#: Dominant frequencies [Hz] and stiffnesses [N/m] a free-decay test plausibly has; outside
+#: them a unit mix-up (time in ms read as s, or the reverse) is the likely cause.
+PLAUSIBLE_F0_HZ = (0.05, 2000.0)
+PLAUSIBLE_K_N_PER_M = (1e-3, 1e8)
+
+#: Residual power relative to the signal's below which a record is noise-free (rounding
+#: only: residual rms < 1e-8 of the signal, 40 dB below a 24-bit converter's resolution).
+NOISE_FREE_POWER = 1e-16
+
+#: Sample rates [Hz] no accelerometer recording can have: outside this range the time
+#: column is in the wrong unit or corrupt, and the analysis is refused up front.
+POSSIBLE_RATE_HZ = (1e-3, 1e8)
+
+
+@dataclass(frozen=True)
+class FitStages:
+    """The stages before the posterior of one prepared signal (:func:`fit_stages`)."""
+
+    baselines: dict[str, Any]  # name → baselines.BaselineResult | None
+    fit_data: prepare.FitData
+    least_squares: least_squares.LeastSquaresResult
+    noise: noise.NoiseModel
+    warnings: list[str]
+
+
+@dataclass(frozen=True)
+class ViscousStages(FitStages):
+    """The stages of the viscous analysis of one prepared signal (:func:`viscous_stages`)."""
+
+    sampling: posterior.PosteriorResult = None
+    posterior_seconds: float = float("nan")  # wall time [s] of the posterior stage
+
+
+def refuse_impossible_time(rec: Recording) -> None:
+    """InputError naming the time-unit mix-up when the median sample rate is impossible
+    (:data:`POSSIBLE_RATE_HZ`); merely implausible rates only warn (:func:`unit_plausibility`)."""
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        rate = float(1.0 / np.median(np.diff(rec.time)))
+    lo, hi = POSSIBLE_RATE_HZ
+    if not lo <= rate <= hi:
+        raise InputError(rec.time_unit_hint() or f"the median sample rate {rate:.3g} Hz is "
+                         "impossible for an accelerometer; check the time column and --time-unit")
+
+
+def unit_plausibility(rec: Recording, prep: prepare.Prepared, mass: float | None) -> list[str]:
+    """Warnings naming a likely unit mix-up: the time unit (:meth:`Recording.time_unit_hint`:
+    a sample rate outside 1 Hz–100 kHz, or seconds under a ``(ms)`` header), a dominant
+    frequency outside :data:`PLAUSIBLE_F0_HZ`, or an implied k = m·(2π·f₀)² outside
+    :data:`PLAUSIBLE_K_N_PER_M` for the given mass [kg]."""
+    out = []
+    hint = rec.time_unit_hint()
+    if hint:
+        out.append(hint)
+    lo, hi = PLAUSIBLE_F0_HZ
+    if not lo <= prep.f0 <= hi:
+        out.append(f"the dominant frequency {prep.f0:.4g} Hz is outside {lo:g}–{hi:g} Hz, unusual "
+                   "for a free-decay test; check the time unit (--time-unit)")
+    if mass is not None:
+        with np.errstate(over="ignore"):
+            k = float(physics.stiffness(mass, 2 * np.pi * np.float64(prep.f0)))
+        k_lo, k_hi = PLAUSIBLE_K_N_PER_M
+        if not k_lo <= k <= k_hi:
+            out.append(f"the implied stiffness k ≈ {k:.3g} N/m for {mass:g} kg is outside "
+                       f"{k_lo:g}–{k_hi:g} N/m; check the time unit (--time-unit: a time "
+                       "1000× too small makes k 10⁶× too large) and the mass")
+    return out
+
+
+def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
+    """Baselines, least squares and noise calibration of one prepared signal: the stages
+    :func:`dampfit.pipeline.analyze`, the ``bayes`` estimator and each test of a campaign
+    (:mod:`dampfit.campaign`) share (``mass`` [kg] or None, for the baselines' c). Refuses
+    (one-line :class:`~dampfit.errors.InputError`) a window with no free decay and a
+    noise-free record."""
+    warns: list[str] = []
+    # baselines on the uniform grid inside the window (also the initial guess)
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    base: dict[str, baselines.BaselineResult | None] = {}
+    for name, fn in (("log_decrement", baselines.log_decrement),
+                     ("envelope_pipeline", baselines.envelope_pipeline)):
+        try:
+            base[name] = fn(prep.grid[sel], prep.grid_signal[sel], prep.fs, prep.band, mass=mass)
+        except InputError as exc:
+            base[name] = None
+            warns.append(f"baseline {name} not computed: {exc}")
+    p0 = initial_decay_rate(base)
+
+    fd = prepare.fit_data(prep)
+    ls = least_squares.least_squares(fd, p0, prep.f0)
+    if ls.explained < MIN_EXPLAINED:
+        raise InputError(
+            f"no free decay found: a damped oscillation explains only {100 * ls.explained:.0f} % "
+            f"of the signal in {prep.window[0]:.3g}–{prep.window[1]:.3g} s (random motion or "
+            "noise?); check the axis or give --window START END"
+        )
+    if ls.rss_drift > 0 and ls.rss < NOISE_FREE_POWER * ls.rss_drift:
+        raise InputError(
+            "the recording is free of noise to numerical precision (residual "
+            f"{np.sqrt(ls.rss / ls.rss_drift):.1g} of the signal): a simulation or FEM output? A "
+            "posterior needs measurement noise; add the sensor's noise (dampfit simulate does) "
+            "or read the least-squares values of dampfit.inference.least_squares"
+        )
+    if not ls.converged:
+        warns.append(f"least squares did not converge ({ls.message})")
+    # r floored at its white-noise value on this path: intervals only widen (dampfit.inference.noise)
+    nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
+                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
+    return FitStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, warnings=warns)
+
+
+def viscous_stages(prep: prepare.Prepared, mass: float | None, mass_sd: float, *,
+                   seed: int = 0, progress: bool = False, max_steps: int = 20000,
+                   min_ess: float = 1000.0, on_fit=None) -> ViscousStages:
+    """:func:`fit_stages` and the viscous posterior of one prepared signal: the stages
+    :func:`dampfit.pipeline.analyze` and the ``bayes`` estimator share (``mass`` [kg] and
+    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`). ``on_fit(stages)`` is called with the
+    :class:`FitStages` before the posterior is sampled."""
+    st = fit_stages(prep, mass)
+    if on_fit is not None:
+        on_fit(st)
+    started = time.monotonic()
+    post = posterior.sample(
+        st.fit_data, st.least_squares, band=prep.band, temper=1.0 / st.noise.psd_ratio,
+        mass=mass, mass_sd=mass_sd, seed=seed, progress=progress, max_steps=max_steps,
+        min_ess=min_ess,
+    )
+    return ViscousStages(baselines=st.baselines, fit_data=st.fit_data,
+                         least_squares=st.least_squares, noise=st.noise,
+                         warnings=st.warnings + list(post.warnings), sampling=post,
+                         posterior_seconds=time.monotonic() - started)
+
+
+def initial_decay_rate(base: dict) -> float:
+    """The least-squares starting decay rate p [1/s]: the log decrement's regression p, else
+    the envelope pipeline's; NaN when neither gave a positive finite p."""
+    for name in ("log_decrement", "envelope_pipeline"):
+        b = base.get(name)
+        if b is not None:
+            p = b.details.get("p_regression", b.p) if name == "log_decrement" else b.p
+            if p is not None and np.isfinite(p) and p > 0:
+                return float(p)
+    return float("nan")
+
+
+def check_damping_options(model: str, amplitude: float | None) -> None:
+    """Validate ``model`` and ``amplitude`` before any work is done."""
+    from dampfit.damping import CHOICES
+
+    if model not in CHOICES:
+        raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
+    if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
+        raise InputError("--amplitude must be a positive displacement amplitude in metres, "
+                         f"got {amplitude!r}")
+
+
+def assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, progress,
+                   max_steps, min_ess, warns: list[str], viscous_steps: int | None = None,
+                   viscous_seconds: float | None = None):
+    """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`).
+
+    The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
+    when it is not the viscous one (whose emcee posterior is ``parameters``), within a step
+    and time budget tied to the viscous sampler's (:class:`dampfit.inference.law_sampler.Budget`)."""
+    from dampfit import damping
+    from dampfit.inference.law_sampler import Budget
+
+    budget = Budget.from_viscous(viscous_steps, viscous_seconds)
+    common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
+                  min_ess=min_ess, progress=progress, budget=budget)
+    res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen-nonviscous",
+                         **common)
+    warns.extend(res.warnings)
+    return res
+
+
+def crlb_stage(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] | None:
+    """Cramér–Rao bound of this recording's design (:mod:`dampfit.inference.crlb`).
+
+    Design: the raw usable sample times of the window; white noise at the level the residuals
+    show at f₀ — one-sided density S(f₀) = r·σ²·2/f_fit from the noise model (σ per fitted
+    sample, r the Whittle factor), i.e. σ_raw = √(S(f₀)·f_s/2) per raw sample — since by the
+    Whittle argument only the noise near f₀ limits the estimate; the least-squares parameters
+    (amplitude with the decimation filter's gain removed); the fitted drift as nuisance."""
+    from dampfit.inference import crlb
+
+    sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
+    density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))
+    sigma = crlb.from_noise_density(density, prep.fs)
+    a_cos, a_sin = ls.true_quadratures()
+    try:
+        out = crlb.bound(prep.time[sel] - fd.t0, sigma, p=ls.p, omega_d=ls.omega_d,
+                         a_cos=a_cos, a_sin=a_sin, mass=mass, mass_sd=mass_sd,
+                         drift_degree=fd.drift_degree)
+    except (InputError, np.linalg.LinAlgError, ValueError) as exc:
+        warns.append(f"Cramér–Rao bound not computed: {exc}")
+        return None
+    out["noise_sigma"] = sigma
+    out["noise_density"] = density
+    out["noise_density_unit"] = "m/s^2/sqrt(Hz)"
+    return out
+
+
+def ls_summary(ls: least_squares.LeastSquaresResult, mass: float | None,
+               r: float = 1.0) -> dict[str, Any]:
+    """The one least-squares summary: p [1/s], ζ, f_n [Hz], u₀ [m] and (with ``mass`` [kg]) c
+    [N·s/m], k [N/m] (:func:`dampfit.physics.quantities`), with the 1-σ ``p_sd``, ``zeta_sd``
+    and ``c_sd`` — summary.json's ``least_squares`` and the study's ``least_squares``
+    estimator (:mod:`dampfit.study.registry`) both report it.
+
+    The 1-σ come from the Jacobian covariance C of θ = (ln p, ln ω_d) times the noise
+    calibration factor ``r`` (as the posterior's temper), by the delta method:
+    sd(ln p) = √C₁₁, and with ln ζ = ln p − ½·ln(p² + ω_d²),
+    sd(ln ζ) = (1 − ζ²)·√(C₁₁ − 2C₁₂ + C₂₂); sd(ln c) = sd(ln p) (the mass is exact here).
+    """
+    q = ls_quantities(ls, mass)
+    out = {name: (float(q[name]) if name in q else None)
+           for name in ("p", "zeta", "f_n", "u0", "c", "k")}
+    cov = np.asarray(ls.cov[:2, :2], float) * r
+    if np.all(np.isfinite(cov)):
+        sd_lnp = float(np.sqrt(max(cov[0, 0], 0.0)))
+        zeta = out["zeta"]
+        sd_lnz = (1 - zeta**2) * float(np.sqrt(max(cov[0, 0] - 2 * cov[0, 1] + cov[1, 1], 0.0)))
+        out["p_sd"] = out["p"] * sd_lnp
+        out["c_sd"] = out["c"] * sd_lnp if mass is not None else None
+        out["zeta_sd"] = zeta * sd_lnz
+    return out
+
+
+def ls_quantities(ls: least_squares.LeastSquaresResult, mass: float | None = None) -> dict[str, np.ndarray]:
+    """:func:`dampfit.physics.quantities` of the least-squares optimum: p, ω_d and the
+    acceleration amplitude with the decimation filter's gain removed
+    (:meth:`~dampfit.inference.least_squares.LeastSquaresResult.true_quadratures`)."""
+    return physics.quantities(ls.p, ls.omega_d, mass,
+                              accel_amplitude=np.hypot(*ls.true_quadratures()))
+
+
+def fitted_curve(fd: prepare.FitData, ls: least_squares.LeastSquaresResult,
+                 n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares model of the fitted samples (decay and drift, as fitted: filter gain
+    included) on ``n`` uniform times over the fitted span: (t [s], a [m/s²])."""
+    from dampfit.model import viscous as model
+
+    # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
+    tau = np.linspace(fd.tau[0], fd.tau[-1], int(n))
+    drift = model.drift_basis(fd.tau, fd.drift_degree, at=tau)
+    # NumPy columns: a figure needs no JAX trace
+    x = np.concatenate([model.M1.columns(np.asarray(ls.theta), tau, xp=np), drift], axis=1)
+    return fd.t0 + tau, x @ np.asarray(ls.beta)
+
+
+def window_signals(prep: prepare.Prepared, fd, ls, envelope=None) -> dict[str, np.ndarray]:
+    """The signals of :meth:`dampfit.analysis.Analysis.signals` from a prepared recording, its fit data, its
+    least-squares result and (optionally) its envelope-pipeline baseline (else the measured
+    displacement is NaN); also each test of a campaign (:meth:`CampaignAnalysis.signals`)."""
+    from dampfit.model import viscous as model
+
+    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    t = prep.grid[sel]
+    tau = t - fd.t0
+    a_cos, a_sin = ls.true_quadratures()
+    args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
+    accel_model = np.asarray(model.acceleration(*args, xp=np), dtype=float)
+    disp_model = np.asarray(model.displacement(*args, xp=np), dtype=float)
+    disp = np.full(t.size, np.nan)
+    if envelope is not None and np.size(envelope.details.get("displacement", [])) == t.size:
+        disp = np.asarray(envelope.details["displacement"], float)
+    return {"t": t, "accel": prep.bandpassed[sel], "accel_model": accel_model,
+            "displacement": disp, "displacement_model": disp_model,
+            "fs": np.float64(prep.fs), "p": np.float64(ls.p),
+            "omega_d": np.float64(ls.omega_d), "t0": np.float64(fd.t0)}
