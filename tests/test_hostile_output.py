@@ -23,6 +23,7 @@ import pytest
 
 from dampfit import cli
 from dampfit import simulate as sim
+from dampfit.cli import messages
 from dampfit.cli import staging as cli_staging
 from dampfit._files import MARKER
 
@@ -505,10 +506,10 @@ def test_world_writable_cache_is_not_used(tmp_path, monkeypatch, capsys):
     cache.chmod(0o777)
     _cache_env(monkeypatch, cache)
     capsys.readouterr()
-    cli._DEFERRED.clear()
+    messages.clear()
     assert cli._compile_cache() is None
-    assert len(cli._DEFERRED) == 1
-    line = cli._DEFERRED[0]
+    assert len(messages.pending()) == 1
+    line = messages.pending()[0]
     assert line.startswith("dampfit: warning:") and line.endswith("cache off")
     assert "writable by group or others" in line
     assert "JAX_COMPILATION_CACHE_DIR" not in os.environ
@@ -524,17 +525,17 @@ def test_cache_under_everyone_writable_parent_or_foreign_owner_is_not_used(tmp_p
     shared.mkdir()
     shared.chmod(0o777)  # no sticky bit: anyone may swap the cache folder
     _cache_env(monkeypatch, shared / "dampfit" / "jax")
-    cli._DEFERRED.clear()
+    messages.clear()
     assert cli._compile_cache() is None
-    assert "writable by everyone" in " ".join(cli._DEFERRED)
+    assert "writable by everyone" in " ".join(messages.pending())
     if os.geteuid() == 0:  # only root can give a folder away
         mine = tmp_path / "foreign"
         mine.mkdir(mode=0o700)
         os.chown(mine, 4321, -1)
         _cache_env(monkeypatch, mine)
-        cli._DEFERRED.clear()
+        messages.clear()
         assert cli._compile_cache() is None
-        assert "another user" in " ".join(cli._DEFERRED)
+        assert "another user" in " ".join(messages.pending())
 
 
 def test_private_cache_folders_created_0700_throughout(tmp_path):

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dampfit.estimators import registry as estimators
+from dampfit.study import registry
 from dampfit import simulate as sim
 from dampfit.cli import main
 from dampfit.errors import InputError
@@ -27,7 +27,7 @@ from dampfit.study import tables
 from dampfit.study.store import Store
 from dampfit.study.task import crlb_design, run_task
 
-AVAILABLE = list(estimators.ESTIMATORS)
+AVAILABLE = list(registry.ESTIMATORS)
 
 # A small, fast study: 4 scenarios x 4 replicates x 3 cheap estimators on 8 s records.
 SMALL = """
@@ -191,10 +191,10 @@ def test_crlb_design_is_the_noise_free_simulated_acceleration():
 def test_run_task_rows_and_failures_are_data(monkeypatch):
     cfg = sconfig.parse(base(study__estimators=["hilbert", "least_squares"]), AVAILABLE)
     task = cfg.tasks()[0]
-    fake = estimators.Estimate("hilbert", 0.2, 2.0, 0.0159, 0.4, 0.2, 0.5, None, None, True, "", 0.01)
-    broken = estimators.Estimate("least_squares", math.nan, math.nan, math.nan, None, None, None,
+    fake = registry.Estimate("hilbert", 0.2, 2.0, 0.0159, 0.4, 0.2, 0.5, None, None, True, "", 0.01)
+    broken = registry.Estimate("least_squares", math.nan, math.nan, math.nan, None, None, None,
                                  None, None, False, "LinAlgError: singular", 0.02)
-    monkeypatch.setattr(estimators, "run", lambda names, rec, mass, seed: [fake, broken])
+    monkeypatch.setattr(registry, "run", lambda names, rec, mass, seed: [fake, broken])
     rec = run_task(task)
     assert json.loads(json.dumps(rec, allow_nan=False)) == rec  # JSON-safe
     good, bad = rec["rows"]
@@ -208,7 +208,7 @@ def test_run_task_rows_and_failures_are_data(monkeypatch):
     def explode(*a, **k):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(estimators, "run", explode)
+    monkeypatch.setattr(registry, "run", explode)
     rec = run_task(task)
     assert [r["ok"] for r in rec["rows"]] == [False, False]
     assert rec["rows"][0]["message"] == "run failed: RuntimeError: boom"

@@ -200,10 +200,10 @@ def test_a_killed_swap_is_reported_then_restored_through_the_cli(tmp_path, capsy
         assert _content(target) == "old"
         (rf.stage / "x.txt").write_text("x")
         rf.publish()
-    from dampfit.cli import _DEFERRED
+    from dampfit.cli import messages
 
-    assert any("restored the previous result" in line for line in _DEFERRED)
-    _DEFERRED.clear()
+    assert any("restored the previous result" in line for line in messages.pending())
+    messages.clear()
 
 
 def test_a_hidden_previous_result_without_marker_is_never_restored_or_removed(tmp_path):

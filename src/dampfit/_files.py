@@ -29,7 +29,7 @@ from collections.abc import Callable
 from dampfit import _swap
 from dampfit.errors import InputError
 
-__all__ = ["result_folder", "atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
+__all__ = ["error_text", "result_folder", "atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
            "ResultFolder",
            "WriteError", "read_marker"]
 
@@ -67,11 +67,11 @@ def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out
     except (FileNotFoundError, NotADirectoryError):  # the folder check below names the problem
         st = None
     except OSError as exc:  # ENAMETOOLONG, EACCES, ELOOP
-        raise InputError(f"cannot write {path}: {_reason(exc)}") from None
+        raise InputError(f"cannot write {path}: {error_text(exc)}") from None
     try:
         parent_ok = path.parent.is_dir()
     except OSError as exc:
-        raise InputError(f"cannot write {path}: {_reason(exc)}") from None
+        raise InputError(f"cannot write {path}: {error_text(exc)}") from None
     if not parent_ok:
         raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
     if st is None:
@@ -124,13 +124,13 @@ def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *,
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=suffix)
         os.close(fd)
     except OSError as exc:
-        raise WriteError(f"cannot write {shown(path)}: {_reason(exc)}") from exc
+        raise WriteError(f"cannot write {shown(path)}: {error_text(exc)}") from exc
     try:
         write(tmp)
         publish(tmp)
         os.replace(tmp, path)
     except OSError as exc:
-        raise WriteError(f"cannot write {shown(path)}: {_reason(exc)}") from exc
+        raise WriteError(f"cannot write {shown(path)}: {error_text(exc)}") from exc
     finally:
         Path(tmp).unlink(missing_ok=True)
     return path
@@ -190,14 +190,14 @@ def check_lock_file(fd: int, path: Path) -> None:
         mode = os.fstat(fd).st_mode
     except OSError as exc:
         os.close(fd)
-        raise InputError(f"cannot use the lock file {path}: {_reason(exc)}") from None
+        raise InputError(f"cannot use the lock file {path}: {error_text(exc)}") from None
     if not stat.S_ISREG(mode):
         os.close(fd)
         raise InputError(f"the lock file {path} is not a regular file (a FIFO, socket or "
                          "device); remove it, or choose another --out")
 
 
-def _reason(exc: BaseException) -> str:
+def error_text(exc: BaseException) -> str:
     """One short line describing an I/O failure."""
     if isinstance(exc, OSError) and exc.strerror:
         text = exc.strerror
@@ -308,7 +308,7 @@ class ResultFolder:
         except FileNotFoundError:
             return False
         except OSError as exc:
-            raise InputError(f"cannot inspect {self.target}: {_reason(exc)}") from None
+            raise InputError(f"cannot inspect {self.target}: {error_text(exc)}") from None
         if stat.S_ISLNK(st.st_mode):
             raise self._refuse("it is a symbolic link (dampfit never replaces a link or its target)")
         if not stat.S_ISDIR(st.st_mode):
@@ -330,7 +330,7 @@ class ResultFolder:
                              | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0), 0o600)
             except OSError as exc:
                 raise InputError(f"cannot create the lock file {self._lock_path}: "
-                                 f"{_reason(exc)}") from None
+                                 f"{error_text(exc)}") from None
             check_lock_file(fd, self._lock_path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -402,7 +402,7 @@ class ResultFolder:
                               f"left by a dampfit process (pid {pid}) killed while replacing it")
                 except OSError as exc:
                     self.note(f"could not restore the previous result {self.target} from "
-                              f"{path.name}: {_reason(exc)}; rename it yourself")
+                              f"{path.name}: {error_text(exc)}; rename it yourself")
             else:
                 names = ", ".join(sorted(path.name for _, path in olds))
                 self.note(f"{self.target} is missing and {len(olds)} earlier results of it were "
@@ -427,7 +427,7 @@ class ResultFolder:
             atomic_write_text(self.stage / MARKER, marker)
             publish(self.stage)
         except OSError as exc:
-            raise InputError(f"cannot write into {self.parent}: {_reason(exc)}") from None
+            raise InputError(f"cannot write into {self.parent}: {error_text(exc)}") from None
         try:
             free = shutil.disk_usage(self.parent).free
         except OSError:  # pragma: no cover - statvfs unsupported
@@ -473,7 +473,7 @@ class ResultFolder:
                 raise
             fate = ("the previous result is unchanged" if os.path.lexists(self.target)
                     else "nothing was written")
-            raise InputError(f"cannot write {self.target}: {_reason(_os_error_in(exc))}; "
+            raise InputError(f"cannot write {self.target}: {error_text(_os_error_in(exc))}; "
                              f"{fate}") from None
         except Exception as exc:  # noqa: BLE001 - h5py/matplotlib wrap their OSErrors
             os_error = _os_error_in(exc)
@@ -486,7 +486,7 @@ class ResultFolder:
                     raise
                 reason = "no space left on the device"
             else:
-                reason = _reason(os_error)
+                reason = error_text(os_error)
             fate = ("the previous result is unchanged" if os.path.lexists(self.target)
                     else "nothing was written")
             raise InputError(f"cannot write {self.target}: {reason}; {fate}") from None
@@ -519,7 +519,7 @@ class ResultFolder:
                         self._remove_previous(old, checked)
         except OSError as exc:
             raise InputError(f"cannot move the result into place at {self.target}: "
-                             f"{_reason(exc)}; the previous result is unchanged") from None
+                             f"{error_text(exc)}; the previous result is unchanged") from None
         return self.target
 
     def restage(self) -> Path:

@@ -37,6 +37,7 @@ __all__ = [
     "to_decay",
     "check_mass",
     "MAX_MASS",
+    "as_float",
     "UNITS",
     "zeta_from_log_decrement",
     "log_decrement_from_zeta",
@@ -184,12 +185,12 @@ def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     measured mass); a non-zero ``mass_sd`` needs a mass. Raises :class:`InputError` with one
     line otherwise.
     """
-    sd = 0.0 if mass_sd is None else _as_float(mass_sd)
+    sd = 0.0 if mass_sd is None else as_float(mass_sd)
     if mass is None:
         if sd != 0.0:  # NaN too
             raise InputError("mass_sd was given without mass (--mass-sd without --mass)")
         return None, 0.0
-    m = _as_float(mass)
+    m = as_float(mass)
     if not (math.isfinite(m) and m > 0.0):
         raise InputError("mass must be positive: the oscillating mass must be a positive "
                          f"number of kilograms, got {mass!r}")
@@ -202,7 +203,7 @@ def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     return m, sd
 
 
-def _as_float(x) -> float:
+def as_float(x) -> float:
     """``float(x)`` for a real number, NaN for anything else (a string, a bool, an array)."""
     if isinstance(x, bool):
         return float("nan")

@@ -54,7 +54,9 @@ import numpy as np
 
 from dampfit._files import atomic_write, atomic_write_text
 from dampfit import physics
+from dampfit._arviz import arviz
 from dampfit._json import jsonable
+from dampfit._progress import progress_bar
 from dampfit._meta import __version__
 from dampfit.errors import DampfitError, InputError
 from dampfit.result.views import ResultViews
@@ -551,7 +553,7 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
     if start is None:
         start = _start(data, added, rng, sampler.nwalkers)
     start = start[:, :ndim]
-    bar = posterior._progress(max_steps, progress)
+    bar = progress_bar(max_steps, "campaign posterior (emcee steps)", enabled=progress)
     try:
         run = posterior.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
                                      bar=bar, x64=True)
@@ -743,7 +745,7 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
     dims = {k_: ["test"] for k_ in post if k_.endswith("_test")}
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
-        return posterior._arviz().from_dict(
+        return arviz().from_dict(
             posterior={k_: shape(v) for k_, v in post.items()},
             coords={"test": np.arange(1, n_tests + 1)}, dims=dims,
             attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
@@ -755,9 +757,8 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
 
 def _diagnostics(idata) -> dict[str, dict[str, float]]:
     """R-hat and bulk ESS of every scalar quantity (walkers as chains)."""
-    from dampfit.inference import posterior
 
-    az = posterior._arviz()
+    az = arviz()
     out = {}
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")

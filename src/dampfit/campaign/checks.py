@@ -107,10 +107,10 @@ def check_design(recordings: Any, mass, mass_sd, added_mass, added_mass_sd):
     if len(added_mass) != len(recs):
         raise InputError(f"--added-mass gives {len(added_mass)} mass(es) for {len(recs)} "
                          "recordings; give one per recording (0 for the bare system)")
-    dm = np.array([physics._as_float(x) for x in added_mass])
+    dm = np.array([physics.as_float(x) for x in added_mass])
     if not np.all(np.isfinite(dm)) or np.any(dm < 0):
         raise InputError(f"added masses must be finite numbers ≥ 0 kg, got {list(added_mass)!r}")
-    dm_sd = physics._as_float(0.0 if added_mass_sd is None else added_mass_sd)
+    dm_sd = physics.as_float(0.0 if added_mass_sd is None else added_mass_sd)
     if not (np.isfinite(dm_sd) and dm_sd >= 0):
         raise InputError(f"--added-mass-sd must be ≥ 0 kg, got {added_mass_sd!r}")
     if np.unique(np.round(dm, 12)).size < 2:

@@ -52,6 +52,7 @@ from dampfit.cli import report as _report
 from dampfit.cli import simulate as _simulate
 from dampfit.cli import study as _study
 from dampfit.cli import verify as _verify
+from dampfit.cli import messages
 from dampfit.cli.options import Parser as _Parser
 from dampfit.errors import DampfitError, InputError
 
@@ -155,8 +156,8 @@ def _compile_cache() -> Path | None:
     try:
         opened = open_checked(str(path))
     except UnsafeFolder as problem:
-        _DEFERRED.append(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
-                         "cache off")
+        messages.defer(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
+                       "cache off")
         return None
     except OSError:
         return None  # read-only home etc.: run without the cache, only slower
@@ -185,13 +186,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
-#: Warning lines printed after a command succeeds; a failing command prints its one error
-#: line only (the one-line contract), so a side issue never adds a second line to it.
-_DEFERRED: list[str] = []
-
-
 def _main(argv: Sequence[str] | None) -> int:
-    _DEFERRED.clear()
+    messages.clear()
     with warnings.catch_warnings():
         # library warnings (NumPy overflow, emcee, JAX) are not dampfit's messages: what matters
         # reaches summary.json's warnings; DAMPFIT_DEBUG=1 shows them
@@ -199,8 +195,7 @@ def _main(argv: Sequence[str] | None) -> int:
             warnings.simplefilter("ignore")
         code = _dispatch(argv)
     if code == 0:
-        for line in _DEFERRED:
-            print(line, file=sys.stderr)
+        messages.flush(sys.stderr)
     return code
 
 

@@ -29,9 +29,8 @@ import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import MAX_MASS, _integer, _real, seed_arg
-from dampfit.cli.options import add_analysis_options as _analysis_options
-from dampfit.cli.options import check_analysis_options as _check_analysis_options
+from dampfit.cli.options import MAX_MASS, integer_arg, real_arg, seed_arg
+from dampfit.cli.options import add_analysis_options, check_analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
@@ -49,19 +48,19 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
     a.add_argument("more_files", nargs="*", metavar="FILE",
                    help="further recordings of the same damper: all FILEs are analysed jointly "
                         "(a campaign; give the FILEs before the options)")
-    _analysis_options(a)
+    add_analysis_options(a)
     a.add_argument("--out", metavar="DIR",
                    help="output directory (default: FILE's name + '.dampfit'; several files: "
                         "the first FILE's name + '.campaign.dampfit')")
     a.add_argument("--force", action="store_true",
                    help="replace an existing output directory that dampfit wrote")
     c = a.add_argument_group("several recordings of one damper (campaign)")
-    c.add_argument("--added-mass", nargs="+", type=_real("an added mass in kg, 0 to 1e6",
+    c.add_argument("--added-mass", nargs="+", type=real_arg("an added mass in kg, 0 to 1e6",
                                                          lambda v: 0 <= v <= MAX_MASS),
                    metavar="KG", help="added-mass method: the known mass added in each recording "
                                       "[kg], one per FILE in order (0 for the bare system); the "
                                       "effective mass m0 and k are estimated (not with --mass)")
-    c.add_argument("--added-mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
+    c.add_argument("--added-mass-sd", type=real_arg("a standard deviation ≥ 0 kg", lambda v: v >= 0),
                    metavar="KG", default=None,
                    help="standard deviation of each added mass [kg] (default 0; a 0 "
                    "for the bare system is exact)")
@@ -76,7 +75,7 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                         "Capstone): the run to read, e.g. 'Run #2' or 2 (default: the first)")
     g.add_argument("--variable", metavar="PATH",
                    help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
-    g.add_argument("--row", type=_integer(0, 1023), metavar="N",
+    g.add_argument("--row", type=integer_arg(0, 1023), metavar="N",
                    help="MATLAB .mat: 0-based row of that array holding the acceleration")
 
 
@@ -92,7 +91,7 @@ def add_demo_arguments(d: argparse.ArgumentParser) -> None:
     d.add_argument("--report", action="store_true", help="also write report.html and report.md")
 
 
-def _print_result(an, out: Path, as_json: bool) -> None:
+def print_result(an, out: Path, as_json: bool) -> None:
     """The summary table (or summary.json) on stdout; a non-converged result warns on stderr."""
     from dampfit.output import text as render
 
@@ -123,7 +122,7 @@ def _read_options(args) -> dict:
     return opts
 
 
-def _figure_process(args):
+def figure_process(args):
     """The figure-drawing process (:mod:`dampfit.output.figure_process`), started now so that
     its imports overlap this process's; with ``--no-figures`` a handle that starts nothing.
     Use it as a context, and ``contextlib.closing`` it inside the result folder's context:
@@ -138,7 +137,7 @@ def command(args) -> int:
     import gc
 
     files = [args.file, *(getattr(args, "more_files", None) or [])]
-    _check_analysis_options(args)
+    check_analysis_options(args)
     if len(files) > 1:
         import dampfit.pipeline  # noqa: F401 - the stack, then out of the collector's reach
 
@@ -150,14 +149,14 @@ def command(args) -> int:
                              "several recordings (one FILE per added mass), got one FILE")
     path = files[0]
     out = Path(args.out) if args.out else Path(Path(path).name + ".dampfit")
-    with _figure_process(args) as figs:  # before the scientific stack is imported
+    with figure_process(args) as figs:  # before the scientific stack is imported
         with result_folder(out, "analyze", args.force, inputs=[path]) as folder, \
                 contextlib.closing(figs):
             an = analyse_into(args, folder, figs, path)
             folder.publish()
             if args.report:
                 _write_report(out)
-    _print_result(an, out, args.json)
+    print_result(an, out, args.json)
     return 0
 
 
@@ -168,7 +167,7 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
 
     The one code path of ``dampfit analyze FILE`` (one recording), shared with ``dampfit
     record`` (which analyses its own recording): ``figs`` is the figure process
-    (:func:`_figure_process`, started before this imports the scientific stack);
+    (:func:`figure_process`, started before this imports the scientific stack);
     ``shown_path`` is the path the recording is reported under when it is read from
     elsewhere (a staging folder); ``notes`` are added to the recording's notes.
     """
@@ -295,7 +294,7 @@ def demo(args) -> int:
     cfg = sim.preset("paper", seed=args.seed)
     # a previous demo's own folder (marker of kind "demo", or an old one recognised by its
     # files) is regenerated freely; an analyze result only with --force; anything else never
-    with _figure_process(args) as figs, \
+    with figure_process(args) as figs, \
             result_folder(out, "demo", args.force, free_kinds=("demo",),
                           legacy=old_demo_folder) as folder, contextlib.closing(figs):
         figs.target(folder.stage)
@@ -317,7 +316,7 @@ def demo(args) -> int:
         folder.publish()
         if args.report:
             _write_report(out)
-    _print_result(an, out, False)
+    print_result(an, out, False)
     c = an.summary()["parameters"]["c"]
     inside = c["q05"] <= truth["c"] <= c["q95"]
     print(f"\n  truth c = {truth['c']:g} N s/m is {'inside' if inside else 'OUTSIDE'} the 90 % "

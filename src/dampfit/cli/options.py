@@ -31,7 +31,7 @@ class Parser(argparse.ArgumentParser):
         raise InputError(f"{message} (see '{self.prog} --help')")
 
 
-def _real(what: str = "a finite number", ok=None):
+def real_arg(what: str = "a finite number", ok=None):
     """argparse type: a finite float for which ``ok(value)`` holds, else 'must be WHAT'."""
 
     def conv(text: str) -> float:
@@ -46,7 +46,7 @@ def _real(what: str = "a finite number", ok=None):
     return conv
 
 
-def _integer(lo: int, hi: int, what: str | None = None):
+def integer_arg(lo: int, hi: int, what: str | None = None):
     """argparse type: an integer in [lo, hi]."""
 
     def conv(text: str) -> int:
@@ -64,29 +64,29 @@ def _integer(lo: int, hi: int, what: str | None = None):
 
 #: argparse type for a float option with a one-line error: a finite number (NaN and ±inf are
 #: refused).
-float_arg = _real()
+float_arg = real_arg()
 #: argparse type of every ``--seed``: an integer in [0, 2³²).
-seed_arg = _integer(0, SEED_LIMIT - 1, f"an integer from 0 to {SEED_LIMIT - 1}")
+seed_arg = integer_arg(0, SEED_LIMIT - 1, f"an integer from 0 to {SEED_LIMIT - 1}")
 
-_positive = _real("a positive finite number", lambda v: v > 0)
-_non_negative = _real("a finite number ≥ 0", lambda v: v >= 0)
-_mass = _real("a positive mass in kg (at most 1e6)", lambda v: 0 < v <= MAX_MASS)
+positive_arg = real_arg("a positive finite number", lambda v: v > 0)
+non_negative_arg = real_arg("a finite number ≥ 0", lambda v: v >= 0)
+mass_arg = real_arg("a positive mass in kg (at most 1e6)", lambda v: 0 < v <= MAX_MASS)
 
 
 def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progress bar") -> None:
     """The analysis options of ``dampfit analyze`` (and of ``dampfit record``, which analyses
     its recording the same way): mass, axis, window, band, sampler, outputs."""
-    a.add_argument("--mass", type=_mass, metavar="KG", help="oscillating mass [kg]")
-    a.add_argument("--mass-sd", type=_real("a standard deviation ≥ 0 kg", lambda v: v >= 0),
+    a.add_argument("--mass", type=mass_arg, metavar="KG", help="oscillating mass [kg]")
+    a.add_argument("--mass-sd", type=real_arg("a standard deviation ≥ 0 kg", lambda v: v >= 0),
                    metavar="KG", default=None, help="standard deviation of the mass [kg]")
     a.add_argument("--axis", default="auto", help="x, y, z, another column name, or auto")
-    a.add_argument("--window", nargs=2, type=_real("a finite time [s]"), metavar=("START", "END"),
+    a.add_argument("--window", nargs=2, type=real_arg("a finite time [s]"), metavar=("START", "END"),
                    help="free-decay window [s] in the recording's time base, START < END")
-    a.add_argument("--band", nargs=2, type=_real("a positive frequency [Hz]", lambda v: v > 0),
+    a.add_argument("--band", nargs=2, type=real_arg("a positive frequency [Hz]", lambda v: v > 0),
                    metavar=("LO", "HI"), help="pass band [Hz] around the oscillation, 0 < LO < HI")
     a.add_argument("--seed", type=seed_arg, default=0,
                    help=f"random seed of the sampler, 0 to {SEED_LIMIT - 1}")
-    a.add_argument("--max-steps", type=_integer(1, MAX_STEPS), default=20000,
+    a.add_argument("--max-steps", type=integer_arg(1, MAX_STEPS), default=20000,
                    help=f"sampler step limit, 1 to {MAX_STEPS}")
     a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
@@ -96,7 +96,7 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
                    choices=["auto", "viscous", "coulomb", "quadratic", "power"],
                    help="damping law reported as c_equivalent (auto: the one the evidence "
                         "prefers); all are compared in model_checks either way")
-    a.add_argument("--amplitude", type=_real("a positive displacement amplitude in metres",
+    a.add_argument("--amplitude", type=real_arg("a positive displacement amplitude in metres",
                                              lambda v: v > 0), metavar="M",
                    help="displacement amplitude [m] at which a non-viscous law's equivalent "
                         "viscous c is reported (the amplitude your FEM model will see)")

@@ -38,7 +38,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import _real, add_analysis_options, check_analysis_options
+from dampfit.cli.options import real_arg, add_analysis_options, check_analysis_options
 from dampfit.errors import DampfitError, InputError
 
 __all__ = ["add_arguments", "command"]
@@ -57,12 +57,12 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                    help="replace an existing output folder (or --experiment file) that dampfit "
                         "wrote")
     a.add_argument("--duration", metavar="S", default=600.0,
-                   type=_real(f"a positive duration in seconds, at most {_DURATION_MAX:g}",
+                   type=real_arg(f"a positive duration in seconds, at most {_DURATION_MAX:g}",
                               lambda v: 0 < v <= _DURATION_MAX),
                    help="longest recording [s] of phone time (default 600; it also bounds "
                         "the memory used)")
     a.add_argument("--timeout", metavar="S", default=5.0,
-                   type=_real("a timeout in seconds from 0.05 to 120", lambda v: 0.05 <= v <= 120),
+                   type=real_arg("a timeout in seconds from 0.05 to 120", lambda v: 0.05 <= v <= 120),
                    help="timeout [s] of every request to the phone (connect and each read)")
     a.add_argument("--no-analyze", action="store_true",
                    help="only record (recording.csv, recording.json); no analysis")
@@ -137,16 +137,16 @@ def command(args) -> int:
         except BaseException:
             live.finish_quietly()
             raise
-    from dampfit.cli.analyze import _print_result
+    from dampfit.cli.analyze import print_result
 
     live.finish(final)
-    _print_result(an, out, args.json)
+    print_result(an, out, args.json)
     return 0
 
 
 def _analyse(args, folder, out: Path, notes, names):
     """Step 2: the analysis into a new staging folder beside copies of the recording files."""
-    from dampfit.cli.analyze import _figure_process, analyse_into
+    from dampfit.cli.analyze import figure_process, analyse_into
     from dampfit.output.report import write_report
 
     stage = folder.restage()
@@ -154,7 +154,7 @@ def _analyse(args, folder, out: Path, notes, names):
         for name in names:
             shutil.copyfile(folder.target / name, stage / name)
     try:
-        with _figure_process(args) as figs, contextlib.closing(figs):
+        with figure_process(args) as figs, contextlib.closing(figs):
             an = analyse_into(args, folder, figs, stage / names[0],
                               shown_path=folder.target / names[0], notes=tuple(notes))
             folder.publish()

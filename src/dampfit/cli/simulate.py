@@ -12,8 +12,8 @@ import math
 import os
 from pathlib import Path
 
-from dampfit.cli.options import (MAX_MASS, MAX_SIM_SAMPLES, _integer, _mass, _non_negative,
-                                 _positive, _real, seed_arg)
+from dampfit.cli.options import (MAX_MASS, MAX_SIM_SAMPLES, integer_arg, mass_arg, non_negative_arg,
+                                 positive_arg, real_arg, seed_arg)
 from dampfit.errors import InputError
 
 __all__ = ["add_arguments", "command"]
@@ -26,22 +26,22 @@ MAX_C_SPREAD = 2.0
 def add_arguments(s: argparse.ArgumentParser) -> None:
     """Options of ``dampfit simulate``."""
     s.add_argument("--preset", default="paper", help="starting configuration: paper | phone")
-    s.add_argument("--mass", type=_mass, metavar="KG", help="oscillating mass [kg]")
-    s.add_argument("--f-n", type=_positive, metavar="HZ", help="natural frequency [Hz]")
-    s.add_argument("--zeta", type=_real("a damping ratio in [0, 1)", lambda v: 0 <= v < 1),
+    s.add_argument("--mass", type=mass_arg, metavar="KG", help="oscillating mass [kg]")
+    s.add_argument("--f-n", type=positive_arg, metavar="HZ", help="natural frequency [Hz]")
+    s.add_argument("--zeta", type=real_arg("a damping ratio in [0, 1)", lambda v: 0 <= v < 1),
                    metavar="Z", help="damping ratio [1], 0 ≤ ZETA < 1")
-    s.add_argument("--u0", type=_real("a displacement in [0, 100] m", lambda v: 0 <= v <= 100),
+    s.add_argument("--u0", type=real_arg("a displacement in [0, 100] m", lambda v: 0 <= v <= 100),
                    metavar="M", help="initial displacement [m]")
-    s.add_argument("--duration", type=_positive, metavar="S", help="record length [s]")
-    s.add_argument("--sample-rate", type=_positive, metavar="HZ",
+    s.add_argument("--duration", type=positive_arg, metavar="S", help="record length [s]")
+    s.add_argument("--sample-rate", type=positive_arg, metavar="HZ",
                    help=f"sample rate [Hz]; duration × sample rate ≤ {MAX_SIM_SAMPLES:g} samples")
-    s.add_argument("--jitter", type=_real("a coefficient of variation in [0, 1]",
+    s.add_argument("--jitter", type=real_arg("a coefficient of variation in [0, 1]",
                                           lambda v: 0 <= v <= 1), metavar="CV")
-    s.add_argument("--noise-density", type=_non_negative, metavar="UG", help="µg/√Hz")
-    s.add_argument("--drift", type=_non_negative, metavar="MS2", help="bias drift rms [m/s²]")
-    s.add_argument("--tilt", type=_real("an angle in [-90, 90] degrees", lambda v: abs(v) <= 90),
+    s.add_argument("--noise-density", type=non_negative_arg, metavar="UG", help="µg/√Hz")
+    s.add_argument("--drift", type=non_negative_arg, metavar="MS2", help="bias drift rms [m/s²]")
+    s.add_argument("--tilt", type=real_arg("an angle in [-90, 90] degrees", lambda v: abs(v) <= 90),
                    metavar="DEG")
-    s.add_argument("--handheld", type=_non_negative, metavar="S")
+    s.add_argument("--handheld", type=non_negative_arg, metavar="S")
     s.add_argument("--gravity", action=argparse.BooleanOptionalAction, default=None)
     s.add_argument("--catch", action=argparse.BooleanOptionalAction, default=None)
     s.add_argument("--dialect", default="comma", choices=["comma", "tab", "semicolon"])
@@ -50,21 +50,21 @@ def add_arguments(s: argparse.ArgumentParser) -> None:
     s.add_argument("--force", action="store_true",
                    help="overwrite existing files FILE.csv and FILE.truth.json")
     g = s.add_argument_group("campaign (several recordings of one damper)")
-    g.add_argument("--tests", type=_integer(2, MAX_TESTS, f"an integer from 2 to {MAX_TESTS}"),
+    g.add_argument("--tests", type=integer_arg(2, MAX_TESTS, f"an integer from 2 to {MAX_TESTS}"),
                    metavar="N", help="write N recordings FILE-1.csv … FILE-N.csv of the same "
                    "system and one FILE.truth.json")
-    g.add_argument("--c-spread", type=_real(f"a spread in [0, {MAX_C_SPREAD:g}] (sd of ln c)",
+    g.add_argument("--c-spread", type=real_arg(f"a spread in [0, {MAX_C_SPREAD:g}] (sd of ln c)",
                                             lambda v: 0 <= v <= MAX_C_SPREAD),
                    metavar="F", help="between-test sd of ln c [1] (≈ relative sd; default 0)")
-    g.add_argument("--added-mass", type=_real(f"a mass in [0, {MAX_MASS:g}] kg",
+    g.add_argument("--added-mass", type=real_arg(f"a mass in [0, {MAX_MASS:g}] kg",
                                               lambda v: 0 <= v <= MAX_MASS),
                    nargs="+", metavar="KG", help="known added mass of each test [kg] (0 for the "
                    "bare system); sets N when --tests is not given")
-    g.add_argument("--added-mass-sd", type=_real(f"a standard deviation in [0, {MAX_MASS:g}] kg",
+    g.add_argument("--added-mass-sd", type=real_arg(f"a standard deviation in [0, {MAX_MASS:g}] kg",
                                                  lambda v: 0 <= v <= MAX_MASS),
                    metavar="KG", help="scale error of each added mass [kg]: the mass simulated "
                    "is the stated one plus a normal error of this sd (0 stays exact; default 0)")
-    g.add_argument("--amplitudes", type=_real("a displacement in [0, 100] m",
+    g.add_argument("--amplitudes", type=real_arg("a displacement in [0, 100] m",
                                               lambda v: 0 <= v <= 100),
                    nargs="+", metavar="M", help="release displacement u0 of each test [m]")
 
@@ -101,13 +101,13 @@ def _sim_config(args):
 def _write_failure(out, exc: Exception) -> InputError:
     """One line for a failed write of ``out`` (an OSError, or a WriteError raised while writing
     into the staging folder): nothing was written."""
-    from dampfit._files import _reason
+    from dampfit._files import error_text
 
     if isinstance(exc, OSError):
-        reason = _reason(exc)
+        reason = error_text(exc)
     else:
         cause = exc.__cause__
-        reason = _reason(cause) if isinstance(cause, OSError) else str(exc)
+        reason = error_text(cause) if isinstance(cause, OSError) else str(exc)
     return InputError(f"cannot write {out}: {reason}; nothing was written")
 
 
@@ -126,7 +126,7 @@ def command(args) -> int:
     import tempfile
 
     from dampfit import simulate as sim
-    from dampfit._files import _reason, check_output_file
+    from dampfit._files import error_text, check_output_file
 
     if _campaign_size(args) is not None:
         return _campaign_command(args)
@@ -147,7 +147,7 @@ def command(args) -> int:
     try:
         stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
     except OSError as exc:
-        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+        raise InputError(f"cannot write {out}: {error_text(exc)}; nothing was written") from None
     existed = os.path.lexists(out)
     try:
         sim.write_phyphox_csv(rec, stage / out.name, dialect=args.dialect)
@@ -217,7 +217,7 @@ def _campaign_command(args) -> int:
     import tempfile
 
     from dampfit import simulate as sim
-    from dampfit._files import _reason, check_output_file
+    from dampfit._files import error_text, check_output_file
 
     n = _campaign_size(args)
     out = Path(args.out)
@@ -239,7 +239,7 @@ def _campaign_command(args) -> int:
     try:
         stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
     except OSError as exc:
-        raise InputError(f"cannot write {out}: {_reason(exc)}; nothing was written") from None
+        raise InputError(f"cannot write {out}: {error_text(exc)}; nothing was written") from None
     try:
         for rec, path in zip(recs, csvs):
             sim.write_phyphox_csv(rec, stage / path.name, dialect=args.dialect)

@@ -48,6 +48,6 @@ def result_folder(out: Path, kind: str, force: bool, inputs=(), **kw) -> ResultF
 def _note(text: str) -> None:
     """A note of the result folder (a previous result restored after a kill): printed on
     stderr after the command succeeds (a failing command prints its one error line only)."""
-    from dampfit.cli import _DEFERRED
+    from dampfit.cli import messages
 
-    _DEFERRED.append(f"dampfit: note: {text}")
+    messages.defer(f"dampfit: note: {text}")

@@ -58,6 +58,7 @@ import jax.numpy as jnp
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from dampfit._arviz import arviz
 from dampfit import physics
 from dampfit.model import profile
 from dampfit.model.viscous import M1
@@ -68,13 +69,6 @@ from dampfit.signal.prepare import FitData
 if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric import path
     import arviz as az
 
-
-def _arviz():
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore", FutureWarning)
-        import arviz
-
-    return arviz
 
 __all__ = ["PosteriorResult", "sample", "seed_sampler", "N_WALKERS"]
 
@@ -256,7 +250,7 @@ def quantity_diagnostics(idata: "az.InferenceData") -> dict[str, dict[str, float
     """Rank-normalised R-hat [1] and bulk ESS [draws] of every quantity in the posterior
     (arviz, walkers as chains): ``{name: {"r_hat": …, "ess_bulk": …}}``. A constant quantity
     (the mass without an uncertainty) has R-hat NaN."""
-    az = _arviz()
+    az = arviz()
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")  # constant draws: R-hat is NaN, with a warning
         rhat = az.rhat(idata.posterior)
@@ -372,7 +366,7 @@ def diagnose(chain: np.ndarray) -> tuple[float, float]:
     if chain.shape[0] < 8:
         return np.inf, 0.0
     x = np.transpose(chain, (1, 0, 2))  # (chain, draw, dim)
-    az = _arviz()
+    az = arviz()
     with _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
         rh = [float(az.rhat(x[..., i])) for i in range(x.shape[-1])]
@@ -399,7 +393,7 @@ def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.Inferen
 
     with _warnings.catch_warnings():  # short chains: (chain, draw) is right by construction
         _warnings.filterwarnings("ignore", message="More chains")
-        return _arviz().from_dict(
+        return arviz().from_dict(
             posterior={k: shape(v) for k, v in post.items()},
             sample_stats={"lp": lp.T},
             attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from dampfit.errors import InputError
-from dampfit.study.task import _finite
+from dampfit._json import finite
 
 __all__ = ["CHECKS", "added_masses", "check_scenario", "empty_row", "per_test", "run",
            "score", "streams", "truth"]
@@ -90,9 +90,9 @@ def check_scenario(base, params: dict[str, Any]) -> None:
         raise InputError(f"{n} tests of {base.duration:g} s at {base.sample_rate:g} Hz would be "
                          f"{total:.3g} samples; at most {sim.MAX_SIM_SAMPLES:g} are simulated")
     for i in range(n):
-        test = dataclasses.replace(base, mass=base.mass + (dm[i] if dm else 0.0),
-                                   u0=u0[i] if u0 else base.u0)
         try:
+            test = dataclasses.replace(base, mass=base.mass + (dm[i] if dm else 0.0),
+                                       u0=u0[i] if u0 else base.u0)
             sim.check_limits(test)
         except InputError as exc:
             raise InputError(f"test {i + 1}: {exc}") from None
@@ -111,7 +111,7 @@ def _inside(entry: dict | None, x: float | None) -> bool | None:
     """Whether the [q05, q95] interval of a summary ``entry`` holds ``x`` (None: undefined)."""
     if not entry or x is None:
         return None
-    lo, hi = _finite(entry.get("q05")), _finite(entry.get("q95"))
+    lo, hi = finite(entry.get("q05")), finite(entry.get("q95"))
     if lo is None or hi is None:
         return None
     return bool(lo <= x <= hi)
@@ -160,29 +160,29 @@ def score(summary: dict[str, Any], row: dict[str, Any]) -> dict[str, Any]:
         entry, true = params.get(q), row[f"true_{q}"]
         if not entry:
             continue
-        est = _finite(entry.get("q50"))
-        row.update({f"est_{q}": est, f"{q}_lo": _finite(entry.get("q05")),
-                    f"{q}_hi": _finite(entry.get("q95")),
+        est = finite(entry.get("q50"))
+        row.update({f"est_{q}": est, f"{q}_lo": finite(entry.get("q05")),
+                    f"{q}_hi": finite(entry.get("q95")),
                     f"err_{q}": None if est is None or true is None else est - true,
                     f"covers_{q}": _inside(entry, true)})
     for q in ("c", "zeta"):
         entry = (pop.get("predictive") or {}).get(q)
         if entry:
-            row[f"predictive_{q}_lo"] = _finite(entry.get("q05"))
-            row[f"predictive_{q}_hi"] = _finite(entry.get("q95"))
+            row[f"predictive_{q}_lo"] = finite(entry.get("q05"))
+            row[f"predictive_{q}_hi"] = finite(entry.get("q95"))
             row[f"covers_predictive_{q}"] = _inside(entry, row[f"true_new_{q}"])
     spread = pop["spread"]["p"]
     s = row["true_spread"]
     zero = pop.get("spread_consistent_with_zero")
-    row.update({"spread_q05": _finite(spread.get("q05")), "spread_q50": _finite(spread.get("q50")),
-                "spread_q95": _finite(spread.get("q95")),
+    row.update({"spread_q05": finite(spread.get("q05")), "spread_q50": finite(spread.get("q50")),
+                "spread_q95": finite(spread.get("q95")),
                 "spread_zero_consistent": None if zero is None else bool(zero),
                 "covers_spread": _inside(spread, s) if s > 0 else None,
                 "spread_zero_ok": None if s > 0 or zero is None else bool(zero)})
     row.update({"verdict": summary["checks"]["verdict"], "converged": bool(diag["converged"]),
-                "n_steps": diag.get("n_steps"), "max_r_hat": _finite(diag.get("max_r_hat")),
-                "min_ess_bulk": _finite(diag.get("min_ess_bulk")),
-                "importance_ess_fraction": _finite(diag.get("importance_ess_fraction")),
+                "n_steps": diag.get("n_steps"), "max_r_hat": finite(diag.get("max_r_hat")),
+                "min_ess_bulk": finite(diag.get("min_ess_bulk")),
+                "importance_ess_fraction": finite(diag.get("importance_ess_fraction")),
                 "ok": True})
     if not row["converged"]:
         warn = [w for w in diag.get("warnings", []) if "converged" in w]

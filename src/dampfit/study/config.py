@@ -340,7 +340,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
     seed = _integer(study, "seed", minimum=0, default=0)
     estimators = ("campaign",) if is_campaign else _estimators(study.get("estimators"), available)
     mass = study.get("mass")
-    from dampfit.simulate import MAX_MASS  # the limit of 'analyze --mass'
+    from dampfit.physics import MAX_MASS  # the limit of 'analyze --mass'
 
     if mass is not None and (isinstance(mass, bool) or not isinstance(mass, (int, float))
                              or not math.isfinite(mass) or mass <= 0 or mass > MAX_MASS):
@@ -554,7 +554,7 @@ def _per_test_list(key: str, value: Any, lo: float, hi: float, unit: str) -> lis
 
 def _setting(table: dict, key: str) -> Any:
     """An analysis setting of [campaign] (:data:`CAMPAIGN_SETTINGS`), checked, or its default."""
-    from dampfit.simulate import MAX_MASS
+    from dampfit.physics import MAX_MASS
 
     if key not in table:
         return CAMPAIGN_SETTINGS[key]
@@ -577,7 +577,8 @@ def _setting(table: dict, key: str) -> Any:
 def _campaign(table: dict, grid: dict, fixed: dict, mass: float | None) -> dict[str, Any]:
     """The validated [campaign] table: design constants (scenario fields) and every analysis
     setting (see the module docstring); one :class:`InputError` line otherwise."""
-    from dampfit.simulate import MAX_MASS, MAX_U0
+    from dampfit.physics import MAX_MASS
+    from dampfit.simulate import MAX_U0
 
     bad = sorted(set(table) - set(CAMPAIGN_KEYS))
     if bad:

@@ -26,7 +26,7 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import _reason, atomic_write_text, check_lock_file, publish, read_marker
+from dampfit._files import error_text, atomic_write_text, check_lock_file, publish, read_marker
 from dampfit.errors import InputError
 from dampfit.study.config import StudyConfig
 
@@ -106,7 +106,7 @@ class Store:
                 self.root.mkdir()
                 publish(self.root)
             except OSError as exc:
-                raise InputError(f"cannot create {self.root}: {_reason(exc)}") from None
+                raise InputError(f"cannot create {self.root}: {error_text(exc)}") from None
             self._created_root = True
         try:
             self._lock()
@@ -130,7 +130,7 @@ class Store:
             else:
                 self._repair_tail()
         except OSError as exc:
-            raise InputError(f"cannot write into {self.root}: {_reason(exc)}") from None
+            raise InputError(f"cannot write into {self.root}: {error_text(exc)}") from None
         self.write_meta(self._cfg, self._version)
         self._started = True
         self._discard = False
@@ -145,12 +145,12 @@ class Store:
             try:
                 parent_ok = self.root.parent.is_dir()
             except OSError as exc:
-                raise InputError(f"cannot use {self.root}: {_reason(exc)}") from None
+                raise InputError(f"cannot use {self.root}: {error_text(exc)}") from None
             if not parent_ok:
                 raise InputError(f"output folder {self.root.parent} does not exist")
             return
         except OSError as exc:  # a name too long, no permission, a link loop
-            raise InputError(f"cannot use {self.root}: {_reason(exc)}") from None
+            raise InputError(f"cannot use {self.root}: {error_text(exc)}") from None
         if not stat.S_ISDIR(st.st_mode):
             raise InputError(f"{self.root} exists and is not a directory")
         meta = self._read_meta()
@@ -159,7 +159,7 @@ class Store:
         except FileNotFoundError:
             runs = None
         except OSError as exc:
-            raise InputError(f"cannot read {self.runs_path}: {_reason(exc)}") from None
+            raise InputError(f"cannot read {self.runs_path}: {error_text(exc)}") from None
         if runs is not None and not stat.S_ISREG(runs.st_mode) and not (force and meta is not None):
             raise InputError(f"{self.runs_path} is not a regular file (a link, FIFO, socket or "
                              "device); a study stores its runs only in a file it wrote: remove "
@@ -168,7 +168,7 @@ class Store:
             try:
                 other = [p.name for p in self.root.iterdir() if p.name != ".lock"]
             except OSError as exc:
-                raise InputError(f"cannot read {self.root}: {_reason(exc)}") from None
+                raise InputError(f"cannot read {self.root}: {error_text(exc)}") from None
             marked = (read_marker(self.root) or {}).get("kind") == "study"
             if other and not marked:
                 raise InputError(f"{self.root} exists and holds no dampfit study (no study.json); "
@@ -203,9 +203,9 @@ class Store:
                 except FileNotFoundError:
                     continue  # removed by its holder meanwhile: try again
                 except OSError as exc:
-                    raise InputError(f"cannot open the lock file {path}: {_reason(exc)}") from None
+                    raise InputError(f"cannot open the lock file {path}: {error_text(exc)}") from None
             except OSError as exc:
-                raise InputError(f"cannot create the lock file {path}: {_reason(exc)}") from None
+                raise InputError(f"cannot create the lock file {path}: {error_text(exc)}") from None
             check_lock_file(fd, path)
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -248,7 +248,7 @@ class Store:
         except FileNotFoundError:
             return None
         except OSError as exc:
-            raise InputError(f"cannot read {self.meta_path}: {_reason(exc)}") from None
+            raise InputError(f"cannot read {self.meta_path}: {error_text(exc)}") from None
         why = None
         if not stat.S_ISREG(st.st_mode):
             why = "it is not a regular file"
@@ -336,5 +336,5 @@ class Store:
             finally:
                 os.close(fd)
         except OSError as exc:  # a full disk: the runs stored so far are kept
-            raise InputError(f"cannot append to {self.runs_path}: {_reason(exc)}; the runs stored "
+            raise InputError(f"cannot append to {self.runs_path}: {error_text(exc)}; the runs stored "
                              "so far are kept: run the same command again to resume") from None

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from dampfit._json import finite
 from dampfit.study.config import Task, sim_config
 
 __all__ = ["QUANTITIES", "crlb_design", "run_campaign_task", "run_task", "worker_info"]
@@ -71,13 +72,6 @@ def crlb_design(recording, truth: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _finite(x) -> float | None:
-    """``x`` as a float, or None if missing or not finite (JSON-safe)."""
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
 
 
 def _bound(recording, truth: dict, mass: float | None) -> tuple[dict[str, float | None], str]:
@@ -88,11 +82,11 @@ def _bound(recording, truth: dict, mass: float | None) -> tuple[dict[str, float 
         b = crlb.bound(**crlb_design(recording, truth), mass=mass, mass_sd=0.0, drift_degree=0)
     except InputError as exc:
         return {q: None for q in QUANTITIES}, f"no bound: {exc}"
-    return {q: _finite(b.get(q, {}).get("sd")) for q in QUANTITIES}, ""
+    return {q: finite(b.get(q, {}).get("sd")) for q in QUANTITIES}, ""
 
 
 def _covers(lo, hi, true) -> bool | None:
-    lo, hi = _finite(lo), _finite(hi)
+    lo, hi = finite(lo), finite(hi)
     if lo is None or hi is None or true is None:
         return None
     return bool(lo <= true <= hi)
@@ -100,20 +94,20 @@ def _covers(lo, hi, true) -> bool | None:
 
 def _row(est, truth: dict, sd: dict, mass_known: bool) -> dict[str, Any]:
     row: dict[str, Any] = {"estimator": est.estimator}
-    true = {q: _finite(truth[q]) for q in QUANTITIES}
+    true = {q: finite(truth[q]) for q in QUANTITIES}
     if not mass_known:
         true["c"] = None
     for q in QUANTITIES:
-        value = _finite(getattr(est, q, None))
+        value = finite(getattr(est, q, None))
         row[f"est_{q}"] = value
         row[f"true_{q}"] = true[q]
         row[f"crlb_{q}"] = sd[q]
         row[f"err_{q}"] = None if value is None or true[q] is None else value - true[q]
     for q in ("c", "zeta"):
-        row[f"{q}_lo"] = _finite(getattr(est, f"{q}_lo", None))
-        row[f"{q}_hi"] = _finite(getattr(est, f"{q}_hi", None))
+        row[f"{q}_lo"] = finite(getattr(est, f"{q}_lo", None))
+        row[f"{q}_hi"] = finite(getattr(est, f"{q}_hi", None))
         row[f"covers_{q}"] = _covers(row[f"{q}_lo"], row[f"{q}_hi"], true[q])
-    row["runtime_s"] = _finite(est.runtime_s)
+    row["runtime_s"] = finite(est.runtime_s)
     row["ok"] = bool(est.ok) and row["est_p"] is not None
     row["message"] = str(est.message or "")
     return row
@@ -124,7 +118,7 @@ def _failed_rows(task: Task, truth: dict | None, message: str) -> list[dict[str,
     for name in task.estimators:
         row: dict[str, Any] = {"estimator": name}
         for q in QUANTITIES:
-            true = _finite(truth[q]) if truth and (q != "c" or task.mass_known) else None
+            true = finite(truth[q]) if truth and (q != "c" or task.mass_known) else None
             row.update({f"est_{q}": None, f"true_{q}": true, f"crlb_{q}": None, f"err_{q}": None})
         for q in ("c", "zeta"):
             row.update({f"{q}_lo": None, f"{q}_hi": None, f"covers_{q}": None})
