@@ -40,7 +40,7 @@ from dampfit.fem import units as units_mod
 from dampfit.fem.sanitize import shown
 from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "build", "export", "output_interval"]
+__all__ = ["FORMATS", "build", "export", "output_interval", "run_duration"]
 
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
@@ -62,8 +62,9 @@ def output_interval(period: float, sample_rate: float | None) -> float:
     return min(allowed, key=lambda x: abs(math.log(x / target)))
 
 
-def _duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
-    """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``."""
+def run_duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
+    """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``
+    (of a campaign the longest test window); :class:`InputError` if there is none."""
     if duration is None and summary.get("kind") == "campaign":
         duration = _campaign_duration(summary, path)
     if duration is None:
@@ -126,7 +127,7 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
-    dur = _duration(summary, duration, path)
+    dur = run_duration(summary, duration, path)
     fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
     dt = timestep.choose(sdof.omega_n, dur, output_dt)
