@@ -184,8 +184,6 @@ import math
 import os
 import sys
 
-import openseespy.opensees as ops
-
 SOURCE_FOLDER = {source_literal}  # result folder the system was read from
 DAMPFIT_VERSION = {version_literal}  # dampfit version that wrote its summary.json
 m = {m!r}  # mass [{M}]
@@ -214,6 +212,8 @@ elif args.steps >= 0 and args.steps % args.every == 0:
     n_rows = args.steps // args.every
 else:
     cli.error("--steps must be a non-negative multiple of --every")
+
+import openseespy.opensees as ops  # after the options: --help and their errors need no OpenSees
 
 ops.wipe()
 ops.model("basic", "-ndm", 1, "-ndf", 1)
