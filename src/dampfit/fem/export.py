@@ -6,7 +6,8 @@ The system (m, k, c, u0 at a posterior quantile; see :mod:`dampfit.fem.sdof`) is
 * ``lsdyna``  — an LS-DYNA keyword deck (.k), the seed paper's discrete-element model
   (:mod:`dampfit.fem.lsdyna`);
 * ``opensees`` — a runnable OpenSeesPy script (.py) that writes the displacement history
-  (:mod:`dampfit.fem.opensees`);
+  (:mod:`dampfit.fem.opensees`); ``dampfit verify`` runs exactly this script (the defaults'
+  text, SHA-256 in verification.json; :mod:`dampfit.fem.verify`);
 * ``calculix`` — a CalculiX input deck (.inp) (:mod:`dampfit.fem.calculix`; CalculiX is not
   installed here, the deck is verified by reading it back).
 
