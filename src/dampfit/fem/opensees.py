@@ -204,7 +204,8 @@ cli.add_argument("--dt", type=float, default=dt)
 cli.add_argument("--steps", type=int)
 cli.add_argument("--every", type=int, default=output_every)
 args = cli.parse_args()
-if not (args.dt > 0 and args.every >= 1 and all(map(math.isfinite, (args.u_start, args.v_start, args.dt)))):
+finite = all(map(math.isfinite, (args.u_start, args.v_start, args.dt)))
+if not (finite and args.dt > 0 and args.every >= 1):
     cli.error("--dt must be positive, --every at least 1, all numbers finite")
 if args.steps is None:
     n_rows = int(round(duration / (args.dt * args.every)))
