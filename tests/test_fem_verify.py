@@ -3,9 +3,11 @@ period error, the start from the fitted model, and the comparison on simulated r
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
+import shlex
 import subprocess
 import sys
 import warnings
@@ -16,8 +18,9 @@ import pytest
 
 from dampfit.cli import main
 from dampfit.errors import InputError
-from dampfit.fem import opensees, timestep, verify
-from dampfit.fem import response as compare
+from dampfit.fem import units
+from dampfit.fem.export import export
+from dampfit.fem import opensees, response, sdof, timestep, verify
 from dampfit.physics import to_decay
 from dampfit.simulate import free_decay
 
@@ -100,7 +103,7 @@ def test_initial_state_is_the_fitted_models_state():
     p, wd = (float(x) for x in to_decay(C, K, M))
     tau = np.arange(0, 10, 0.01)
     _, _, a = free_decay(tau + 1.234, M, C, K, U0)   # window starts 1.234 s after release
-    st = compare.initial_state(tau, a, p, wd, tau0=0.37)
+    st = response.initial_state(tau, a, p, wd, tau0=0.37)
     u_ref, v_ref, _ = free_decay(np.array([0.37 + 1.234]), M, C, K, U0)
     assert st["u"] == pytest.approx(u_ref[0], rel=1e-9, abs=1e-12)
     assert st["v"] == pytest.approx(v_ref[0], rel=1e-9, abs=1e-12)
@@ -111,13 +114,13 @@ def test_peak_decay_rate_and_errors():
     p, _ = to_decay(C, K, M)
     t = np.arange(0, 30, 0.005)
     u, _, _ = free_decay(t, M, C, K, U0)
-    d = compare.peak_decay_rate(t, u)
+    d = response.peak_decay_rate(t, u)
     assert d["p"] == pytest.approx(float(p), rel=1e-5) and d["n_peaks"] > 90
-    assert compare.peak_decay_rate(t[:50], u[:50])["p"] is None
-    e = compare.errors(u, 1.01 * u)
+    assert response.peak_decay_rate(t[:50], u[:50])["p"] is None
+    e = response.errors(u, 1.01 * u)
     assert e["nmse"] == pytest.approx(1e-4 * np.mean(u**2) / np.var(u), rel=1e-9)
     assert e["slope"] == pytest.approx(1.01) and e["r2"] == pytest.approx(1.0)
-    assert compare.errors([np.nan] * 5, [1.0] * 5)["mse"] is None
+    assert response.errors([np.nan] * 5, [1.0] * 5)["mse"] is None
 
 
 # -- verify on results -----------------------------------------------------------------------
@@ -189,6 +192,153 @@ def test_verify_without_measured_displacement(tmp_path):
     assert verify.plot(result, tmp_path / "v.png").is_file()
 
 
+# -- verify runs the exported script ------------------------------------------------------------
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_runs_exactly_the_script_export_writes(tmp_path, capsys):
+    """verification.json's script_sha256 is the SHA-256 of 'dampfit export DIR --format
+    opensees' (the defaults); --dt is an option of the run, not of the script; another unit
+    system is another script."""
+    folder = write_result(tmp_path / "r")
+    assert main(["export", str(folder), "--format", "opensees"]) == 0
+    exported = _sha256(folder / "sdof_opensees.py")
+    assert main(["verify", str(folder)]) == 0
+    rep = json.loads((folder / "verification.json").read_text())
+    assert rep["script_sha256"] == exported == rep["script"]["sha256"]
+    s = rep["script"]
+    assert (s["name"], s["format"], s["units"], s["quantile"], s["gravity"]) == \
+        ("sdof_opensees.py", "opensees", "SI", 0.5, False)
+    assert s["duration_s"] == pytest.approx(SPAN)  # the analysed window of summary.json
+    assert shlex.split(s["export_command"]) == ["dampfit", "export", str(folder.resolve()),
+                                                "--format", "opensees"]
+    assert f"sha256 {exported[:16]}" in capsys.readouterr().out
+    assert main(["verify", str(folder), "--dt", "0.001"]) == 0
+    again = json.loads((folder / "verification.json").read_text())
+    assert again["script_sha256"] == exported and "--dt=0.001" in again["script"]["run_options"]
+    assert main(["export", str(folder), "--format", "opensees", "--units", "mm-ms-kg",
+                 "--out", str(tmp_path / "sdof_opensees.py")]) == 0
+    assert _sha256(tmp_path / "sdof_opensees.py") != exported
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_the_exported_file_with_the_recorded_options_reproduces_verifys_run(tmp_path):
+    """Run the exported file by hand with script.run_options: its response, on the sample
+    times, is exactly the FEM response verify compared."""
+    folder = write_result(tmp_path / "r", noise=0.1)
+    path, _ = export(folder, "opensees")
+    result = verify.run(folder)
+    rep = result["report"]
+    assert rep["script_sha256"] == _sha256(path)
+    out = tmp_path / "again.csv"
+    proc = subprocess.run([sys.executable, str(path), str(out), *rep["script"]["run_options"]],
+                          capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0, proc.stderr
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert data.shape == (rep["engine"]["n_steps"] + 1, 4)
+    t = result["arrays"]["t"]
+    t_fem = t[0] + rep["engine"]["dt_s"] * np.arange(data.shape[0])
+    assert np.array_equal(np.interp(t, t_fem, data[:, 1]), result["arrays"]["u_fem"])
+    assert np.array_equal(np.interp(t, t_fem, data[:, 3]), result["arrays"]["a_fem"])
+    assert data[0, 1] == rep["initial_state"]["u"]["value"]
+    assert data[0, 2] == rep["initial_state"]["v"]["value"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_without_a_window_the_export_command_names_the_duration(tmp_path):
+    """A summary.json without a window: export needs --duration, verify uses the signals'
+    span and records the export command that writes its script."""
+    folder = write_result(tmp_path / "r")
+    summary = json.loads((folder / "summary.json").read_text())
+    del summary["window"]
+    (folder / "summary.json").write_text(json.dumps(summary))
+    with pytest.raises(InputError, match="no analysis window; give --duration S"):
+        export(folder, "opensees")
+    rep = verify.run(folder)["report"]
+    argv = shlex.split(rep["script"]["export_command"])
+    assert argv[:5] == ["dampfit", "export", str(folder.resolve()), "--format", "opensees"]
+    assert argv[5] == "--duration" and float(argv[6]) == pytest.approx(SPAN)
+    assert main(argv[1:]) == 0
+    assert _sha256(folder / "sdof_opensees.py") == rep["script_sha256"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_refreshes_the_report_dampfit_wrote(tmp_path, capsys):
+    from dampfit.output.report import write_report
+    from dampfit.result.files import REPORT_MARKERS, written_by_dampfit
+
+    folder = write_result(tmp_path / "r")
+    paths = write_report(folder)
+    for name, marker in REPORT_MARKERS.items():  # the markers the report really carries
+        assert written_by_dampfit(folder / name, marker)
+    assert not written_by_dampfit(folder / "report.html", REPORT_MARKERS["report.md"])
+    assert not written_by_dampfit(folder / "missing.html", REPORT_MARKERS["report.html"])
+    assert "OpenSees verification" not in paths["md"].read_text()
+    assert main(["verify", str(folder)]) == 0
+    assert "report updated" in capsys.readouterr().out
+    assert "OpenSees verification" in paths["md"].read_text()
+
+
+def test_run_script_reports_a_failed_run_in_one_bounded_line(tmp_path, monkeypatch):
+    """The child's exit message (sys.exit text or exception) is the error; 1 MB of noise on
+    its standard error before it is not read."""
+    monkeypatch.setattr(opensees, "unavailable", lambda: None)  # these scripts need no OpenSees
+    noise = "import sys\nsys.stderr.write('Process 0 Terminating\\n' * 50000)\n"
+    with pytest.raises(RuntimeError, match=r"exit 1\): OpenSees failed before t = 1.5$"):
+        opensees.run_script(noise + "sys.exit('OpenSees failed before t = 1.5')", [], 3)
+    with pytest.raises(RuntimeError, match=r"exit 1\): ZeroDivisionError: division by zero$"):
+        opensees.run_script("1 / 0", [], 3)
+    with pytest.raises(RuntimeError, match=r"exit 7\): no message$"):
+        opensees.run_script("import sys\nsys.exit(7)", [], 3)
+    with pytest.raises(RuntimeError, match="wrote no output"):
+        opensees.run_script("pass", [], 3)
+
+
+def test_run_script_reads_only_what_the_script_writes(tmp_path, monkeypatch):
+    """The CSV must be the header and exactly the expected rows; a larger file is refused
+    from its size, before it is read."""
+    monkeypatch.setattr(opensees, "unavailable", lambda: None)
+    write = "import sys\nopen(sys.argv[1], 'w').write({!r})\n"
+    good = "time,u,v,a\n0.0,1.0,2.0,3.0\n0.5,4.0,5.0,6.0\n"
+    res = opensees.run_script(write.format(good), [], 2, name="model.py")
+    assert res["t"].tolist() == [0.0, 0.5] and res["a"].tolist() == [3.0, 6.0]
+    with pytest.raises(RuntimeError, match="more than 2 rows hold"):
+        opensees.run_script(write.format(good + "1.0,0,0,0\n" * 100), [], 2)
+    with pytest.raises(RuntimeError, match="wrote 3 rows of 4 numbers, not 2 of 4"):
+        opensees.run_script(write.format(good + "1.0,0,0,0\n"), [], 2)
+    with pytest.raises(RuntimeError, match="does not start with 'time,u,v,a'"):
+        opensees.run_script(write.format(good.replace("time", "t")), [], 2)
+    with pytest.raises(ValueError, match="plain file name"):
+        opensees.run_script("pass", [], 2, name="../x.py")
+    # the arguments reach the script after OUT.csv, as on a command line
+    echo = "import sys\nopen(sys.argv[1], 'w').write('time,u,v,a\\n' + ','.join(sys.argv[2:]) + '\\n')"
+    assert opensees.run_script(echo, ["1.5", "2", "-3", "4e-3"], 1)["a"].tolist() == [4e-3]
+
+
+def test_the_scripts_options_are_checked(tmp_path):
+    """The exported script's own command line: a bad option is argparse's exit 2 with the
+    reason on the last line, decided before OpenSees is imported (no exit noise after it)."""
+    s = sdof.Sdof(M, K, C, U0)
+    path = tmp_path / "model.py"
+    path.write_text(opensees.script(s, units.get("SI"), 1.0, 0.001, 0.002, name=path.name))
+    for args, message in ((["--steps", "5", "--every", "2"], "non-negative multiple of --every"),
+                          (["--dt", "0"], "--dt must be positive"),
+                          (["--u-start", "nan"], "all numbers finite"),
+                          (["--steps", "x"], "invalid int value")):
+        proc = subprocess.run([sys.executable, str(path), str(tmp_path / "o.csv"), *args],
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert proc.returncode == 2 and message in proc.stderr.splitlines()[-1], proc.stderr
+        assert "Process 0" not in proc.stderr
+    assert not (tmp_path / "o.csv").exists()
+    usage = subprocess.run([sys.executable, str(path), "--help"], capture_output=True, text=True,
+                           timeout=300, check=False)
+    assert usage.returncode == 0 and "--u-start" in usage.stdout and "--steps" in usage.stdout
+
+
 def test_verify_input_errors(tmp_path):
     """Bad result folders are input errors before OpenSees runs (so OpenSees is not needed)."""
     with pytest.raises(InputError, match="summary.json not found"):
@@ -207,6 +357,8 @@ def test_verify_input_errors(tmp_path):
     (tmp_path / "f" / "signals.npz").write_bytes(b"junk")
     with pytest.raises(InputError, match="not a readable .npz"):
         verify.run(tmp_path / "f")
+    with pytest.raises(InputError, match="force must be a finite weight <= 0"):
+        opensees.free_decay(M, K, C, U0, 0.0, 1e-3, 10, force=1.0)  # the script's load is a weight
 
 
 @pytest.mark.usefixtures("requires_opensees")

@@ -15,8 +15,10 @@ one error line.
 from __future__ import annotations
 
 import ast
+import hashlib
 import json
 import os
+import shlex
 import subprocess
 import sys
 import time
@@ -140,6 +142,25 @@ def test_opensees_script_from_a_hostile_folder_runs_no_injected_code(hostile_res
         assert (work / "h.csv").stat().st_size > 1000
     else:  # it got as far as importing OpenSeesPy, i.e. past the docstring
         assert "openseespy" in proc.stderr.lower(), proc.stderr
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_of_a_hostile_folder_runs_the_exported_script(tmp_path, capsys):
+    """verify runs the script export writes from a hostile folder (same SHA-256; that script's
+    module is the clean one, above), and records the folder exactly in its export command."""
+    folder = set_raw(write_result(tmp_path / HOSTILE_FOLDER), "dampfit_version",
+                     json.dumps(HOSTILE_VERSION))
+    code, _, err = run(["verify", folder], capsys)
+    assert code == 0 and err == "", err
+    code, _, err = run(["export", folder, "--format", "opensees"], capsys)
+    assert code == 0, err
+    script = folder / "sdof_opensees.py"
+    rep = json.loads((folder / "verification.json").read_text())
+    assert rep["script_sha256"] == hashlib.sha256(script.read_bytes()).hexdigest()
+    clean, _ = build(write_result(tmp_path / "clean"), "opensees")
+    assert _module_shape(script.read_text(encoding="utf-8")) == _module_shape(clean)
+    assert shlex.split(rep["script"]["export_command"])[2] == str(folder.resolve())
+    assert not list(tmp_path.rglob("PWNED")) and not Path("PWNED").exists()
 
 
 @pytest.mark.parametrize("units", ["SI", "mm-ms-kg"])

@@ -7,7 +7,7 @@ Modules (nothing is imported here, so building the CLI stays fast):
 * :mod:`~dampfit.fem.timestep` — fixed steps with negligible period and phase error;
 * :mod:`~dampfit.fem.keyword` — fixed-width LS-DYNA cards and their reader;
 * :mod:`~dampfit.fem.lsdyna`, :mod:`~dampfit.fem.opensees`, :mod:`~dampfit.fem.calculix` —
-  the decks (and, for OpenSees, an in-process run);
+  the decks (and, for OpenSees, the run of that very script in an isolated child process);
 * :mod:`~dampfit.fem.response` — pure numerics of the verification;
 * :mod:`~dampfit.fem.export`, :mod:`~dampfit.fem.verify` — ``dampfit export`` and ``dampfit verify``.
 """

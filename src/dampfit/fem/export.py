@@ -6,7 +6,8 @@ The system (m, k, c, u0 at a posterior quantile; see :mod:`dampfit.fem.sdof`) is
 * ``lsdyna``  — an LS-DYNA keyword deck (.k), the seed paper's discrete-element model
   (:mod:`dampfit.fem.lsdyna`);
 * ``opensees`` — a runnable OpenSeesPy script (.py) that writes the displacement history
-  (:mod:`dampfit.fem.opensees`);
+  (:mod:`dampfit.fem.opensees`); ``dampfit verify`` runs exactly this script (the defaults'
+  text, SHA-256 in verification.json; :mod:`dampfit.fem.verify`);
 * ``calculix`` — a CalculiX input deck (.inp) (:mod:`dampfit.fem.calculix`; CalculiX is not
   installed here, the deck is verified by reading it back).
 
@@ -40,7 +41,7 @@ from dampfit.fem import units as units_mod
 from dampfit.errors import shown
 from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "build", "export", "output_interval"]
+__all__ = ["FORMATS", "build", "export", "output_interval", "run_duration"]
 
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
@@ -62,8 +63,9 @@ def output_interval(period: float, sample_rate: float | None) -> float:
     return min(allowed, key=lambda x: abs(math.log(x / target)))
 
 
-def _duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
-    """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``."""
+def run_duration(summary: dict[str, Any], duration: float | None, path: Path) -> float:
+    """Simulated time [s]: ``duration``, else the analysed window of summary.json ``path``
+    (of a campaign the longest test window); :class:`InputError` if there is none."""
     if duration is None and summary.get("kind") == "campaign":
         duration = _campaign_duration(summary, path)
     if duration is None:
@@ -126,7 +128,7 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
-    dur = _duration(summary, duration, path)
+    dur = run_duration(summary, duration, path)
     fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
     dt = timestep.choose(sdof.omega_n, dur, output_dt)

@@ -141,21 +141,21 @@ def split_fields(line: str, widths: Sequence[int] | int = 10, count: int | None 
     return out
 
 
-def read_real(field_text: str, default: float | None = None) -> float:
-    """A real field as LS-DYNA reads it (blank → ``default``; Fortran ``D`` exponent accepted)."""
+def _read(field_text: str, default, convert):
+    """``convert`` of the stripped field, or ``default`` for a blank one (ValueError if None)."""
     text = field_text.strip()
     if not text:
         if default is None:
             raise ValueError("blank field without a default")
         return default
-    return float(text.upper().replace("D", "E"))
+    return convert(text)
+
+
+def read_real(field_text: str, default: float | None = None) -> float:
+    """A real field as LS-DYNA reads it (blank → ``default``; Fortran ``D`` exponent accepted)."""
+    return _read(field_text, default, lambda text: float(text.upper().replace("D", "E")))
 
 
 def read_int(field_text: str, default: int | None = None) -> int:
     """An integer field (blank → ``default``)."""
-    text = field_text.strip()
-    if not text:
-        if default is None:
-            raise ValueError("blank field without a default")
-        return default
-    return int(text)
+    return _read(field_text, default, int)

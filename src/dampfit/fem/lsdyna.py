@@ -108,11 +108,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     lines += ["*CONTROL_TIMESTEP",
               kw.header(["dtinit", "tssfac", "isdo", "tslimt", "dt2ms", "lctm", "erode", "ms1st"]),
               kw.card([step, 0.9, 0, 0.0, 0.0, LC_DT, 0, 0])]
-    lines += ["*DEFINE_CURVE_TITLE", "maximum time step",
-              kw.header(["lcid", "sidr", "sfa", "sfo", "offa", "offo", "dattyp"]),
-              kw.card([LC_DT, 0, 1.0, 1.0, 0.0, 0.0, 0]),
-              kw.header(["a1", "o1"], _CURVE_POINT_W),
-              kw.card([0.0, step], _CURVE_POINT_W), kw.card([2.0 * end, step], _CURVE_POINT_W)]
+    lines += _constant_curve(LC_DT, "maximum time step", step, end)
     lines += ["*DATABASE_NODOUT", kw.header(["dt", "binary", "lcur", "ioopt"]),
               kw.card([out, 3, 0, 1])]
     lines += ["*DATABASE_HISTORY_NODE", kw.header(["id1"]), kw.card([2])]
@@ -142,14 +138,19 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
                   kw.card([eid, nid, m, 0], _EMASS_W)]
     if sdof.g > 0:
         lines += ["*LOAD_BODY_Y", kw.header(["lcid", "sf", "lciddr", "xc", "yc", "zc", "cid"]),
-                  kw.card([LC_GRAVITY, 1.0, 0, 0.0, 0.0, 0.0, 0]),
-                  "*DEFINE_CURVE_TITLE", "gravity (constant)",
-                  kw.header(["lcid", "sidr", "sfa", "sfo", "offa", "offo", "dattyp"]),
-                  kw.card([LC_GRAVITY, 0, 1.0, 1.0, 0.0, 0.0, 0]),
-                  kw.header(["a1", "o1"], _CURVE_POINT_W),
-                  kw.card([0.0, g], _CURVE_POINT_W), kw.card([2.0 * end, g], _CURVE_POINT_W)]
+                  kw.card([LC_GRAVITY, 1.0, 0, 0.0, 0.0, 0.0, 0])]
+        lines += _constant_curve(LC_GRAVITY, "gravity (constant)", g, end)
     lines.append("*END")
     return "\n".join(lines) + "\n"
+
+
+def _constant_curve(lcid: int, title: str, value: float, end: float) -> list[str]:
+    """``*DEFINE_CURVE_TITLE`` ``lcid``: the constant ``value`` from t = 0 to 2·``end``."""
+    return ["*DEFINE_CURVE_TITLE", title,
+            kw.header(["lcid", "sidr", "sfa", "sfo", "offa", "offo", "dattyp"]),
+            kw.card([lcid, 0, 1.0, 1.0, 0.0, 0.0, 0]),
+            kw.header(["a1", "o1"], _CURVE_POINT_W),
+            kw.card([0.0, value], _CURVE_POINT_W), kw.card([2.0 * end, value], _CURVE_POINT_W)]
 
 
 def _curves(blocks) -> dict[int, tuple[float, list[tuple[float, float]]]]:
@@ -162,6 +163,13 @@ def _curves(blocks) -> dict[int, tuple[float, list[tuple[float, float]]]]:
             pts = [tuple(kw.read_real(x) for x in kw.split_fields(r, _CURVE_POINT_W)) for r in rows[1:]]
             out[kw.read_int(f[0])] = (sfo, pts)
     return out
+
+
+def _materials(blocks: list[list[str]]) -> dict[int, float]:
+    """``{mid: value}`` of one-value material cards (``*MAT_SPRING_ELASTIC`` k,
+    ``*MAT_DAMPER_VISCOUS`` dc)."""
+    fields = [kw.split_fields(data[0], 10, 2) for data in blocks]
+    return {kw.read_int(f[0]): kw.read_real(f[1]) for f in fields}
 
 
 def read_deck(text: str) -> dict[str, Any]:
@@ -187,10 +195,8 @@ def read_deck(text: str) -> dict[str, Any]:
     for data in get["PART"]:
         f = kw.split_fields(data[1], 10, 3)
         parts[kw.read_int(f[0])] = kw.read_int(f[2])
-    springs = {kw.read_int(kw.split_fields(d[0], 10, 2)[0]): kw.read_real(kw.split_fields(d[0], 10, 2)[1])
-               for d in get.get("MAT_SPRING_ELASTIC", [])}
-    dampers = {kw.read_int(kw.split_fields(d[0], 10, 2)[0]): kw.read_real(kw.split_fields(d[0], 10, 2)[1])
-               for d in get.get("MAT_DAMPER_VISCOUS", [])}
+    springs, dampers = (_materials(get.get(name, [])) for name in ("MAT_SPRING_ELASTIC",
+                                                                    "MAT_DAMPER_VISCOUS"))
     k = c = offset = 0.0
     for row in get["ELEMENT_DISCRETE"][0]:
         f = kw.split_fields(row, _EDISC_W)

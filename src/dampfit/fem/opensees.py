@@ -1,19 +1,29 @@
-"""OpenSees model of the identified system: an exported OpenSeesPy script and a run in a child process.
+"""OpenSees model of the identified system: one OpenSeesPy script, exported and run.
 
-Model (both): a 1-D model (``-ndm 1 -ndf 1``), node 1 fixed, node 2 with the mass, one
+:func:`script` writes the model as a standalone OpenSeesPy script (``dampfit export --format
+opensees``); :func:`run_script` runs such a script text in an isolated child process and
+reads its output, which is how ``dampfit verify`` (:mod:`dampfit.fem.verify`) and
+:func:`free_decay` run OpenSees: the model exists once, as that script.
+
+Model: a 1-D model (``-ndm 1 -ndf 1``), node 1 fixed, node 2 with the mass, one
 ``zeroLength`` element in direction 1 carrying two uniaxial materials in parallel —
 ``Elastic`` (k) and ``Viscous`` (c, α = 1: force = c·velocity). u is positive up; gravity, if
 any, is a constant load −m·g on node 2, so the static equilibrium is at −s = −m·g/k.
 
-Initial state: released at rest from ``−s + u0`` (u0 above static equilibrium), set with
-``setNodeDisp``/``setNodeVel`` and — necessary — the consistent initial acceleration
-``a(0) = (F − k·u(0) − c·v(0))/m`` with ``setNodeAccel``: OpenSees' Newmark integrator takes
-the committed acceleration as a(0) and does not solve for it, and a wrong a(0) leaves a
-first-order error (ΔtΔa/2 in the velocity) that no later step removes.
+Initial state: by default released at rest from ``−s + u0`` (u0 above static equilibrium);
+the options ``--u-start``/``--v-start`` give another state (verify starts from the fitted
+model's state at the window start). Set with ``setNodeDisp``/``setNodeVel`` and — necessary —
+the consistent initial acceleration ``a(0) = (F − k·u(0) − c·v(0))/m`` with ``setNodeAccel``:
+OpenSees' Newmark integrator takes the committed acceleration as a(0) and does not solve for
+it, and a wrong a(0) leaves a first-order error (ΔtΔa/2 in the velocity) that no later step
+removes.
 
 Integration: Newmark average acceleration (γ = 1/2, β = 1/4), unconditionally stable, no
 numerical damping, period elongation (ωΔt/2)/atan(ωΔt/2) − 1 ≈ (ωΔt)²/12
 (:func:`dampfit.fem.timestep.newmark_period_error`).
+
+Output: a CSV with the header ``time,u,v,a`` and one row per output step, every number
+written with ``repr`` (it reads back as exactly the float64 OpenSees returned).
 """
 
 from __future__ import annotations
@@ -22,10 +32,12 @@ import ctypes.util
 import functools
 import importlib
 import importlib.util
-import json
 import math
+import os
 import re
 import subprocess
+import tempfile
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -36,8 +48,10 @@ from dampfit.fem.sanitize import python_comment, python_literal
 from dampfit.fem.sdof import Sdof
 from dampfit.fem.timestep import newmark_period_error
 from dampfit.fem.units import UnitSystem, factor
+from dampfit.fem.units import get as get_units
 
-__all__ = ["BLAS_REASON", "NOT_INSTALLED_REASON", "engine_version", "free_decay", "script",
+__all__ = ["BLAS_REASON", "CSV_HEADER", "MAX_ROW_BYTES", "NOT_INSTALLED_REASON", "SCRIPT_NAME",
+           "engine_version", "free_decay", "run_script", "run_steps", "script", "step_options",
            "unavailable"]
 
 #: Why OpenSeesPy cannot run when its binary misses the system BLAS/LAPACK (Debian packages).
@@ -57,7 +71,7 @@ def unavailable() -> str | None:
     missing; any other import failure.
 
     The import is tried in a child process (:func:`_probe`, once per process; like the run
-    of :func:`free_decay` an isolated Python that imports nothing from the working folder,
+    of :func:`run_script` an isolated Python that imports nothing from the working folder,
     :func:`dampfit._child.command`): OpenSees'
     native code prints "Process 0 Terminating" on the standard error at the exit of any
     process that imported it, which would break the CLI's one-line error contract.
@@ -133,93 +147,13 @@ def engine_version() -> str:
         return "unknown"
 
 
-def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt: float,
-               n_steps: int, force: float = 0.0) -> dict[str, np.ndarray]:
-    """Run the model in OpenSeesPy; every step's ``t`` [s], ``u`` [m], ``v`` [m/s], ``a`` [m/s²].
-
-    ``mass`` [kg], ``k`` [N/m], ``c`` [N·s/m] (any consistent units work), initial
-    displacement ``u_init`` and velocity ``v_init`` of node 2, fixed step ``dt``, ``n_steps``
-    steps, constant external ``force`` on the mass (e.g. −m·g). Arrays have n_steps + 1 entries.
-
-    The analysis runs in a child process (:func:`_run_child`): OpenSees keeps global state and
-    prints "Process 0 Terminating" on the standard error at the exit of a process that
-    imported it; the child ends with ``os._exit`` and its standard error is captured. The
-    arrays come back as raw float64 bytes on the child's standard output (3·(n_steps + 1)·8
-    bytes, the size of the result itself).
-    """
-    reason = unavailable()
-    if reason is not None:  # not installed, or its BLAS/LAPACK libraries are missing
-        raise InputError(reason)
-    params = {"mass": mass, "k": k, "c": c, "u_init": u_init, "v_init": v_init, "dt": dt,
-              "n_steps": int(n_steps), "force": force}
-    proc = subprocess.run(command(_RUN_CODE), input=json.dumps(params).encode(),
-                          capture_output=True, check=False)
-    n = int(n_steps) + 1
-    if proc.returncode != 0 or len(proc.stdout) != 3 * n * 8:
-        lines = proc.stderr.decode("utf-8", "replace").strip().splitlines() or ["no message"]
-        raise RuntimeError(f"OpenSees run failed (exit {proc.returncode}): "
-                           f"{' '.join(lines[-1].split())[:200]}")
-    u, v, a = np.frombuffer(proc.stdout, dtype="<f8").reshape(3, n)
-    return {"t": dt * np.arange(n), "u": u, "v": v, "a": a}
-
-
-#: Child process of :func:`free_decay`: parameters as JSON on stdin, u, v, a as float64 bytes
-#: on stdout; ``os._exit`` so that OpenSees prints nothing at exit.
-_RUN_CODE = """\
-import json, os, sys
-try:
-    from dampfit.fem.opensees import _run_child
-    res = _run_child(**json.loads(sys.stdin.buffer.read()))
-    for key in ("u", "v", "a"):
-        sys.stdout.buffer.write(res[key].astype("<f8").tobytes())
-    sys.stdout.buffer.flush()
-except BaseException as exc:
-    sys.stderr.write(f"{type(exc).__name__}: {exc}\\n"); sys.stderr.flush(); os._exit(1)
-os._exit(0)
-"""
-
-
-def _run_child(mass: float, k: float, c: float, u_init: float, v_init: float, dt: float,
-               n_steps: int, force: float = 0.0) -> dict[str, np.ndarray]:
-    """The OpenSees analysis of :func:`free_decay`, in this process (used by its child)."""
-    import openseespy.opensees as ops  # lazy: heavy, and global state
-
-    ops.wipe()
-    try:
-        ops.model("basic", "-ndm", 1, "-ndf", 1)
-        ops.node(1, 0.0)
-        ops.node(2, 0.0)
-        ops.fix(1, 1)
-        ops.mass(2, mass)
-        ops.uniaxialMaterial("Elastic", 1, k)
-        ops.uniaxialMaterial("Viscous", 2, c, 1.0)
-        ops.element("zeroLength", 1, 1, 2, "-mat", 1, 2, "-dir", 1, 1)
-        if force != 0.0:
-            ops.timeSeries("Constant", 1)
-            ops.pattern("Plain", 1, 1)
-            ops.load(2, force)
-        ops.setNodeDisp(2, 1, u_init, "-commit")
-        ops.setNodeVel(2, 1, v_init, "-commit")
-        ops.setNodeAccel(2, 1, (force - k * u_init - c * v_init) / mass, "-commit")
-        ops.constraints("Plain")
-        ops.numberer("Plain")
-        ops.system("BandGeneral")
-        ops.test("NormDispIncr", 1e-12, 10)
-        ops.algorithm("Linear")
-        ops.integrator("Newmark", 0.5, 0.25)
-        ops.analysis("Transient")
-        u = np.empty(n_steps + 1)
-        v = np.empty(n_steps + 1)
-        a = np.empty(n_steps + 1)
-        u[0], v[0], a[0] = ops.nodeDisp(2, 1), ops.nodeVel(2, 1), ops.nodeAccel(2, 1)
-        for i in range(1, n_steps + 1):
-            if ops.analyze(1, dt) != 0:
-                raise RuntimeError(f"OpenSees failed at step {i}")
-            u[i], v[i], a[i] = ops.nodeDisp(2, 1), ops.nodeVel(2, 1), ops.nodeAccel(2, 1)
-    finally:
-        ops.wipe()
-    return {"t": dt * np.arange(n_steps + 1), "u": u, "v": v, "a": a}
-
+#: The default file name of the exported script (``dampfit export --format opensees``).
+SCRIPT_NAME = "sdof_opensees.py"
+#: First line of the CSV the script writes.
+CSV_HEADER = "time,u,v,a"
+#: Longest CSV row the script writes [bytes]: four ``repr`` floats (≤ 24 characters each),
+#: three commas and a newline — the bound on the output :func:`run_script` reads.
+MAX_ROW_BYTES = 4 * 24 + 3 + 1
 
 _TEMPLATE = '''\
 """OpenSeesPy model of an identified spring-damper-mass system (written by dampfit {version}).
@@ -236,12 +170,19 @@ not compute it). Newmark average acceleration (gamma = 1/2, beta = 1/4) with a f
 {steps_per_period:.0f} steps per period, period error {period_error:.2e}.
 
 Run:  python {name}  [OUT.csv]   -> time, u, v, a of node 2 (default: next to this script)
+Output: CSV, the header line {header}, then one row per output step: time [{T}], u [{L}]
+(absolute: with gravity it includes the static sag), v [{L}/{T}], a [{A}], every number
+written with repr (the exact float64). Options replace the defaults below:
+  --u-start U --v-start V  initial displacement [{L}] and velocity [{L}/{T}] of node 2
+                           (default: static equilibrium + u0, at rest)
+  --dt DT --steps N        time step [{T}] and number of steps (default: dt, duration/dt)
+  --every K                steps per output row (default: output_every)
+(dampfit verify runs this exact script with these options: see verification.json.)
 """
+import argparse
 import math
 import os
 import sys
-
-import openseespy.opensees as ops
 
 SOURCE_FOLDER = {source_literal}  # result folder the system was read from
 DAMPFIT_VERSION = {version_literal}  # dampfit version that wrote its summary.json
@@ -253,6 +194,27 @@ g = {g!r}  # gravity [{A}] (0: none)
 duration = {duration!r}  # [{T}]
 dt = {dt!r}  # time step [{T}]
 output_every = {every}  # steps between output rows
+
+cli = argparse.ArgumentParser(description="Free decay of the mass; writes time,u,v,a as CSV.")
+cli.add_argument("out", nargs="?", metavar="OUT.csv",
+                 default=os.path.splitext(os.path.abspath(__file__))[0] + ".csv")
+cli.add_argument("--u-start", type=float, default=-m * g / k + u0)  # static equilibrium + u0
+cli.add_argument("--v-start", type=float, default=0.0)
+cli.add_argument("--dt", type=float, default=dt)
+cli.add_argument("--steps", type=int)
+cli.add_argument("--every", type=int, default=output_every)
+args = cli.parse_args()
+finite = all(map(math.isfinite, (args.u_start, args.v_start, args.dt)))
+if not (finite and args.dt > 0 and args.every >= 1):
+    cli.error("--dt must be positive, --every at least 1, all numbers finite")
+if args.steps is None:
+    n_rows = int(round(duration / (args.dt * args.every)))
+elif args.steps >= 0 and args.steps % args.every == 0:
+    n_rows = args.steps // args.every
+else:
+    cli.error("--steps must be a non-negative multiple of --every")
+
+import openseespy.opensees as ops  # after the options: --help and their errors need no OpenSees
 
 ops.wipe()
 ops.model("basic", "-ndm", 1, "-ndf", 1)
@@ -268,10 +230,9 @@ if g > 0:
     ops.timeSeries("Constant", 1)
     ops.pattern("Plain", 1, 1)
     ops.load(2, weight)
-u_start = -m * g / k + u0  # static equilibrium + u0
-ops.setNodeDisp(2, 1, u_start, "-commit")
-ops.setNodeVel(2, 1, 0.0, "-commit")
-ops.setNodeAccel(2, 1, (weight - k * u_start) / m, "-commit")
+ops.setNodeDisp(2, 1, args.u_start, "-commit")
+ops.setNodeVel(2, 1, args.v_start, "-commit")
+ops.setNodeAccel(2, 1, (weight - k * args.u_start - c * args.v_start) / m, "-commit")
 ops.constraints("Plain")
 ops.numberer("Plain")
 ops.system("BandGeneral")
@@ -280,23 +241,21 @@ ops.algorithm("Linear")
 ops.integrator("Newmark", 0.5, 0.25)
 ops.analysis("Transient")
 
-out = sys.argv[1] if len(sys.argv) > 1 else os.path.splitext(os.path.abspath(__file__))[0] + ".csv"
-n_rows = int(round(duration / (dt * output_every)))
-with open(out, "w") as fh:
-    fh.write("time,u,v,a\\n")
+with open(args.out, "w") as fh:
+    fh.write("{header}\\n")
     fh.write(f"0.0,{{ops.nodeDisp(2, 1)!r}},{{ops.nodeVel(2, 1)!r}},{{ops.nodeAccel(2, 1)!r}}\\n")
     for i in range(1, n_rows + 1):
-        if ops.analyze(output_every, dt) != 0:
-            sys.exit(f"OpenSees failed before t = {{i * output_every * dt}}")
+        if ops.analyze(args.every, args.dt) != 0:
+            sys.exit(f"OpenSees failed before t = {{i * args.every * args.dt}}")
         fh.write(f"{{ops.getTime()!r}},{{ops.nodeDisp(2, 1)!r}},{{ops.nodeVel(2, 1)!r}},"
                  f"{{ops.nodeAccel(2, 1)!r}}\\n")
 ops.wipe()
-print(f"wrote {{n_rows + 1}} rows to {{out}}; omega_n = {{math.sqrt(k / m):.6g}} rad/{T}")
+print(f"wrote {{n_rows + 1}} rows to {{args.out}}; omega_n = {{math.sqrt(k / m):.6g}} rad/{T}")
 '''
 
 
 def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
-           name: str = "sdof_opensees.py") -> str:
+           name: str = SCRIPT_NAME) -> str:
     """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI.
 
     Text from outside (the source folder, the dampfit version of the summary, ``name``) is
@@ -317,7 +276,7 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
     label = lambda q: python_comment(units.label(q), 40).replace("{", "(").replace("}", ")")  # noqa: E731
     fields: dict[str, Any] = {
         "version": python_comment(version, 80), "provenance": prov,
-        "name": python_comment(name, 200),
+        "name": python_comment(name, 200), "header": CSV_HEADER,
         "source_literal": python_literal(folder), "version_literal": python_literal(version),
         "L": label("length"), "T": label("time"), "M": label("mass"),
         "F": label("force"), "K": label("stiffness"), "C": label("damping"),
@@ -333,3 +292,135 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
         if not math.isfinite(fields[key]):
             raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
     return _TEMPLATE.format(**fields)
+
+
+def run_script(text: str, options: Sequence[str], rows: int,
+               name: str = SCRIPT_NAME) -> dict[str, np.ndarray]:
+    """Run the script ``text`` (as :func:`script` wrote it) with the command-line ``options``
+    and read the CSV it writes: ``t``, ``u``, ``v``, ``a`` of node 2 in the script's units,
+    ``rows`` entries each (the initial state and one per output row).
+
+    The text is written byte for byte (UTF-8, as ``dampfit export`` writes it) as ``name``
+    into a private temporary folder and run there as ``python -I … name OUT.csv OPTIONS`` in
+    an isolated child (:func:`dampfit._child.command`: nothing is imported from the working
+    folder), which ends with ``os._exit`` so that OpenSees' "Process 0 Terminating" never
+    reaches this process's standard error. Its standard output and error go to files of that
+    folder; only the last 4 kB of the error are read (the message of a failure), and the CSV
+    only if it is at most ``rows`` × :data:`MAX_ROW_BYTES` long. :class:`InputError` if
+    OpenSeesPy is unusable; :class:`RuntimeError` if the run fails or its output is not what
+    the script writes.
+    """
+    reason = unavailable()
+    if reason is not None:  # not installed, or its BLAS/LAPACK libraries are missing
+        raise InputError(reason)
+    if os.path.basename(name) != name or name in ("", ".", ".."):
+        raise ValueError(f"the script name must be a plain file name, got {name!r}")
+    with tempfile.TemporaryDirectory(prefix="dampfit-opensees-") as tmp:
+        path, out = os.path.join(tmp, name), os.path.join(tmp, "response.csv")
+        with open(path, "wb") as fh:
+            fh.write(text.encode("utf-8"))
+        err = os.path.join(tmp, "stderr.txt")
+        with open(os.path.join(tmp, "stdout.txt"), "wb") as so, open(err, "wb") as se:
+            proc = subprocess.run(command(_RUN_CODE) + [path, out, *options], cwd=tmp,
+                                  stdin=subprocess.DEVNULL, stdout=so, stderr=se, check=False)
+        if proc.returncode != 0:
+            raise RuntimeError(f"OpenSees run failed (exit {proc.returncode}): {_last_line(err)}")
+        data = _read_response(out, rows)
+    return {"t": data[:, 0], "u": data[:, 1], "v": data[:, 2], "a": data[:, 3]}
+
+
+#: Child process of :func:`run_script`: ``sys.argv[1:]`` = the script's path, then its own
+#: arguments; runs it as ``__main__`` and ends with ``os._exit`` (OpenSees then prints nothing).
+_RUN_CODE = """\
+import os, runpy, sys
+sys.argv = sys.argv[1:]
+code = 0
+try:
+    runpy.run_path(sys.argv[0], run_name="__main__")
+except SystemExit as exc:
+    if exc.code not in (None, 0):
+        code = exc.code if isinstance(exc.code, int) else 1
+        if not isinstance(exc.code, int):
+            sys.stderr.write(f"{exc.code}\\n")
+except BaseException as exc:
+    sys.stderr.write(f"{type(exc).__name__}: {exc}\\n")
+    code = 1
+sys.stdout.flush()
+sys.stderr.flush()
+os._exit(code)
+"""
+
+
+def _last_line(path: str, limit: int = 4096) -> str:
+    """The last non-blank line of the end (``limit`` bytes) of the text file ``path``."""
+    with open(path, "rb") as fh:
+        fh.seek(max(0, os.fstat(fh.fileno()).st_size - limit))
+        lines = fh.read(limit).decode("utf-8", "replace").strip().splitlines() or ["no message"]
+    return " ".join(lines[-1].split())[:200]
+
+
+def _read_response(path: str, rows: int) -> np.ndarray:
+    """The ``rows`` × 4 numbers of the CSV the script wrote to ``path`` (size checked first)."""
+    limit = len(CSV_HEADER) + 1 + rows * MAX_ROW_BYTES
+    try:
+        size = os.stat(path).st_size
+    except OSError:
+        raise RuntimeError("the OpenSees script wrote no output") from None
+    if size > limit:
+        raise RuntimeError(f"the OpenSees script wrote {size} bytes, more than {rows} rows hold")
+    with open(path, encoding="ascii", errors="replace") as fh:
+        if fh.readline().strip() != CSV_HEADER:
+            raise RuntimeError(f"the OpenSees output does not start with {CSV_HEADER!r}")
+        data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
+    if data.shape != (rows, 4):
+        raise RuntimeError(f"the OpenSees script wrote {data.shape[0]} rows of {data.shape[1]} "
+                           f"numbers, not {rows} of 4")
+    return data
+
+
+def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt: float,
+               n_steps: int, force: float = 0.0) -> dict[str, np.ndarray]:
+    """Run the model in OpenSeesPy; every step's ``t`` [s], ``u`` [m], ``v`` [m/s], ``a`` [m/s²].
+
+    ``mass`` [kg], ``k`` [N/m], ``c`` [N·s/m] (any consistent units work), initial
+    displacement ``u_init`` and velocity ``v_init`` of node 2, fixed step ``dt``, ``n_steps``
+    steps, constant external ``force`` ≤ 0 on the mass (a weight −m·g). Arrays have
+    n_steps + 1 entries.
+
+    It runs the script :func:`script` writes for this system (SI, gravity g = −force/m)
+    through :func:`run_steps`: OpenSees keeps global state and prints "Process 0 Terminating"
+    at the exit of a process that imported it, so it never runs in this one.
+    """
+    if not (math.isfinite(force) and force <= 0):
+        raise InputError(f"force must be a finite weight <= 0 [N], got {force!r}")
+    n_steps = int(n_steps)
+    sdof = Sdof(mass=mass, k=k, c=c, u0=u_init - force / k, g=-force / mass if force else 0.0)
+    text = script(sdof, get_units("SI"), n_steps * dt, dt, dt)
+    res = run_steps(text, u_init, v_init, dt, n_steps)
+    return {key: res[key] for key in ("t", "u", "v", "a")}
+
+
+def step_options(u_start: float, v_start: float, dt: float, n_steps: int) -> list[str]:
+    """The options that make the script run ``n_steps`` steps of ``dt`` from the state
+    (``u_start``, ``v_start``) with a row per step (values in the script's units, written
+    with ``repr``: the script reads back exactly these float64 numbers)."""
+    return [f"--u-start={float(u_start)!r}", f"--v-start={float(v_start)!r}",
+            f"--dt={float(dt)!r}", f"--steps={int(n_steps)}", "--every=1"]
+
+
+def run_steps(text: str, u_start: float, v_start: float, dt: float, n_steps: int,
+              name: str = SCRIPT_NAME) -> dict[str, Any]:
+    """Run the script ``text`` for ``n_steps`` steps of ``dt`` from (``u_start``,
+    ``v_start``), a row per step (:func:`step_options`, :func:`run_script`; the script's
+    units): ``t``, ``u``, ``v``, ``a`` (n_steps + 1 entries) and ``options`` (what it ran with).
+
+    ``t`` is ``dt·i`` at step i: the state of row i is the state after i steps of ``dt``,
+    while the script's time column is OpenSees' running sum of ``dt`` (it drifts by about
+    i·ε·t); that column is only checked to lie within ``dt``/2 of ``dt·i``.
+    """
+    options = step_options(u_start, v_start, dt, n_steps)
+    res = run_script(text, options, int(n_steps) + 1, name)
+    steps = float(dt) * np.arange(int(n_steps) + 1)
+    if not np.all(np.abs(res["t"] - steps) <= 0.5 * dt):
+        raise RuntimeError("the OpenSees output rows are not the steps of the run")
+    return {**res, "t": steps, "options": options}
