@@ -7,6 +7,10 @@ form: ``import``, ``from … import``, relative, inside a function, or a module 
 (b) The numeric core (``dampfit.model``, ``dampfit.inference``, ``dampfit.signal``,
 ``dampfit.physics``) imports neither matplotlib nor ``dampfit.output``/``fem``/``study``/``cli``,
 directly or through other dampfit modules.
+(c) The package stands in floors (:data:`LAYERS`, bottom up; ARCHITECTURE.md draws them): a
+module imports only from its own floor or lower ones — no import climbs back up — and no
+modules import each other in a circle (imports under ``if TYPE_CHECKING:`` aside).
+(d) No module uses another module's private name (``from m import _x`` or ``m._x``).
 
 The graph is read with :mod:`ast` from the source files (nothing is imported), and the
 checker is itself tested on synthetic sources, so the test can fail.
@@ -15,6 +19,7 @@ checker is itself tested on synthetic sources, so the test can fail.
 from __future__ import annotations
 
 import ast
+import functools
 import re
 from pathlib import Path
 
@@ -196,3 +201,226 @@ def test_checker_finds_a_forbidden_import_through_another_module():
                                                              "dampfit.model.fake"))
     bad = core_violations(mods)
     assert any("dampfit.model.fake reaches matplotlib through dampfit.helper_fake" in b for b in bad)
+
+
+# ----------------------------------------------------------------------------- floors
+#: The floors of the package, bottom up: (module or package, floor). A module belongs to the
+#: longest prefix listed. ARCHITECTURE.md shows the same order.
+LAYERS = (
+    ("dampfit.errors", 0), ("dampfit._meta", 0), ("dampfit._json", 0), ("dampfit._progress", 0),
+    ("dampfit._child", 0), ("dampfit._arviz", 0),
+    ("dampfit.physics", 1), ("dampfit.physics_modal", 1), ("dampfit.model", 1),
+    ("dampfit.io", 2), ("dampfit._files", 2), ("dampfit._swap", 2), ("dampfit._private_store", 2),
+    ("dampfit.signal", 3), ("dampfit.simulate", 3),
+    ("dampfit.inference", 4),
+    ("dampfit.estimators", 5), ("dampfit.damping", 5),
+    ("dampfit.stages", 6),
+    ("dampfit.result", 7),
+    ("dampfit.output", 8),
+    ("dampfit.analysis", 9), ("dampfit.pipeline", 9), ("dampfit.campaign", 9),
+    ("dampfit.fem", 10), ("dampfit.record", 10),
+    ("dampfit.study", 11),
+    ("dampfit.api", 12),
+    ("dampfit", 13), ("dampfit.cli", 13), ("dampfit.__main__", 13),
+)
+
+
+def floor(module: str) -> int | None:
+    """The floor of ``module`` (:data:`LAYERS`), None if it is on none."""
+    best = None
+    for prefix, level in LAYERS:
+        if (module == prefix or module.startswith(prefix + ".")) and (
+                best is None or len(prefix) > len(best[0])):
+            best = (prefix, level)
+    return None if best is None else best[1]
+
+
+def import_edges(source: str, module: str, known: set[str],
+                 is_package: bool = False) -> list[tuple[str, int, list[str]]]:
+    """``(imported module, line, names taken)`` of every dampfit import statement in
+    ``source`` outside ``if TYPE_CHECKING:`` blocks. ``from pkg import sub`` is an import of
+    the submodule ``pkg.sub`` when it is one of ``known`` (not of ``pkg``'s face)."""
+    tree = ast.parse(source)
+    skip: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            skip.update(id(n) for n in ast.walk(node))
+    package = module if is_package else module.rpartition(".")[0]
+    out = []
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            out += [(a.name, node.lineno, []) for a in node.names if a.name.split(".")[0] == "dampfit"]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[:len(base) - (node.level - 1)] if node.level > 1 else base
+                prefix = ".".join(base + ([node.module] if node.module else []))
+            else:
+                prefix = node.module or ""
+            if prefix.split(".")[0] != "dampfit":
+                continue
+            for alias in node.names:
+                full = f"{prefix}.{alias.name}"
+                out.append((full, node.lineno, []) if full in known
+                           else (prefix, node.lineno, [alias.name]))
+    return out
+
+
+def _graph(sources: dict[str, tuple[str, bool]]) -> dict[str, list[tuple[str, int, list[str]]]]:
+    known = set(sources)
+    graph = {}
+    for name, (source, is_package) in sources.items():
+        edges = []
+        for target, line, names in import_edges(source, name, known, is_package):
+            while target not in known and "." in target:
+                target = target.rpartition(".")[0]
+            edges.append((target, line, names))
+        graph[name] = edges
+    return graph
+
+
+def _sources() -> dict[str, tuple[str, bool]]:
+    """``{module: (source, is a package)}`` of the installed package (a fresh dict)."""
+    return dict(_read_sources())
+
+
+@functools.lru_cache(maxsize=1)
+def _read_sources() -> tuple[tuple[str, tuple[str, bool]], ...]:
+    return tuple((module_name(p), (p.read_text(encoding="utf-8"), p.name == "__init__.py"))
+                 for p in sorted(SRC.rglob("*.py")))
+
+
+def floor_violations(sources) -> list[str]:
+    """Modules on no floor, and imports that climb to a higher floor."""
+    bad = []
+    for name, edges in _graph(sources).items():
+        own = floor(name)
+        if own is None:
+            bad.append(f"{name} is on no floor of LAYERS")
+            continue
+        for target, line, _ in edges:
+            up = floor(target)
+            if up is not None and up > own:
+                bad.append(f"{name}:{line} imports {target} (floor {own} -> {up})")
+    return sorted(bad)
+
+
+def circles(sources) -> list[list[str]]:
+    """The import circles (strongly connected components of more than one module)."""
+    graph = {name: {t for t, _, _ in edges if t != name} for name, edges in _graph(sources).items()}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:  # Tarjan's algorithm
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in graph:
+                continue
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                found.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def private_uses(sources) -> list[str]:
+    """Uses of another module's private name: ``from m import _x`` and ``m._x`` where ``m``
+    is a dampfit module imported under a name."""
+    known = set(sources)
+    bad = []
+    for name, (source, is_package) in sources.items():
+        bound = {}
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.ImportFrom) or isinstance(node, ast.Import):
+                for target, line, names in import_edges(ast.unparse(node), name, known,
+                                                        is_package):
+                    for n in names:
+                        if n.startswith("_") and not n.startswith("__") and target != name:
+                            bad.append(f"{name}:{node.lineno} imports {target}.{n}")
+                for alias in node.names:
+                    full = (alias.name if isinstance(node, ast.Import)
+                            else next((t for t, _, ns in import_edges(ast.unparse(node), name,
+                                                                      known, is_package)
+                                       if t.endswith("." + alias.name) and not ns), None))
+                    if full in known and (alias.asname or isinstance(node, ast.ImportFrom)):
+                        bound[alias.asname or alias.name] = full
+        for node in ast.walk(ast.parse(source)):
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                    and node.value.id in bound and bound[node.value.id] != name
+                    and node.attr.startswith("_") and not node.attr.startswith("__")):
+                bad.append(f"{name}:{node.lineno} uses {bound[node.value.id]}.{node.attr}")
+    return sorted(set(bad))
+
+
+def test_no_import_climbs_to_a_higher_floor():
+    assert floor_violations(_sources()) == []
+
+
+def test_no_import_circles():
+    assert circles(_sources()) == []
+
+
+def test_no_module_uses_another_modules_private_names():
+    assert private_uses(_sources()) == []
+
+
+def test_floor_checker_finds_a_climbing_import_and_an_unlisted_module():
+    src = _sources()
+    src["dampfit.model.fake_up"] = ("from dampfit.output import text\n", False)
+    src["dampfit.nowhere"] = ("x = 1\n", False)
+    bad = floor_violations(src)
+    assert any(b.startswith("dampfit.model.fake_up:1 imports dampfit.output.text") for b in bad)
+    assert "dampfit.nowhere is on no floor of LAYERS" in bad
+
+
+def test_floor_checker_skips_type_checking_imports():
+    src = _sources()
+    src["dampfit.model.fake"] = ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                                 "    from dampfit.analysis import Analysis\n", False)
+    assert not [b for b in floor_violations(src) if "fake" in b]
+
+
+def test_circle_checker_finds_a_circle_through_functions():
+    src = _sources()
+    src["dampfit.io.fake_a"] = ("def f():\n    from dampfit.io import fake_b\n", False)
+    src["dampfit.io.fake_b"] = ("from dampfit.io.fake_a import f\n", False)
+    assert ["dampfit.io.fake_a", "dampfit.io.fake_b"] in circles(src)
+
+
+@pytest.mark.parametrize("source", [
+    "from dampfit.output.text import _fixed\n",
+    "from dampfit.output import text\n\ndef f():\n    return text._fixed(1, 2)\n",
+    "import dampfit.output.text as t\nt._fixed\n",
+])
+def test_private_checker_finds_every_form(source):
+    src = _sources()
+    src["dampfit.fem.fake"] = (source, False)
+    assert [b for b in private_uses(src) if b.startswith("dampfit.fem.fake:")]
+
+
+def test_private_checker_allows_a_modules_own_names_and_dunders():
+    src = _sources()
+    src["dampfit.fem.fake"] = ("import dampfit\n_x = 1\nprint(_x, dampfit.__version__)\n", False)
+    assert not [b for b in private_uses(src) if b.startswith("dampfit.fem.fake:")]
