@@ -226,9 +226,12 @@ LAYERS = (
 
 
 def floor(module: str) -> int | None:
-    """The floor of ``module`` (:data:`LAYERS`), None if it is on none."""
+    """The floor of ``module`` (:data:`LAYERS`; the root ``dampfit`` is the face only), None
+    if it is on none."""
     best = None
     for prefix, level in LAYERS:
+        if prefix == "dampfit" and module != "dampfit":
+            continue
         if (module == prefix or module.startswith(prefix + ".")) and (
                 best is None or len(prefix) > len(best[0])):
             best = (prefix, level)
