@@ -1,67 +1,7 @@
-"""The study configuration (TOML): validation, scenarios, tasks and their seeds.
-
-A study file has three tables (and an optional fourth, ``[campaign]``, below)::
-
-    [study]
-    name = "ranking"            # title of the summary (optional; default: the file's stem)
-    replicates = 40             # simulated recordings per scenario (≥ 1)
-    seed = 0                    # study seed (≥ 0)
-    estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.study.registry
-    mass = 5.3                  # [kg]; known exactly to the estimators. Omit it to study ζ (no c)
-    max_replicates = { bayes = 5 }   # optional: an expensive estimator on the first 5 only
-
-    [grid]                      # lists; the scenarios are their cartesian product
-    f_n = [2.0]                 # natural frequency [Hz]
-    zeta = [0.002, 0.01]        # damping ratio [1]
-    duration = [30, 60]         # and any other field of dampfit.simulate.SimulationConfig
-
-    [fixed]                     # single values shared by every scenario
-    noise_density = 150         # [µg/√Hz]
-
-A fourth, optional table makes it a *campaign study*: each run simulates a test campaign
-(several recordings of one damper, :func:`dampfit.simulate.campaign`) and analyses it jointly
-(:func:`dampfit.campaign.analyze_campaign`) instead of running single-recording estimators;
-the tables then hold the coverage of its intervals (:mod:`dampfit.study.campaign`)::
-
-    [campaign]
-    tests = 4                   # recordings per campaign, 2 … 100 (may be a [grid] axis)
-    c_spread = 0.1              # between-test sd of ln c [1], 0 … 2 (default 0; may be an axis)
-    added_mass_fraction = 1.0   # added masses 0 … 1.0·m0 evenly over the tests (may be an axis)
-    # added_mass = [0, 0.5, 1, 1.5]   # or one added mass per test [kg]
-    # amplitudes = [0.02, 0.04, 0.06, 0.08]   # release displacement u0 of each test [m]
-    added_mass_sd = 0.002       # sd [kg] of the added masses given to the analysis (default 0)
-    # mass_sd = 0.05            # sd [kg] of the [study] mass given to it (no added masses)
-    max_steps = 20000           # sampler bounds of analyze_campaign (its defaults)
-    min_ess = 1000
-
-A campaign study has no ``estimators`` or ``max_replicates`` in [study] (its one "estimator"
-is ``campaign``, the joint analysis). Without added masses the analysis gets ``[study] mass``
-(sd ``mass_sd``; without a mass it reports ζ, not c); with added masses (``added_mass`` or
-``added_mass_fraction``, not both) ``[study] mass`` is the simulated bare mass m₀ (default
-5.3 kg) that the analysis estimates. ``tests``, ``c_spread`` and ``added_mass_fraction``
-are single values in [campaign] or lists in [grid], like simulator fields in [fixed] and
-[grid]; per-test lists (``added_mass``, ``amplitudes``) fix ``tests`` (their length) and
-cannot be combined with a ``tests`` axis, nor ``amplitudes`` with ``u0``. Besides the run
-limit, the recordings simulated (runs × tests) are at most :data:`MAX_RUNS`.
-
-Allowed fields in ``[grid]`` and ``[fixed]``: ``f_n`` [Hz] and ``zeta`` [1] (both required,
-the simulator's k and c follow from them and the mass, see
-:func:`dampfit.simulate.from_modal`) and the :class:`~dampfit.simulate.SimulationConfig`
-options except ``mass`` (set in ``[study]``), ``k``, ``c`` and ``seed`` (set per run). Fields
-not given keep the simulator's defaults (60 s at 500 Hz, 150 µg/√Hz, u0 = 4 cm, no drift…).
-
-Size: a study may have at most :data:`MAX_RUNS` = 100,000 runs (scenarios × replicates).
-The count is the product of the [grid] list lengths times ``replicates``, computed before any
-scenario is built, so a grid of 10¹⁰ scenarios is refused at once (one error line saying how
-many runs it would be) instead of hanging. At ≈ 900 cheap fits per minute and core, 100,000
-runs are already a day on a workstation; larger studies should be split (e.g. by estimator or
-by a grid axis) into separate study files.
-
-Determinism: a scenario's id is a hash of its canonical parameters (numbers normalised to
-float, keys sorted), and the seed of a run is drawn from
-``numpy.random.SeedSequence(study_seed, spawn_key=(scenario hash, replicate))``. A run
-therefore gets the same numbers on any worker, in any order, whatever else is in the grid.
-Everything here is pure and cheap (no simulation, no estimator imports).
+"""The study file itself: ``[study]``, ``[grid]`` and ``[fixed]`` validated into a
+:class:`StudyConfig`, its scenarios, tasks and their seeds (the layout, limits and determinism
+are described in :mod:`dampfit.study.config`; the ``[campaign]`` table in
+:mod:`dampfit.study.config.campaign`, the simulator fields in :mod:`dampfit.study.config.fields`).
 """
 
 from __future__ import annotations
@@ -81,36 +21,17 @@ from typing import Any
 import numpy as np
 
 from dampfit.errors import InputError
+from dampfit.study.config.campaign import (CAMPAIGN_AXES, CAMPAIGN_KEYS, CAMPAIGN_SETTINGS,
+                                           campaign_table, campaign_value)
+from dampfit.study.config.fields import check_field, field_value
 
-__all__ = ["CAMPAIGN_AXES", "CAMPAIGN_KEYS", "FIELDS", "MAX_RUNS", "StudyConfig", "Task", "load",
-           "parse"]
+__all__ = ["MAX_RUNS", "StudyConfig", "Task", "load", "parse", "run_seed", "scenario_id",
+           "sim_config"]
 
-#: Simulator fields a study may set, with their kind: float, int, bool, str or bias.
-FIELDS: dict[str, str] = {
-    "f_n": "float", "zeta": "float", "u0": "float", "duration": "float", "sample_rate": "float",
-    "jitter": "float", "gaps": "int", "noise_density": "float", "bias": "bias", "drift": "float",
-    "quantization": "float", "tilt_deg": "float", "azimuth_deg": "float", "main_axis": "str",
-    "gravity": "bool", "handheld": "float", "catch": "bool",
-}
-_SET_ELSEWHERE = {"mass": "set it as [study] mass", "k": "give f_n and the mass instead",
-                  "c": "give zeta instead", "seed": "each run's seed is derived from [study] seed"}
 _STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates"}
 _DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
 #: Most runs (scenarios × replicates) one study may have; see the module docstring.
 MAX_RUNS = 100_000
-#: [campaign] settings that may also be [grid] axes (scenario fields), with their kind.
-CAMPAIGN_AXES: dict[str, str] = {"tests": "int", "c_spread": "float", "added_mass_fraction": "float"}
-#: Per-test lists of [campaign] (scenario fields, one value per test).
-CAMPAIGN_LISTS = ("added_mass", "amplitudes")
-#: Settings of the joint analysis (not scenario fields), with their defaults.
-CAMPAIGN_SETTINGS: dict[str, Any] = {"mass_sd": 0.0, "added_mass_sd": 0.0, "max_steps": 20000,
-                                     "min_ess": 1000.0}
-#: Every key a [campaign] table may hold.
-CAMPAIGN_KEYS = (*CAMPAIGN_AXES, *CAMPAIGN_LISTS, *CAMPAIGN_SETTINGS)
-#: Largest added_mass_fraction [1] (added masses up to 100 × the bare mass).
-MAX_ADDED_FRACTION = 100.0
-#: Bounds of the campaign sampler's max_steps [steps] and min_ess [draws].
-MIN_STEPS, MAX_STEPS, MAX_MIN_ESS = 100, 1_000_000, 1e6
 #: Largest study file [bytes] read (a real one is a few hundred bytes).
 MAX_CONFIG_BYTES = 1 << 20
 #: Longest [study] name [characters]; it must be one printable line (it titles summary.md).
@@ -357,14 +278,14 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
             raise InputError(f"[grid] {key} cannot be a [grid] axis; set it in [campaign] "
                              f"(axes: {', '.join(CAMPAIGN_AXES)})")
         if not axis:
-            _check_field(key, "grid")
+            check_field(key, "grid")
         if not isinstance(values, list):
             home = "[campaign]" if axis else "[fixed]"
             raise InputError(f"[grid] {key} must be a list of values, e.g. {key} = [{values!r}]; "
                              f"put single values in {home}")
         if not values:
             raise InputError(f"[grid] {key} is an empty list; give at least one value")
-        norm = [_campaign_value(key, v, "grid") if axis else _value(key, v, "grid") for v in values]
+        norm = [campaign_value(key, v, "grid") if axis else field_value(key, v, "grid") for v in values]
         if len({_canonical(v) for v in norm}) != len(norm):
             raise InputError(f"[grid] {key} lists a value twice")
         norm_grid[key] = norm
@@ -372,16 +293,16 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
     for key, value in fixed.items():
         if key in CAMPAIGN_KEYS:
             raise InputError(f"[fixed] {key} is a campaign setting; put it in [campaign]")
-        _check_field(key, "fixed")
+        check_field(key, "fixed")
         if key in norm_grid:
             raise InputError(f"{key} is in both [grid] and [fixed]; keep one")
-        norm_fixed[key] = _value(key, value, "fixed")
+        norm_fixed[key] = field_value(key, value, "fixed")
     for key in ("f_n", "zeta"):
         if key not in norm_grid and key not in norm_fixed:
             raise InputError(f"{key} is missing; give it in [grid] (a list) or [fixed]")
 
     mass = None if mass is None else float(mass)
-    norm_campaign = _campaign(campaign, norm_grid, norm_fixed, mass) if is_campaign else None
+    norm_campaign = campaign_table(campaign, norm_grid, norm_fixed, mass) if is_campaign else None
     cfg = StudyConfig(name.strip(), replicates, seed, estimators, mass, max_rep, norm_grid,
                       norm_fixed, source, norm_campaign)
     _check_size(cfg)
@@ -435,40 +356,6 @@ def _max_replicates(value: Any, estimators: tuple[str, ...]) -> dict[str, int]:
     return dict(value)
 
 
-def _check_field(key: str, table: str) -> None:
-    if key in _SET_ELSEWHERE:
-        raise InputError(f"[{table}] {key} cannot be set here: {_SET_ELSEWHERE[key]}")
-    if key not in FIELDS:
-        raise InputError(f"unknown field [{table}] {key}; known: {', '.join(sorted(FIELDS))}")
-
-
-def _value(key: str, value: Any, table: str) -> Any:
-    """A field value normalised to its kind (so 2 and 2.0 give the same scenario id)."""
-    kind = FIELDS[key]
-    where = f"[{table}] {key}"
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise InputError(f"{where} must be true or false, got {value!r}")
-        return value
-    if kind == "str":
-        if not isinstance(value, str):
-            raise InputError(f"{where} must be a string, got {value!r}")
-        return value
-    if kind == "bias" and isinstance(value, list):
-        return [_number(where, v) for v in value]
-    if kind == "int":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise InputError(f"{where} must be an integer, got {value!r}")
-        return value
-    return _number(where, value)
-
-
-def _number(where: str, value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise InputError(f"{where} must be a finite number, got {value!r}")
-    return float(value)
-
-
 def _check_size(cfg: StudyConfig) -> None:
     """Refuse a study of more than :data:`MAX_RUNS` runs (or, for a campaign study, simulated
     recordings), from the list lengths alone."""
@@ -515,121 +402,3 @@ def sim_config(params: dict[str, Any], mass: float, seed: int):
 # -- the [campaign] table ----------------------------------------------------------------------
 
 
-def _campaign_value(key: str, value: Any, table: str) -> Any:
-    """A campaign axis value (:data:`CAMPAIGN_AXES`) checked against the simulator's limits."""
-    from dampfit.simulate import MAX_C_SPREAD, MAX_TESTS
-
-    where = f"[{table}] {key}"
-    if key == "tests":
-        if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= MAX_TESTS:
-            raise InputError(f"{where} must be an integer from 2 to {MAX_TESTS} (recordings per "
-                             f"campaign), got {value!r}")
-        return value
-    x = _number(where, value)
-    if key == "c_spread" and not 0 <= x <= MAX_C_SPREAD:
-        raise InputError(f"{where} must be in [0, {MAX_C_SPREAD:g}] (the between-test sd of "
-                         f"ln c), got {value!r}")
-    if key == "added_mass_fraction" and not 0 < x <= MAX_ADDED_FRACTION:
-        raise InputError(f"{where} must be in (0, {MAX_ADDED_FRACTION:g}] (the largest added "
-                         f"mass as a fraction of the mass), got {value!r}")
-    return x
-
-
-def _per_test_list(key: str, value: Any, lo: float, hi: float, unit: str) -> list[float]:
-    """A per-test list of [campaign] (:data:`CAMPAIGN_LISTS`): numbers in [lo, hi] [unit]."""
-    from dampfit.simulate import MAX_TESTS
-
-    where = f"[campaign] {key}"
-    if not isinstance(value, list) or not value:
-        raise InputError(f"{where} must be a list of numbers [{unit}], one per test")
-    if len(value) > MAX_TESTS:
-        raise InputError(f"{where} gives {len(value)} values; a campaign has at most "
-                         f"{MAX_TESTS} tests")
-    out = [_number(where, v) for v in value]
-    bad = [v for v in out if not lo <= v <= hi]
-    if bad:
-        raise InputError(f"{where} values must be in [{lo:g}, {hi:g}] {unit}, got {bad[0]:g}")
-    return out
-
-
-def _setting(table: dict, key: str) -> Any:
-    """An analysis setting of [campaign] (:data:`CAMPAIGN_SETTINGS`), checked, or its default."""
-    from dampfit.physics import MAX_MASS
-
-    if key not in table:
-        return CAMPAIGN_SETTINGS[key]
-    value, where = table[key], f"[campaign] {key}"
-    if key == "max_steps":
-        if isinstance(value, bool) or not isinstance(value, int) or \
-                not MIN_STEPS <= value <= MAX_STEPS:
-            raise InputError(f"{where} must be an integer from {MIN_STEPS} to {MAX_STEPS:,}, "
-                             f"got {value!r}")
-        return value
-    x = _number(where, value)
-    if key == "min_ess" and not 1 <= x <= MAX_MIN_ESS:
-        raise InputError(f"{where} must be a number from 1 to {MAX_MIN_ESS:g}, got {value!r}")
-    if key in ("mass_sd", "added_mass_sd") and not 0 <= x <= MAX_MASS:
-        raise InputError(f"{where} must be a number of kilograms in [0, {MAX_MASS:g}], "
-                         f"got {value!r}")
-    return x
-
-
-def _campaign(table: dict, grid: dict, fixed: dict, mass: float | None) -> dict[str, Any]:
-    """The validated [campaign] table: design constants (scenario fields) and every analysis
-    setting (see the module docstring); one :class:`InputError` line otherwise."""
-    from dampfit.physics import MAX_MASS
-    from dampfit.simulate import MAX_U0
-
-    bad = sorted(set(table) - set(CAMPAIGN_KEYS))
-    if bad:
-        raise InputError(f"unknown key [campaign] {bad[0]}; known: {', '.join(CAMPAIGN_KEYS)}")
-    both = [k for k in CAMPAIGN_AXES if k in table and k in grid]
-    if both:
-        raise InputError(f"{both[0]} is in both [grid] and [campaign]; keep one")
-    out: dict[str, Any] = {k: _campaign_value(k, table[k], "campaign")
-                           for k in CAMPAIGN_AXES if k in table}
-    limits = {"added_mass": (0.0, MAX_MASS, "kg"), "amplitudes": (0.0, MAX_U0, "m")}
-    for key in CAMPAIGN_LISTS:
-        if key in table:
-            out[key] = _per_test_list(key, table[key], *limits[key])
-    lists = [k for k in CAMPAIGN_LISTS if k in out]
-    if lists and "tests" in grid:
-        raise InputError(f"[campaign] {lists[0]} gives one value per test, so tests cannot be a "
-                         "[grid] axis" + (" (use added_mass_fraction for added masses that follow "
-                                          "the number of tests)" if lists[0] == "added_mass" else ""))
-    if "tests" not in out and "tests" not in grid:
-        if not lists:
-            raise InputError("tests is missing; give [campaign] tests (recordings per campaign, "
-                             "e.g. tests = 4) or a [grid] tests list")
-        if len(out[lists[0]]) < 2:
-            raise InputError(f"[campaign] {lists[0]} gives 1 value: a campaign needs at least "
-                             "2 tests")
-        out["tests"] = len(out[lists[0]])
-    for key in lists:
-        if len(out[key]) != out["tests"]:
-            raise InputError(f"[campaign] {key} gives {len(out[key])} value(s) for "
-                             f"{out['tests']} tests; give one per test")
-    if "c_spread" not in out and "c_spread" not in grid:
-        out["c_spread"] = 0.0
-    added = "added_mass" in out or "added_mass_fraction" in out or "added_mass_fraction" in grid
-    if "added_mass" in out and ("added_mass_fraction" in out or "added_mass_fraction" in grid):
-        raise InputError("give [campaign] added_mass (one mass per test [kg]) or "
-                         "added_mass_fraction, not both")
-    if "added_mass" in out and len(set(out["added_mass"])) < 2:
-        raise InputError("[campaign] added_mass needs at least 2 different masses: the "
-                         "added-mass method cannot identify the mass otherwise")
-    if "amplitudes" in out and ("u0" in grid or "u0" in fixed):
-        raise InputError("u0 is set in [grid] or [fixed] and [campaign] amplitudes sets each "
-                         "test's u0; keep one")
-    settings = {k: _setting(table, k) for k in CAMPAIGN_SETTINGS}
-    if "mass_sd" in table and (added or mass is None):
-        why = ("the added-mass design estimates the mass itself" if added
-               else "it is the sd of [study] mass, which is not given")
-        raise InputError(f"[campaign] mass_sd cannot be used: {why}")
-    if "added_mass_sd" in table and not added:
-        raise InputError("[campaign] added_mass_sd needs added masses (added_mass or "
-                         "added_mass_fraction)")
-    if mass is not None and settings["mass_sd"] > 0.5 * mass:
-        raise InputError(f"[campaign] mass_sd {settings['mass_sd']:g} kg is more than half the "
-                         f"mass {mass:g} kg")
-    return {**out, **settings}
