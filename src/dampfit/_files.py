@@ -29,7 +29,7 @@ from collections.abc import Callable
 from dampfit import _swap
 from dampfit.errors import InputError
 
-__all__ = ["error_text", "result_folder", "atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
+__all__ = ["FileLock", "error_text", "result_folder", "atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
            "ResultFolder",
            "WriteError", "read_marker"]
 
@@ -87,24 +87,6 @@ def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out
         raise InputError(f"{path} exists; use --force to replace it{what}")
     return path
 
-
-def read_bounded(path: str | os.PathLike, limit: int, check) -> bytes:
-    """At most ``limit + 1`` bytes of ``path``, opened non-blocking (a FIFO or device swapped in
-    after the caller's ``stat`` cannot block the read); ``check(os.fstat(fd))`` runs on the
-    open descriptor first and raises the caller's own error. OSError passes through."""
-    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0))
-    try:
-        check(os.fstat(fd))
-        chunks, size = [], 0
-        while size <= limit:
-            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            size += len(chunk)
-        return b"".join(chunks)
-    finally:
-        os.close(fd)
 
 
 def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *,
@@ -164,22 +146,16 @@ MIN_FREE = 50 * 2**20
 
 
 def read_marker(folder: str | os.PathLike) -> dict | None:
-    """The marker of a result folder dampfit wrote, or None (missing, a link, not ours)."""
-    path = Path(folder) / MARKER
-    try:  # never follows a link, never blocks on a FIFO: checked on the open descriptor
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK
-                     | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
-    except OSError:
-        return None
+    """The marker of a result folder dampfit wrote, or None (missing, a link, not ours):
+    read by the one bounded guard (:func:`dampfit.io.bounded.read_regular`; never follows a
+    link, never blocks on a FIFO)."""
+    from dampfit.io.bounded import read_regular
+
     try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode) or st.st_size > 4096:
-            return None
-        data = json.loads(os.pread(fd, 4097, 0).decode("utf-8"))
-    except (OSError, ValueError, RecursionError):
+        data = json.loads(read_regular(Path(folder) / MARKER, 4096, missing=FileNotFoundError())
+                          .decode("utf-8"))
+    except (OSError, InputError, ValueError, RecursionError):
         return None
-    finally:
-        os.close(fd)
     return data if isinstance(data, dict) and "kind" in data else None
 
 
@@ -232,6 +208,85 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
+class FileLock:
+    """An exclusive lock held through the lock file ``path`` (``flock``), the one lock of
+    dampfit: result folders (:class:`ResultFolder`) and studies (:mod:`dampfit.study.store`).
+
+    The lock file is opened without following a link and without blocking, refused if it is
+    not a regular file (:func:`check_lock_file`), locked without waiting, and re-checked to be
+    the file still at ``path`` (its previous holder may have removed it meanwhile); the
+    holder's pid is written into it. A lock that another process holds raises
+    ``InputError(busy(pid))``. :meth:`release` removes the lock file if it is still the one
+    locked — unless ``keep_foreign`` and this process did not create it.
+    """
+
+    def __init__(self, path: str | os.PathLike, *, busy: Callable[[str], str],
+                 keep_foreign: bool = False) -> None:
+        self.path = Path(path)
+        self.busy = busy
+        self.keep_foreign = keep_foreign
+        self.fd: int | None = None
+        self.created = False
+
+    def acquire(self) -> None:
+        """Take the lock, or raise a one-line :class:`InputError`."""
+        path = self.path
+        flags = os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0)
+        for _ in range(20):
+            created = True
+            try:
+                fd = os.open(path, flags | os.O_CREAT | os.O_EXCL, 0o600)
+            except FileExistsError:
+                created = False
+                try:
+                    fd = os.open(path, flags)
+                except FileNotFoundError:
+                    continue  # removed by its holder meanwhile: try again
+                except OSError as exc:
+                    raise InputError(f"cannot open the lock file {path}: "
+                                     f"{error_text(exc)}") from None
+            except OSError as exc:
+                raise InputError(f"cannot create the lock file {path}: {error_text(exc)}") from None
+            check_lock_file(fd, path)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except OSError:
+                try:
+                    pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
+                finally:
+                    os.close(fd)
+                raise InputError(self.busy(pid)) from None
+            try:  # its holder may have removed the file before we locked it: lock the one there
+                same = os.path.samestat(os.fstat(fd), os.lstat(path))
+            except FileNotFoundError:
+                same = False
+            if same:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+                self.fd, self.created = fd, created
+                return
+            os.close(fd)
+        raise InputError(f"cannot lock {path}: it keeps changing")  # pragma: no cover
+
+    def release(self) -> None:
+        """Release the lock and remove the lock file if it is still the one locked."""
+        if self.fd is None:
+            return
+        if self.created or not self.keep_foreign:
+            try:
+                if os.path.samestat(os.fstat(self.fd), os.lstat(self.path)):
+                    os.unlink(self.path)
+            except OSError:
+                pass
+        os.close(self.fd)
+        self.fd = None
+
+    @property
+    def held(self) -> bool:
+        """Whether this process holds the lock."""
+        return self.fd is not None
+
+
 class ResultFolder:
     """Write a result folder so that nothing is deleted by mistake and nothing is half-written.
 
@@ -282,8 +337,10 @@ class ResultFolder:
         self.stage: Path | None = None
         self.published = False
         self.replaced = False
-        self._lock_fd: int | None = None
         self._lock_path = self.parent / f".{absolute.name}{_LOCK_SUFFIX}"
+        self._lock_file = FileLock(self._lock_path, busy=lambda pid: (
+            f"{self.target} is being written by another dampfit process (pid {pid}); wait for "
+            "it or choose another --out"))
 
     # ---------------------------------------------------------------- checks
     def _refuse(self, why: str) -> InputError:
@@ -324,45 +381,10 @@ class ResultFolder:
 
     # ------------------------------------------------------------------ lock
     def _lock(self) -> None:
-        for _ in range(20):
-            try:
-                fd = os.open(self._lock_path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW
-                             | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0), 0o600)
-            except OSError as exc:
-                raise InputError(f"cannot create the lock file {self._lock_path}: "
-                                 f"{error_text(exc)}") from None
-            check_lock_file(fd, self._lock_path)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                try:
-                    pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
-                finally:
-                    os.close(fd)
-                raise InputError(f"{self.target} is being written by another dampfit process "
-                                 f"(pid {pid}); wait for it or choose another --out") from None
-            try:  # the file may have been removed by its previous holder: lock the one there
-                same = os.path.samestat(os.fstat(fd), os.stat(self._lock_path))
-            except FileNotFoundError:
-                same = False
-            if same:
-                os.ftruncate(fd, 0)
-                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-                self._lock_fd = fd
-                return
-            os.close(fd)
-        raise InputError(f"cannot lock {self._lock_path}: it keeps changing")  # pragma: no cover
+        self._lock_file.acquire()
 
     def _unlock(self) -> None:
-        if self._lock_fd is None:
-            return
-        try:
-            if os.path.samestat(os.fstat(self._lock_fd), os.stat(self._lock_path)):
-                os.unlink(self._lock_path)
-        except OSError:
-            pass
-        os.close(self._lock_fd)
-        self._lock_fd = None
+        self._lock_file.release()
 
     # --------------------------------------------------------------- helpers
     def _ours(self, path: Path) -> bool:

@@ -1,4 +1,6 @@
-"""Bounded reading of an input file: limits on hostile input, file-kind checks, decoding.
+"""Bounded reading of an input file: limits on hostile input, file-kind checks, decoding —
+and the one guard every file dampfit reads goes through (:func:`open_regular`,
+:func:`read_regular`: a regular file under a size limit, opened so that nothing can block).
 
 :func:`read_bytes` returns a file's bytes only if it is a regular file (symlinks resolved) of a
 supported type, not empty and at most :data:`MAX_INPUT_BYTES` long; FIFOs, devices, sockets and
@@ -17,15 +19,16 @@ from __future__ import annotations
 
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
-from dampfit._files import read_bounded
-from dampfit.errors import InputError
+from dampfit.errors import InputError, shown
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO", "RATIO_MIN_BYTES",
-           "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "read_bytes", "decode"]
+           "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "decode", "file_kind",
+           "open_regular", "read_fd", "read_regular", "read_bytes", "size_text"]
 
 #: Largest input file [bytes] read at all (1 GiB: ~25 million rows of phone CSV).
 MAX_INPUT_BYTES = 1 << 30
@@ -51,14 +54,99 @@ TEXT_EXTS = {".csv", ".txt", ".tsv", ".dat", ""}
 _SUPPORTED_EXTS = TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz", ".mat"}
 
 
-def _file_kind(mode: int) -> str | None:
+def file_kind(mode: int) -> str | None:
     """What a non-regular file is, e.g. ``"a named pipe (FIFO)"``; None for a regular file."""
     for test, name in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
                        (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-                       (stat.S_ISSOCK, "a socket")):
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISLNK, "a symbolic link")):
         if test(mode):
             return name
     return None if stat.S_ISREG(mode) else "not a regular file"
+
+
+# ------------------------------------------------------------------ the one guard
+_BASE_FLAGS = (os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+               | getattr(os, "O_CLOEXEC", 0))
+
+
+def size_text(n: int) -> str:
+    """A size [bytes] for a message: ``12 MB``, ``3 kB``."""
+    return f"{n / 2**20:.0f} MB" if n >= 2**20 else f"{n / 1024:.0f} kB"
+
+
+def open_regular(path: str | os.PathLike, limit: int, *, missing: Exception,
+                 follow_links: bool = False, refuse: Callable[[str], Exception] = InputError,
+                 describe: Callable[[int], str | None] = file_kind, what: str = "",
+                 check: Callable[[os.stat_result], None] | None = None,
+                 dir_fd: int | None = None) -> int:
+    """A read-only descriptor of the regular file ``path`` of at most ``limit`` bytes — the one
+    guard every file dampfit reads passes.
+
+    Opened non-blocking (a FIFO or device never blocks the process), without following a
+    symbolic link unless ``follow_links`` (a recording the user names may be a link; a file of
+    a result folder may not), then checked with ``fstat`` on the open descriptor, so the file
+    checked is the file read. ``missing`` is raised when there is no such file; a link (when
+    not followed), FIFO, socket, device, directory or a file larger than ``limit`` raises
+    ``refuse("PATH is WHAT")`` (``describe(mode)`` names the kind, ``what`` says why the limit);
+    ``check(stat)`` may refuse more (owner, mode). ``dir_fd`` opens ``path`` relative to an
+    open folder."""
+    flags = _BASE_FLAGS | (0 if follow_links else os.O_NOFOLLOW)
+    try:
+        fd = os.open(path, flags, dir_fd=dir_fd)
+    except FileNotFoundError:
+        raise missing from None
+    except OSError as exc:
+        try:
+            mode = os.stat(path, dir_fd=dir_fd, follow_symlinks=follow_links).st_mode
+        except OSError:
+            mode = None
+        if mode is not None and describe(mode) is not None:
+            raise refuse(f"{shown(path)} is {describe(mode)}") from None
+        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+    try:
+        st = os.fstat(fd)
+        kind = describe(st.st_mode)
+        if kind is not None:
+            raise refuse(f"{shown(path)} is {kind}")
+        if st.st_size > limit:
+            raise refuse(f"{shown(path)} is {size_text(st.st_size)}, larger than {size_text(limit)}"
+                         + (f"; {what}" if what else ""))
+        if check is not None:
+            check(st)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def read_fd(fd: int, limit: int) -> bytes:
+    """At most ``limit + 1`` bytes of the open file ``fd`` from its start (one more than the
+    limit: a file that grew since it was checked is seen)."""
+    chunks, size = [], 0
+    while size <= limit:
+        chunk = os.pread(fd, min(1 << 20, limit + 1 - size), size)
+        if not chunk:
+            break
+        chunks.append(chunk)
+        size += len(chunk)
+    return b"".join(chunks)
+
+
+def read_regular(path: str | os.PathLike, limit: int, *, missing: Exception,
+                 refuse: Callable[[str], Exception] = InputError, what: str = "",
+                 **kw) -> bytes:
+    """The bytes of the regular file ``path`` (:func:`open_regular`, same options), at most
+    ``limit``; a file that grew past the limit while it was read is refused too."""
+    fd = open_regular(path, limit, missing=missing, refuse=refuse, what=what, **kw)
+    try:
+        data = read_fd(fd, limit)
+    except OSError as exc:
+        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+    finally:
+        os.close(fd)
+    if len(data) > limit:
+        raise refuse(f"{shown(path)} is larger than {size_text(limit)}" + (f"; {what}" if what else ""))
+    return data
 
 
 def read_bytes(path: Path) -> bytes:
@@ -75,7 +163,7 @@ def read_bytes(path: Path) -> bytes:
         raise InputError("file not found" + (" (broken link)" if path.is_symlink() else "")) from None
     except OSError as exc:
         raise InputError(f"cannot be read ({exc.strerror or exc})") from None
-    kind = _file_kind(info.st_mode)
+    kind = file_kind(info.st_mode)
     if kind == "a directory":
         raise InputError("is a directory, not a recording file")
     if kind is not None:
@@ -88,17 +176,17 @@ def read_bytes(path: Path) -> bytes:
     if info.st_size > MAX_INPUT_BYTES:
         raise InputError(f"is {info.st_size / 2**20:.0f} MiB, larger than the limit of "
                          f"{MAX_INPUT_BYTES / 2**20:.0f} MiB; split or decimate the recording")
-    def still_regular(st: os.stat_result) -> None:  # replaced since the stat above?
-        if _file_kind(st.st_mode) is not None:
-            raise InputError("is not a regular file; only regular files are read")
 
-    try:
-        data = read_bounded(path, MAX_INPUT_BYTES, still_regular)
-    except OSError as exc:
-        raise InputError(f"cannot be read ({exc.strerror or exc})") from None
-    if len(data) > MAX_INPUT_BYTES:
-        raise InputError(f"is larger than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MiB; "
-                         "split or decimate the recording")
+    def refuse(message: str) -> InputError:  # replaced since the stat above, or it grew
+        if "larger than" in message:
+            return InputError(f"is larger than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MiB; "
+                              "split or decimate the recording")
+        if message.startswith("cannot read"):
+            return InputError(f"cannot be read ({message.rpartition(': ')[2]})")
+        return InputError("is not a regular file; only regular files are read")
+
+    data = read_regular(path, MAX_INPUT_BYTES, missing=InputError("file not found"),
+                        follow_links=True, refuse=refuse)
     if not data:
         raise InputError("is empty (0 bytes)")
     return data

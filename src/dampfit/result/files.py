@@ -18,19 +18,19 @@ are read:
 Whether a file there is one dampfit wrote (a report a refresh may replace) is decided here
 too, read-only: :func:`written_by_dampfit` with the markers of :data:`REPORT_MARKERS`.
 
-This module imports only the standard library.
+Every file is opened by the one guard, :func:`dampfit.io.bounded.open_regular`; this module
+holds the result folder's policy (no links, the limits, the markers).
 """
 
 from __future__ import annotations
 
-import errno
 import os
 import stat
 from collections.abc import Callable
 from pathlib import Path
 
-from dampfit.errors import InputError
-from dampfit.errors import shown
+from dampfit.errors import InputError, shown
+from dampfit.io import bounded
 
 __all__ = ["MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_MARKERS",
            "Unusable", "open_regular", "read_optional", "read_regular", "written_by_dampfit"]
@@ -42,11 +42,11 @@ MAX_FIGURE_BYTES = 32 * 2**20
 #: Largest small side file read (the demo's truth file, the head of a report) [bytes].
 MAX_SIDE_BYTES = 2**20
 
-_FLAGS = (os.O_RDONLY | os.O_NOFOLLOW | getattr(os, "O_NONBLOCK", 0)
-          | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0))
 
-
-def _kind(mode: int) -> str:
+def _kind(mode: int) -> str | None:
+    """How a result folder's file that is not a regular file is named (None: regular)."""
+    if stat.S_ISREG(mode):
+        return None
     if stat.S_ISDIR(mode):
         return "a directory, not a file"
     if stat.S_ISLNK(mode):
@@ -68,71 +68,39 @@ class Unusable(InputError):
 def open_regular(path: Path, limit: int, *, missing: Exception,
                  refuse: Callable[[str], Exception] | None = None,
                  what: str = "not a file dampfit writes") -> int:
-    """A read-only descriptor of the regular file ``path`` (not a link) of at most ``limit``
-    bytes. ``missing`` is raised if there is none; otherwise :class:`Unusable` (or
-    ``refuse(its message)`` when given) for a link, FIFO, socket, device, directory or a file
-    too large, and an InputError (or ``refuse``) for a file that cannot be opened."""
-    def fail(exc: InputError) -> Exception:
+    """A read-only descriptor of the regular file ``path`` of a result folder (not a link) of
+    at most ``limit`` bytes (:func:`dampfit.io.bounded.open_regular`, the one guard). ``missing``
+    is raised if there is none; otherwise :class:`Unusable` (or ``refuse(its message)`` when
+    given) for a link, FIFO, socket, device, directory or a file too large, and an InputError
+    (or ``refuse``) for a file that cannot be opened."""
+    prefix = f"{shown(path)} is "
+
+    def unusable(message: str) -> Exception:
+        exc = (Unusable(path, message[len(prefix):]) if message.startswith(prefix)
+               else InputError(message))
         return exc if refuse is None else refuse(str(exc))
 
-    try:
-        fd = os.open(path, _FLAGS)
-    except FileNotFoundError:
-        raise missing from None
-    except OSError as exc:
-        try:
-            mode = os.lstat(path).st_mode
-        except OSError:
-            mode = None
-        if mode is not None and (exc.errno in (errno.ELOOP, errno.ENXIO, errno.EMLINK)
-                                 or not stat.S_ISREG(mode)):
-            raise fail(Unusable(path, _kind(mode))) from None
-        raise fail(InputError(f"cannot read {shown(path)}: "
-                              f"{exc.strerror or type(exc).__name__}")) from None
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise fail(Unusable(path, _kind(st.st_mode)))
-        if st.st_size > limit:
-            raise fail(Unusable(path, f"{_size(st.st_size)}, larger than {_size(limit)}; {what}"))
-    except BaseException:
-        os.close(fd)
-        raise
-    return fd
-
-
-def _size(n: int) -> str:
-    return f"{n / 2**20:.0f} MB" if n >= 2**20 else f"{n / 1024:.0f} kB"
-
-
-def _read_fd(fd: int, limit: int) -> bytes:
-    """At most ``limit + 1`` bytes of ``fd`` from its start."""
-    chunks, size = [], 0
-    while size <= limit:
-        chunk = os.pread(fd, min(1 << 20, limit + 1 - size), size)
-        if not chunk:
-            break
-        chunks.append(chunk)
-        size += len(chunk)
-    return b"".join(chunks)
+    return bounded.open_regular(path, limit, missing=missing, refuse=unusable, describe=_kind,
+                                what=what)
 
 
 def read_regular(path: Path, limit: int, missing: Exception | str,
                  refuse: Callable[[str], Exception] | None = None,
                  what: str = "a dampfit summary.json is a few kB") -> bytes:
     """The bytes of the regular file ``path`` (:func:`open_regular`), at most ``limit``."""
-    refuse = refuse or InputError
     if not isinstance(missing, Exception):
         missing = InputError(missing)
     fd = open_regular(path, limit, missing=missing, refuse=refuse, what=what)
     try:
-        data = _read_fd(fd, limit)
+        data = bounded.read_fd(fd, limit)
     except OSError as exc:
-        raise refuse(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+        raise (refuse or InputError)(
+            f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
     finally:
         os.close(fd)
     if len(data) > limit:  # it grew since fstat
-        raise refuse(f"{shown(path)} is larger than {_size(limit)}; {what}")
+        raise (refuse or InputError)(f"{shown(path)} is larger than "
+                                     f"{bounded.size_text(limit)}; {what}")
     return data
 
 

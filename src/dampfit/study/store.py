@@ -26,7 +26,7 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import error_text, atomic_write_text, check_lock_file, publish, read_marker
+from dampfit._files import FileLock, atomic_write_text, error_text, publish, read_marker
 from dampfit.errors import InputError
 from dampfit.study.config import StudyConfig
 
@@ -79,8 +79,9 @@ class Store:
         self.runs_path = self.root / "runs.jsonl"
         self.meta_path = self.root / "study.json"
         self.lock_path = self.root / ".lock"
-        self._lock_fd: int | None = None
-        self._lock_created = False
+        self._lock_file = FileLock(self.lock_path, keep_foreign=True, busy=lambda pid: (
+            f"another dampfit study is running in {self.root} (pid {pid}); wait for it or "
+            "choose another --out"))
         self._created_root = False
         self._started = False
         self._discard = False
@@ -186,54 +187,11 @@ class Store:
                     raise InputError(f"refusing to replace {path}: it is not a regular file")
 
     def _lock(self) -> None:
-        try:
-            import fcntl
-        except ImportError:  # pragma: no cover - not POSIX: no locking
-            return
-        path = self.lock_path
-        for _ in range(20):
-            created = True
-            flags = os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0)
-            try:
-                fd = os.open(path, flags | os.O_CREAT | os.O_EXCL, 0o644)
-            except FileExistsError:
-                created = False
-                try:
-                    fd = os.open(path, flags)
-                except FileNotFoundError:
-                    continue  # removed by its holder meanwhile: try again
-                except OSError as exc:
-                    raise InputError(f"cannot open the lock file {path}: {error_text(exc)}") from None
-            except OSError as exc:
-                raise InputError(f"cannot create the lock file {path}: {error_text(exc)}") from None
-            check_lock_file(fd, path)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                os.close(fd)
-                raise InputError(f"another dampfit study is running in {self.root}; wait for it "
-                                 "or choose another --out") from None
-            try:  # its holder may have removed the file before we locked it: lock the one there
-                same = os.path.samestat(os.fstat(fd), os.lstat(path))
-            except FileNotFoundError:
-                same = False
-            if same:
-                self._lock_fd, self._lock_created = fd, created
-                return
-            os.close(fd)
-        raise InputError(f"cannot lock {path}: it keeps changing")  # pragma: no cover
+        self._lock_file.acquire()
 
     def close(self) -> None:
         """Release the lock; remove the lock file and an unused folder this store created."""
-        if self._lock_fd is not None:
-            if self._lock_created:
-                try:
-                    if os.path.samestat(os.fstat(self._lock_fd), os.lstat(self.lock_path)):
-                        os.unlink(self.lock_path)
-                except OSError:
-                    pass
-            os.close(self._lock_fd)
-            self._lock_fd = None
+        self._lock_file.release()
         if self._created_root and not self._started:
             try:
                 os.rmdir(self.root)  # only if still empty
@@ -243,26 +201,25 @@ class Store:
 
     def _read_meta(self) -> dict | None:
         """study.json as dampfit wrote it; None if there is none; refused if it is not ours."""
-        try:
-            st = os.lstat(self.meta_path)
-        except FileNotFoundError:
+        from dampfit.io.bounded import read_regular
+
+        class Absent(Exception):
+            pass
+
+        why = "it is not a study file dampfit wrote"
+        try:  # the one bounded guard: a regular file (no link, FIFO, device), at most the limit
+            meta = json.loads(read_regular(self.meta_path, MAX_META_BYTES, missing=Absent(),
+                                           describe=lambda mode: None if stat.S_ISREG(mode)
+                                           else "not a regular file").decode("utf-8"))
+        except Absent:
             return None
-        except OSError as exc:
-            raise InputError(f"cannot read {self.meta_path}: {error_text(exc)}") from None
-        why = None
-        if not stat.S_ISREG(st.st_mode):
-            why = "it is not a regular file"
-        elif st.st_size > MAX_META_BYTES:
-            why = f"it is larger than {MAX_META_BYTES // 2**20} MiB"
-        else:
-            try:
-                meta = json.loads(self.meta_path.read_text(encoding="utf-8"))
-            except (OSError, ValueError, RecursionError):
-                meta = None
-            if isinstance(meta, dict) and isinstance(meta.get("fingerprint"), str) \
-                    and isinstance(meta.get("config"), dict):
-                return meta
-            why = "it is not a study file dampfit wrote"
+        except InputError as exc:
+            why, meta = str(exc).replace(f"{self.meta_path} is ", "it is "), None
+        except (ValueError, RecursionError):
+            meta = None
+        if isinstance(meta, dict) and isinstance(meta.get("fingerprint"), str) \
+                and isinstance(meta.get("config"), dict):
+            return meta
         raise InputError(f"{self.meta_path} is unusable ({why}); choose another --out or "
                          "remove it yourself")
 

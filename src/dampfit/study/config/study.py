@@ -11,8 +11,6 @@ import hashlib
 import itertools
 import json
 import math
-import os
-import stat
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -203,20 +201,21 @@ def run_seed(study_seed: int, scenario: str, replicate: int) -> int:
 def load(path: str | Path, available: list[str] | None = None) -> StudyConfig:
     """Read and validate the TOML study file ``path``; ``available`` estimator names."""
     path = Path(path)
+    from dampfit.io.bounded import read_regular
+
+    def refuse(message: str) -> InputError:
+        if "larger than" in message:
+            return InputError(f"study file {path} is more than the limit of "
+                              f"{MAX_CONFIG_BYTES // 2**10} KiB for a study configuration")
+        return InputError("study file " + message.replace(" is ", " is not a regular file: it is ", 1)
+                          if not message.startswith("cannot") else message)
+
     try:
-        st = os.stat(path)
-        if not stat.S_ISREG(st.st_mode):
-            raise InputError(f"study file {path} is not a regular file")
-        if st.st_size > MAX_CONFIG_BYTES:
-            raise InputError(f"study file {path} is {st.st_size / 2**20:.1f} MiB, more than the "
-                             f"limit of {MAX_CONFIG_BYTES // 2**10} KiB for a study configuration")
-        with open(path, "rb") as fh:
-            text = fh.read(MAX_CONFIG_BYTES + 1).decode("utf-8")
-    except FileNotFoundError:
-        raise InputError(f"study file {path} does not exist") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else exc
-        raise InputError(f"cannot read study file {path}: {reason}") from None
+        text = read_regular(path, MAX_CONFIG_BYTES, follow_links=True, refuse=refuse,
+                            missing=InputError(f"study file {path} does not exist")
+                            ).decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"cannot read study file {path}: {exc}") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
