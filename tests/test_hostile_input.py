@@ -402,14 +402,14 @@ def test_seconds_under_a_milliseconds_header_is_flagged(tmp_path, capsys):
     assert "implied stiffness" in warnings
     # the fix the warning names gives the right answer
     rec = dampfit.read(tmp_path / "s.csv", time_unit="s")
-    assert rec.time_unit_hint() is None
+    assert rec.time_unit_verdict is None
 
 
 def test_plausible_time_units_give_no_hint(tmp_path):
     t, a = _decay()
-    assert dampfit.read(_write(tmp_path / "ok.csv", _csv_text(t, a))).time_unit_hint() is None
+    assert dampfit.read(_write(tmp_path / "ok.csv", _csv_text(t, a))).time_unit_verdict is None
     ms = dampfit.read(_write(tmp_path / "ms.csv", _csv_text(t * 1000, a, header="Time (ms)")))
-    assert ms.time_unit_hint() is None
+    assert ms.time_unit_verdict is None
     np.testing.assert_allclose(ms.time, np.round(t, 6), atol=1e-9)
 
 
@@ -422,7 +422,7 @@ def test_real_recordings_are_continuous_and_plausible():
     for path in REAL_FILES:
         rec = dampfit.read(path)
         assert len(time_segments(rec.time)) == 1, path
-        assert rec.time_unit_hint() is None, path
+        assert rec.time_unit_verdict is None, path
 
 
 # ----------------------------------------------------------- found by a second hostile probe

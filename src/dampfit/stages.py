@@ -92,17 +92,17 @@ def refuse_impossible_time(rec: Recording) -> None:
         rate = float(1.0 / np.median(np.diff(rec.time)))
     lo, hi = POSSIBLE_RATE_HZ
     if not lo <= rate <= hi:
-        raise InputError(rec.time_unit_hint() or f"the median sample rate {rate:.3g} Hz is "
+        raise InputError(rec.time_unit_verdict or f"the median sample rate {rate:.3g} Hz is "
                          "impossible for an accelerometer; check the time column and --time-unit")
 
 
 def unit_plausibility(rec: Recording, prep: prepare.Prepared, mass: float | None) -> list[str]:
-    """Warnings naming a likely unit mix-up: the time unit (:meth:`Recording.time_unit_hint`:
+    """Warnings naming a likely unit mix-up: the time unit (``Recording.time_unit_verdict``:
     a sample rate outside 1 Hz–100 kHz, or seconds under a ``(ms)`` header), a dominant
     frequency outside :data:`PLAUSIBLE_F0_HZ`, or an implied k = m·(2π·f₀)² outside
     :data:`PLAUSIBLE_K_N_PER_M` for the given mass [kg]."""
     out = []
-    hint = rec.time_unit_hint()
+    hint = rec.time_unit_verdict
     if hint:
         out.append(hint)
     lo, hi = PLAUSIBLE_F0_HZ

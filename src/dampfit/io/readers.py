@@ -108,7 +108,7 @@ from dampfit.io.bounded import TEXT_EXTS, decode, read_bytes
 from dampfit.io.columns import axis_names, identify, select
 from dampfit.io.containers import container_table, npy_table, xls_table
 from dampfit.io.labexports import is_logger_pro, logger_pro_table, native_file_hint, split_runs
-from dampfit.io.recording import Recording, gap_summary, time_segments
+from dampfit.io.recording import Recording, gap_summary
 from dampfit.io.text import PEEK_ROWS, Column, Table, text_table
 from dampfit.io.units import ACCEL_ALIASES, TIME_ALIASES, accel_block, canonical_unit, time_axis
 
@@ -351,10 +351,7 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str,
     if keep is not None:
         time, accel = time[keep], accel[keep]
     notes += empty_notes
-    segments = time_segments(time)
-    if len(segments) > 1:
-        time_notes.append(gap_summary(time, segments))
-    return Recording(
+    rec = Recording(
         time=time,
         accel=accel,
         axes=tuple(axes),
@@ -367,6 +364,7 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str,
         time_unit_source=time_source,
         read_options=opts.recorded(),
     )
+    return rec.with_notes(gap_summary(rec.time, rec.segments)) if len(rec.segments) > 1 else rec
 
 
 def _rows_to_keep(time: np.ndarray, accel: np.ndarray, window: tuple[float, float] | None):

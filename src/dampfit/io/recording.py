@@ -12,13 +12,16 @@ stage may rely on its invariants:
 The time stamps may have gaps: :func:`time_segments` splits them where a gap is far larger than
 the typical step (a dropout of many seconds, a clock jump or one corrupt time stamp), and the
 analysis uses one continuous segment (:func:`dampfit.signal.prepare.prepare`); the recording itself
-keeps every sample. :meth:`Recording.time_unit_hint` names a likely time-unit mix-up.
+keeps every sample. The time base is judged here, once: ``Recording.segments`` holds the
+continuous segments and ``Recording.time_unit_verdict`` the sentence naming a likely time-unit
+mix-up (None when the time looks plausible); every later stage reads them from the recording.
 
 Anything else is an :class:`~dampfit.errors.InputError` with a one-line message.
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -78,6 +81,12 @@ class Recording:
         The reading options it was read with (:data:`dampfit.io.readers.READ_OPTIONS`, None
         where not given), JSON-safe; recorded in ``provenance.options`` so that the analysis
         can be reproduced. Empty when not read from a file.
+    segments : tuple of (int, int)
+        Continuous segments ``(start, stop)`` of the sample indices (:func:`time_segments`),
+        judged once when the recording is made.
+    time_unit_verdict : str or None
+        One sentence naming a likely time-unit mix-up, or None if the time looks plausible
+        (:meth:`_judge_time_unit`), judged once when the recording is made.
     """
 
     time: np.ndarray
@@ -91,6 +100,8 @@ class Recording:
     time_unit: str | None = None
     time_unit_source: str | None = None
     read_options: dict = field(default_factory=dict)
+    segments: tuple[tuple[int, int], ...] = field(init=False, repr=False, compare=False)
+    time_unit_verdict: str | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         t, a = _coerce(self.time, self.accel, len(self.axes))
@@ -98,6 +109,14 @@ class Recording:
         object.__setattr__(self, "accel", a)
         object.__setattr__(self, "axes", tuple(str(x) for x in self.axes))
         object.__setattr__(self, "notes", tuple(self.notes))
+        object.__setattr__(self, "segments", tuple(time_segments(t)))
+        object.__setattr__(self, "time_unit_verdict", self._judge_time_unit())
+
+    def with_notes(self, *notes: str) -> "Recording":
+        """This recording with ``notes`` added (the data are not validated again)."""
+        out = copy.copy(self)
+        object.__setattr__(out, "notes", (*self.notes, *notes))
+        return out
 
     # -- derived facts -------------------------------------------------------------
     @property
@@ -121,7 +140,7 @@ class Recording:
         dt = np.diff(self.time)
         return float(np.std(dt) / np.mean(dt))
 
-    def time_unit_hint(self) -> str | None:
+    def _judge_time_unit(self) -> str | None:
         """One sentence naming a likely time-unit mix-up, or None if the time looks plausible.
 
         Suspicious: a median sample rate outside :data:`PLAUSIBLE_RATE_HZ` (e.g. milliseconds

@@ -8,7 +8,7 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
 2. **Offset / gravity** — the per-axis median is subtracted (gravity or bias); the slow drift
    that remains is modelled later as nuisance terms (:func:`dampfit.model.viscous.drift_basis`).
 3. **Continuous part and uniform grid** — a time step far larger than the typical one
-   (:func:`dampfit.io.recording.time_segments`: > 50× the median step and > 1 s; a long dropout,
+   (``Recording.segments``, :func:`dampfit.io.recording.time_segments`: > 50× the median step and > 1 s; a long dropout,
    clock jump or corrupt time stamp) splits the record; the longest continuous part is analysed
    (with ``window``: the part holding it; a window across such a gap is an error), with a
    warning. Irregular phone timestamps within it are interpolated (cubic) onto a uniform grid at
@@ -50,7 +50,7 @@ from scipy import interpolate, ndimage, signal
 from dampfit.signal import filters
 from dampfit.model import viscous as model
 from dampfit.errors import InputError
-from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary, time_segments
+from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
 from dampfit.signal.spectrum import auto_band, dominant_frequency
 from dampfit.signal.window import (
     DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
@@ -217,8 +217,8 @@ def _to_grid(
 
 
 def _unit_hint(rec: Recording) -> str:
-    """``"; <hint>"`` naming a likely time-unit mix-up (:meth:`Recording.time_unit_hint`), or ""."""
-    hint = rec.time_unit_hint()
+    """``"; <hint>"`` naming a likely time-unit mix-up (``Recording.time_unit_verdict``), or ""."""
+    hint = rec.time_unit_verdict
     return f"; {hint}" if hint else ""
 
 
@@ -227,13 +227,13 @@ def _continuous_part(
 ) -> tuple[np.ndarray, np.ndarray, list[str], list[str]]:
     """Time [s], acceleration [m/s²], notes and warnings of the continuous part to analyse.
 
-    The recording is split at gaps (:func:`dampfit.io.recording.time_segments`); the part with
+    The recording is split at gaps (``Recording.segments``, judged when it was read); the part with
     the most samples is used, or with ``window`` = (start, end) [s] the part holding it. A
     window reaching across a gap or into one is an :class:`InputError` (a fit across a gap of
     unknown length would be wrong, and silently cutting the user's window would hide it).
     """
     t, a = rec.time, rec.accel
-    segments = time_segments(t)
+    segments = list(rec.segments)
     if len(segments) == 1:
         return t, a, [], []
     spans = ", ".join(f"{t[i]:.6g}–{t[j - 1]:.6g} s" for i, j in segments[:6])
@@ -384,7 +384,7 @@ def prepare(
         filters.bandpass_sos((lo, hi), fs)  # validates the band against Nyquist
         fmin, fmax = lo, hi
     if fmin >= fmax:
-        hint = rec.time_unit_hint()
+        hint = rec.time_unit_verdict
         if hint:  # not too short: the time unit is wrong
             raise InputError(f"{hint}; as read, the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) "
                              "cannot hold an oscillation")
