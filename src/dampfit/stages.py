@@ -292,13 +292,13 @@ def fitted_curve(fd: prepare.FitData, ls: least_squares.LeastSquaresResult,
                  n: int) -> tuple[np.ndarray, np.ndarray]:
     """The least-squares model of the fitted samples (decay and drift, as fitted: filter gain
     included) on ``n`` uniform times over the fitted span: (t [s], a [m/s²])."""
-    from dampfit.model import viscous as model
+    from dampfit.model import viscous
 
     # same end points as fd.tau, so the drift basis maps onto the same [-1, 1]
     tau = np.linspace(fd.tau[0], fd.tau[-1], int(n))
-    drift = model.drift_basis(fd.tau, fd.drift_degree, at=tau)
+    drift = viscous.drift_basis(fd.tau, fd.drift_degree, at=tau)
     # NumPy columns: a figure needs no JAX trace
-    x = np.concatenate([model.M1.columns(np.asarray(ls.theta), tau, xp=np), drift], axis=1)
+    x = np.concatenate([viscous.M1.columns(np.asarray(ls.theta), tau, xp=np), drift], axis=1)
     return fd.t0 + tau, x @ np.asarray(ls.beta)
 
 
@@ -306,15 +306,15 @@ def window_signals(prep: prepare.Prepared, fd, ls, envelope=None) -> dict[str, n
     """The signals of :meth:`dampfit.analysis.Analysis.signals` from a prepared recording, its fit data, its
     least-squares result and (optionally) its envelope-pipeline baseline (else the measured
     displacement is NaN); also each test of a campaign (:meth:`CampaignAnalysis.signals`)."""
-    from dampfit.model import viscous as model
+    from dampfit.model import viscous
 
     sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
     t = prep.grid[sel]
     tau = t - fd.t0
     a_cos, a_sin = ls.true_quadratures()
     args = (np.asarray(tau, float), ls.p, ls.omega_d, a_cos, a_sin)
-    accel_model = np.asarray(model.acceleration(*args, xp=np), dtype=float)
-    disp_model = np.asarray(model.displacement(*args, xp=np), dtype=float)
+    accel_model = np.asarray(viscous.acceleration(*args, xp=np), dtype=float)
+    disp_model = np.asarray(viscous.displacement(*args, xp=np), dtype=float)
     disp = np.full(t.size, np.nan)
     if envelope is not None and np.size(envelope.details.get("displacement", [])) == t.size:
         disp = np.asarray(envelope.details["displacement"], float)

@@ -28,21 +28,21 @@ from typing import Any
 
 import numpy as np
 
-from dampfit.inference import noise as _noise
+from dampfit.inference import noise
 from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.damping import checks, curve, quantities
-from dampfit.damping import evidence as compare
+from dampfit.damping import evidence
 from dampfit.physics import check_mass
-from dampfit.model import laws as models
+from dampfit.model import laws
 from dampfit.damping.summary import summary as _summary
-from dampfit.inference import law_fit as dfit
+from dampfit.inference import law_fit
 from dampfit.inference import law_sampler as dsample
 
 __all__ = ["assess", "from_analysis", "DampingAssessment", "CHOICES", "POSTERIORS"]
 
 #: Accepted values of ``model``.
-CHOICES = ("auto",) + models.MODELS
+CHOICES = ("auto",) + laws.MODELS
 #: Accepted values of ``posterior``: emcee for every law, for the chosen law only, or none.
 POSTERIORS = ("chosen", "chosen-nonviscous", "emcee", "laplace")
 
@@ -51,7 +51,7 @@ POSTERIORS = ("chosen", "chosen-nonviscous", "emcee", "laplace")
 class DampingAssessment:
     """Everything :func:`assess` computed; :meth:`summary` is its plain-data view."""
 
-    fits: dict[str, dfit.ModelFit]
+    fits: dict[str, law_fit.ModelFit]
     posteriors: dict[str, dsample.ModelPosterior]
     table: list[dict]
     verdict: dict
@@ -205,13 +205,13 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     """
     _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
     mass_sd = float(mass_sd or 0.0)
-    data = dfit.Data.from_fit_data(fd)
+    data = law_fit.Data.from_fit_data(fd)
     f0 = float(prep.f0)
     p_start, w_start = (ls.p, ls.omega_d) if ls is not None else _initial_guess(prep)
-    r_white = _noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, f0)
+    r_white = noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, f0)
 
     def noise_of(mf):
-        return _noise.estimate(mf.residuals, fd.fs, f0, 0.25 * f0, data.q + mf.k,
+        return noise.estimate(mf.residuals, fd.fs, f0, 0.25 * f0, data.q + mf.k,
                                white=r_white)
 
     def ratio(mf):  # floored at r_white: the likelihood is never sharper than for white noise
@@ -221,17 +221,17 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     p_start, w_start = (visc.p0, visc.omega) if visc.converged else (p_start, w_start)
     phase0 = visc.theta[2:]
     fits = {"viscous": visc}
-    fits.update({m: dfit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
-                 for m in models.MODELS[1:]})
+    fits.update({m: law_fit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
+                 for m in laws.MODELS[1:]})
     warns = [f"{m} damping law: least squares did not converge ({mf.message})"
              for m, mf in fits.items() if not mf.converged]
     ok = [mf for mf in fits.values() if mf.converged] or [fits["viscous"]]
     best = min(ok, key=lambda mf: mf.rss)
 
     r = ratio(best)
-    fits = {m: dfit.laplace(mf, data, 1.0 / r, prep.band) for m, mf in fits.items()}
-    table, verdict = compare.compare(fits, data, f0)
-    decay = dfit.decay_test(fits["viscous"], data, 1.0 / r)
+    fits = {m: law_fit.laplace(mf, data, 1.0 / r, prep.band) for m, mf in fits.items()}
+    table, verdict = evidence.compare(fits, data, f0)
+    decay = law_fit.decay_test(fits["viscous"], data, 1.0 / r)
     chosen = verdict["preferred"] if model == "auto" else model
 
     # posteriors
@@ -300,18 +300,18 @@ def from_analysis(an, **kw) -> DampingAssessment:
     return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
 
 
-def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> dfit.ModelFit:
+def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> law_fit.ModelFit:
     """The viscous fit with J = 0…MAX_PHASE frequency-drift terms (K4), J chosen by BIC.
 
     The score is ℓ/r − ½·J·ln(n/r), with one r (that of the richest fit) for every J: the
     tempered likelihood and an effective sample size n/r. The chosen J is then shared by
     every law, so the laws are compared with the same nuisance model.
     """
-    base = dfit.fit_model("viscous", fd, data, p_start, w_start)
+    base = law_fit.fit_model("viscous", fd, data, p_start, w_start)
     if not base.converged:
         return base
-    cands = [base] + [dfit.fit_model("viscous", fd, data, base.p0, base.omega,
-                                     phase0=np.zeros(j)) for j in range(1, models.MAX_PHASE + 1)]
+    cands = [base] + [law_fit.fit_model("viscous", fd, data, base.p0, base.omega,
+                                     phase0=np.zeros(j)) for j in range(1, laws.MAX_PHASE + 1)]
     cands = [c for c in cands if c.converged]
     r = ratio(min(cands, key=lambda c: c.rss))
     n_eff = max(data.n / r, 2.0)
@@ -332,10 +332,10 @@ def _weight(table, name) -> float:
     return next((r["weight"] for r in table if r["model"] == name), float("nan"))
 
 
-def _amplitudes(mf: dfit.ModelFit, wins, fd, amplitude) -> dict[str, float]:
+def _amplitudes(mf: law_fit.ModelFit, wins, fd, amplitude) -> dict[str, float]:
     """Displacement amplitudes [m] at the window start and end and the reference one."""
     start = mf.a0
-    e_end = float(models.envelope(mf.model, mf.theta, np.array([fd.tau[-1] - fd.tau[0]]),
+    e_end = float(laws.envelope(mf.model, mf.theta, np.array([fd.tau[-1] - fd.tau[0]]),
                                   xp=np)[0][..., 0])
     end = start * e_end
     measured = [w.amplitude for w in wins if w.amplitude > 0]
@@ -352,13 +352,13 @@ def _q50(q: dict, name: str) -> float:
     return float(np.nanmedian(x)) if x is not None and len(x) else float("nan")
 
 
-def _fit_check(mf: dfit.ModelFit, fd, data, noise_of, white_r: float, sigma_exp: float,
+def _fit_check(mf: law_fit.ModelFit, fd, data, noise_of, white_r: float, sigma_exp: float,
                lb: dict | None) -> dict:
     """Residual checks of one fit: Ljung–Box p at f₀ and :func:`dampfit.inference.noise.misfit_check`."""
     nm = noise_of(mf)
     osc = mf.fitted - data.drift @ mf.beta[2:]
     resid_rms = float(np.sqrt(np.mean(mf.residuals**2)))
-    chk = _noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms,
+    chk = noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms,
                               float(np.sqrt(np.mean(osc**2))), sigma_exp)
     return {"ljung_box_p": (lb or {}).get("p_value"), "r_raw": nm.psd_ratio_raw,
             "r_white": white_r, "r_excess": chk["r_excess"], "resid_rms": resid_rms,
@@ -372,10 +372,10 @@ def _pipeline_check(ls, fd, f0: float, white_r: float, sigma_exp: float) -> dict
     if ls is None or not hasattr(ls, "residuals") or np.size(ls.residuals) != fd.y.size:
         return None
     res = np.asarray(ls.residuals, float)
-    nm = _noise.estimate(res, fd.fs, f0, 0.25 * f0, len(ls.theta) + len(ls.beta), white=white_r)
+    nm = noise.estimate(res, fd.fs, f0, 0.25 * f0, len(ls.theta) + len(ls.beta), white=white_r)
     resid_rms = float(np.sqrt(np.mean(res**2)))
     sig = float(np.sqrt(max(ls.rss_drift - ls.rss, 0.0) / res.size))
-    chk = _noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms, sig, sigma_exp)
+    chk = noise.misfit_check(nm.psd_ratio_raw, white_r, resid_rms, sig, sigma_exp)
     lb = checks.envelope_whiteness(fd.tau, res, float(ls.omega_d))
     return {"ljung_box_p": lb.get("p_value"), "r_raw": nm.psd_ratio_raw, "r_white": white_r,
             "r_excess": chk["r_excess"], "resid_rms": resid_rms,
@@ -391,10 +391,10 @@ def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
     ok = [mf for mf in a.fits.values() if mf.converged] or [a.fits["viscous"]]
     f0 = float(prep.f0)
     f_max = 0.9 * fd.fs / 2 if fd.lowpass_sos is None else min(0.8 * prep.band[1], 0.9 * fd.fs / 2)
-    dens = _noise.sensor_density(min(ok, key=lambda mf: mf.rss).residuals, fd.fs, f0, f_max)
+    dens = noise.sensor_density(min(ok, key=lambda mf: mf.rss).residuals, fd.fs, f0, f_max)
     if not np.isfinite(dens):  # too short for the residual spectrum: the recording's own level
         dens = float(prep.noise_density)
-    sigma_exp = _noise.expected_sigma(dens, fd.fs, white_r)
+    sigma_exp = noise.expected_sigma(dens, fd.fs, white_r)
     names = ["viscous"] + ([best_nl] if best_nl and a.fits[best_nl].converged else [])
     fc = {m: _fit_check(a.fits[m], fd, data, noise_of, white_r, sigma_exp, a.whiteness.get(m))
           for m in names if a.fits[m].converged}
@@ -405,20 +405,20 @@ def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
     if pipe is not None:
         fc["viscous_pipeline"] = pipe
     best_model = names[-1] if names[-1] in fc else "viscous"
-    laws = _law_usability(a, amps)
+    usability = _law_usability(a, amps)
     q = a.quantities.get("power", {}).get("alpha")
     power = None
-    if not laws.get("power", {}).get("issue") and q is not None and len(q):
+    if not usability.get("power", {}).get("issue") and q is not None and len(q):
         q05, q50, q95 = np.quantile(np.asarray(q) - 1.0, [0.05, 0.5, 0.95])
         power = {"q05": float(q05), "q50": float(q50), "q95": float(q95)}
     out = checks.adequacy(n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
                           p_viscous=a.verdict["p_viscous"], best_nonlinear=best_nl,
                           viscous=fc.get("viscous"), best=fc.get(best_model),
-                          best_model=best_model, pipeline=pipe, laws=laws,
+                          best_model=best_model, pipeline=pipe, laws=usability,
                           power_slope=power, decay=a.decay)
     out["fit_checks"] = fc
     out["frequency_trend"] = freq
-    out["laws"] = laws
+    out["laws"] = usability
     return out
 
 
@@ -438,7 +438,7 @@ def _law_usability(a: DampingAssessment, amps: list[float]) -> dict[str, dict]:
             issue = post.ill_conditioned_reason or "ill-conditioned"
         ratio = None
         if mf.converged and len(amps) >= 2 and mf.a0 > 0:
-            rho = models.local_rate(m, mf.theta, np.array([max(amps), min(amps)]) / mf.a0)
+            rho = laws.local_rate(m, mf.theta, np.array([max(amps), min(amps)]) / mf.a0)
             ratio = float(rho[0] / rho[1]) if rho[1] > 0 and np.all(np.isfinite(rho)) else None
         out[m] = {"weight": _weight(a.table, m), "issue": issue, "zeta_ratio": ratio}
     return out

@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from dampfit.inference import law_fit as dfit
-from dampfit.model import laws as models
+from dampfit.inference import law_fit
+from dampfit.model import laws
 
 __all__ = ["compare", "MODEL_PRIOR", "P_VISCOUS_MAX"]
 
@@ -44,13 +44,13 @@ MODEL_PRIOR = {"viscous": 0.5, "coulomb": 1 / 6, "quadratic": 1 / 6, "power": 1 
 P_VISCOUS_MAX = 0.05
 
 
-def _block_loglik(mf: dfit.ModelFit, data: dfit.Data, blocks: np.ndarray, n_blocks: int):
+def _block_loglik(mf: law_fit.ModelFit, data: law_fit.Data, blocks: np.ndarray, n_blocks: int):
     s2 = mf.rss / max(data.n - data.q - mf.k, 1)
     point = mf.temper * (-0.5 * np.log(2 * np.pi * s2) - 0.5 * mf.residuals**2 / s2)
     return np.bincount(blocks, weights=point, minlength=n_blocks)
 
 
-def compare(fits: dict[str, dfit.ModelFit], data: dfit.Data, f0: float) -> tuple[list[dict], dict]:
+def compare(fits: dict[str, law_fit.ModelFit], data: law_fit.Data, f0: float) -> tuple[list[dict], dict]:
     """The comparison table (best first) and the verdict, from Laplace-evaluated ``fits``.
 
     ``f0`` [Hz] sets the one-cycle blocks of ``dse``. Table rows: ``model``, ``k`` (nonlinear
@@ -58,7 +58,7 @@ def compare(fits: dict[str, dfit.ModelFit], data: dfit.Data, f0: float) -> tuple
     (posterior probability), ``loglik_tempered``, ``rss`` [(m/s²)²], ``converged``. The verdict:
     ``{"preferred", "amplitude_dependent", "p_viscous", "best_nonlinear", "bayes_factor_ln"}``.
     """
-    names = [m for m in models.MODELS if m in fits]
+    names = [m for m in laws.MODELS if m in fits]
     lnz = np.array([fits[m].ln_evidence for m in names])
     prior = np.array([MODEL_PRIOR[m] for m in names])
     ok = np.isfinite(lnz)

@@ -129,7 +129,7 @@ def fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree: int | None = 0)
     ``None`` = no nuisance terms, the pure model of Yao & Pandit). Units of F are those of
     1/(φ_i·φ_j); shape (4 + d + 1,)*2.
     """
-    from dampfit.model import viscous as model
+    from dampfit.model import viscous
 
     t, s, (p, wd, a, b), degree = _check_design(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
     # ∂y/∂φ of (M1) y = e^{−pτ}(A cos ω_dτ + B sin ω_dτ), in closed form:
@@ -140,7 +140,7 @@ def fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree: int | None = 0)
     y = a * cos + b * sin
     jac = np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1)
     if degree is not None:
-        jac = np.concatenate([jac, model.drift_basis(t, degree)], axis=1)
+        jac = np.concatenate([jac, viscous.drift_basis(t, degree)], axis=1)
     jw = jac / s[:, None]
     return jw.T @ jw
 

@@ -50,7 +50,7 @@ from scipy import optimize
 
 from dampfit.inference.executables import kernel
 from dampfit.inference.least_squares import amplitude_gain
-from dampfit.model import laws as models
+from dampfit.model import laws
 from dampfit.model import profile as _profile
 from dampfit.model.laws import P_RANGE
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, FitData, padded_length
@@ -111,11 +111,11 @@ def _profile_kernel(law, thetas, samples):
 
 def _run_kernel(model: str, theta, data: Data):
     """The kernel on θ (..., k) in chunks of :data:`BATCH`: NumPy outputs with rows (b, …)."""
-    law = models.get(model)
+    law = laws.get(model)
     theta = np.asarray(theta, dtype=float)
     rows = theta.reshape(-1, theta.shape[-1])
     b, k = rows.shape
-    full = np.zeros((max(-(-b // BATCH), 1) * BATCH, law.omega_index + 1 + models.MAX_PHASE))
+    full = np.zeros((max(-(-b // BATCH), 1) * BATCH, law.omega_index + 1 + laws.MAX_PHASE))
     full[:b, :k], full[b:, :k] = rows, (rows[-1] if b else 0.0)
     outs = []
     with jax.enable_x64(True):
@@ -213,7 +213,7 @@ class ModelFit:
     @property
     def omega(self) -> float:
         """Carrier angular frequency ω [rad/s] (ω_d of the viscous model)."""
-        return float(np.exp(self.theta[models.omega_index(self.model)]))
+        return float(np.exp(self.theta[laws.omega_index(self.model)]))
 
     @property
     def p0(self) -> float:
@@ -223,7 +223,7 @@ class ModelFit:
 
 def _start_grid(model: str, p_visc: float, w: float, span: float, phase0) -> np.ndarray:
     ph = list(phase0)
-    law = models.get(model)
+    law = laws.get(model)
     if law.shape_prior is None:  # ω over ±3 Fourier bins of the window, as least_squares does
         ws = w + 2 * np.pi / span * np.linspace(-3, 3, 25)
         return np.array([[np.log(p_visc * x), np.log(ww)] + ph
@@ -267,9 +267,9 @@ def fit_model(model: str, fd: FitData, data: Data, p_visc: float, omega: float, 
         beta, rss_v, logdet, _, fitted = profile(model, theta, data)
     ll = float(-0.5 * logdet - 0.5 * (data.n - data.q) * np.log(rss_v))
     finite = bool(np.all(np.isfinite(theta)) and np.isfinite(ll))
-    w = float(np.exp(theta[models.omega_index(model)]))
+    w = float(np.exp(theta[laws.omega_index(model)]))
     if finite:
-        gain = abs(amplitude_gain(fd, float(models.local_rate(model, theta, 1.0)), w))
+        gain = abs(amplitude_gain(fd, float(laws.local_rate(model, theta, 1.0)), w))
         a0 = float(np.hypot(beta[0], beta[1]) / (w * w * gain))
     else:
         gain = a0 = float("nan")
@@ -283,7 +283,7 @@ def fit_model(model: str, fd: FitData, data: Data, p_visc: float, omega: float, 
 def log_prior(model: str, theta, band: tuple[float, float]) -> np.ndarray:
     """Log prior density of θ (shape (..., k)); −inf outside the support. ``band`` [Hz]
     (:meth:`dampfit.model.laws.Law.log_prior`)."""
-    return models.log_prior(model, theta, band)
+    return laws.log_prior(model, theta, band)
 
 
 def information(model: str, theta, beta, rss: float, data: Data, idx=None) -> np.ndarray:
@@ -301,12 +301,12 @@ def information(model: str, theta, beta, rss: float, data: Data, idx=None) -> np
     def f(subs):
         th = np.repeat(theta[None, :], len(subs), axis=0)
         th[:, idx] = subs
-        return models.columns(model, th, data.tau, xp=np) @ ab
+        return laws.columns(model, th, data.tau, xp=np) @ ab
 
     q_ = data.drift  # orthonormal: project it out directly, then the two columns X⊥
     jt = jacobian(f, theta[idx])
     jt = jt - q_ @ (q_.T @ jt)
-    xo = models.columns(model, theta, data.tau, xp=np)
+    xo = laws.columns(model, theta, data.tau, xp=np)
     xo = xo - q_ @ (q_.T @ xo)
     jp = jt - xo @ np.linalg.solve(xo.T @ xo, xo.T @ jt)
     s2 = rss / max(data.n - data.q - theta.size, 1)
@@ -346,7 +346,7 @@ def _fit_at_shape(mf: ModelFit, data: Data, s: float, phi0: np.ndarray):
 
 def shape_grid(mf: ModelFit, data: Data, temper: float, band, sd: float) -> ShapeGrid:
     """Evaluate the integrand of (L3) around the optimum ``mf.theta`` (``sd`` ≈ σ of s)."""
-    lo, hi = models.get(mf.model).shape_prior
+    lo, hi = laws.get(mf.model).shape_prior
     centre = float(np.clip(mf.theta[1], lo, hi))
     sd = float(np.clip(sd, 1e-4 * (hi - lo), hi - lo)) if np.isfinite(sd) else 0.1 * (hi - lo)
     nodes = np.concatenate([np.linspace(lo, hi, 9), centre + sd * np.linspace(-6, 6, 19)])
@@ -385,7 +385,7 @@ def laplace(mf: ModelFit, data: Data, temper: float, band: tuple[float, float]) 
         ev = np.linalg.eigvalsh(h)
         if np.all(np.isfinite(h)) and ev.min() > 0:
             cov = np.linalg.inv(h)
-        if models.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
+        if laws.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
             if np.all(np.isfinite(cov)):
                 lp = float(log_prior("viscous", mf.theta, band))
                 ln_z = (temper * mf.loglik + lp + 0.5 * k * np.log(2 * np.pi)
@@ -394,7 +394,7 @@ def laplace(mf: ModelFit, data: Data, temper: float, band: tuple[float, float]) 
             grid = shape_grid(mf, data, temper, band, float(np.sqrt(cov[1, 1])))
             ok = np.isfinite(grid.log_density)
             if ok.sum() >= 3:
-                lo, hi = models.get(mf.model).shape_prior
+                lo, hi = laws.get(mf.model).shape_prior
                 x, y = grid.s[ok], grid.log_density[ok]
                 top = float(y.max())
                 dens = np.exp(y - top)
@@ -410,7 +410,7 @@ def _constrain(mf: ModelFit, data: Data) -> ModelFit:
     The best node of the evidence grid (a boundary, since ℓ is unimodal in s there) replaces θ̂,
     with β, residuals, a₀ and the covariance recomputed; ln Z and the grid are unchanged.
     """
-    law = models.get(mf.model)
+    law = laws.get(mf.model)
     lo, hi = law.shape_prior
     g = mf.grid
     if lo <= mf.theta[1] <= hi or not np.any(np.isfinite(g.loglik)):
@@ -418,7 +418,7 @@ def _constrain(mf: ModelFit, data: Data) -> ModelFit:
     i = int(np.argmax(g.loglik))
     theta = _with_shape(g.phi[i], g.s[i])
     beta, rss, logdet, _, fitted = profile(mf.model, theta, data)
-    w = float(np.exp(theta[models.omega_index(mf.model)]))
+    w = float(np.exp(theta[laws.omega_index(mf.model)]))
     h = mf.temper * information(mf.model, theta, beta, float(rss), data)
     try:
         cov = np.linalg.inv(h)
@@ -457,7 +457,7 @@ def decay_test(mf: ModelFit, data: Data, temper: float) -> dict:
     be evaluated).
     """
     theta = np.asarray(mf.theta, dtype=float)
-    iw = models.omega_index(mf.model)
+    iw = laws.omega_index(mf.model)
     ll_hat = float(mf.loglik)
     if not (np.all(np.isfinite(theta)) and np.isfinite(ll_hat) and temper > 0):
         return {"z": None, "ln_lr": None, "resolved": None, "p_hat": None}

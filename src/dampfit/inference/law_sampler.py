@@ -49,8 +49,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from dampfit.inference.posterior import burn_thin, diagnose, ensemble, run_adaptive
-from dampfit.inference import law_fit as dfit
-from dampfit.model import laws as models
+from dampfit.inference import law_fit
+from dampfit.model import laws
 
 __all__ = ["ModelPosterior", "Budget", "conditioning", "sample_emcee", "sample_laplace",
            "N_WALKERS"]
@@ -133,7 +133,7 @@ class ModelPosterior:
                 "ill_conditioned_reason": self.ill_conditioned_reason or None}
 
 
-def conditioning(mf: dfit.ModelFit) -> str | None:
+def conditioning(mf: law_fit.ModelFit) -> str | None:
     """Why ``mf`` (after :func:`dampfit.inference.law_fit.laplace`) is too ill-conditioned for
     emcee, or None when it is fine (criteria in the module docstring)."""
     cov = mf.cov
@@ -144,7 +144,7 @@ def conditioning(mf: dfit.ModelFit) -> str | None:
     ev = np.linalg.eigvalsh(0.5 * (cov + cov.T))
     if ev.min() <= 0:
         return "Laplace covariance not positive definite"
-    law = models.get(mf.model)
+    law = laws.get(mf.model)
     if law.shape_prior is not None:
         lo, hi = law.shape_prior
         s = float(mf.theta[1])
@@ -160,7 +160,7 @@ def conditioning(mf: dfit.ModelFit) -> str | None:
     return None
 
 
-def _amplitudes(mf: dfit.ModelFit, thetas, data: dfit.Data, rng) -> np.ndarray:
+def _amplitudes(mf: law_fit.ModelFit, thetas, data: law_fit.Data, rng) -> np.ndarray:
     """a₀ [m] for each θ draw: (A, B) ~ N(β̂(θ), s²·r·M⁻¹), β̂(θ) linearised about θ̂.
 
     β̂(θ) ≈ β̂(θ̂) + (∂β̂/∂θ)·(θ − θ̂) (central differences) keeps the correlation of the
@@ -170,23 +170,23 @@ def _amplitudes(mf: dfit.ModelFit, thetas, data: dfit.Data, rng) -> np.ndarray:
     thetas = np.asarray(thetas, dtype=float)
     if len(thetas) == 0:
         return np.empty(0)
-    beta, rss, _, minv, _ = dfit.profile(mf.model, mf.theta, data)
-    jb = dfit.jacobian(lambda th: dfit.profile(mf.model, th, data)[0][:, :2], mf.theta)
+    beta, rss, _, minv, _ = law_fit.profile(mf.model, mf.theta, data)
+    jb = law_fit.jacobian(lambda th: law_fit.profile(mf.model, th, data)[0][:, :2], mf.theta)
     s2 = float(rss) / max(data.n - data.q, 1) / mf.temper
     chol = np.linalg.cholesky(minv * s2)
     ab = (beta[:2] + (thetas - mf.theta) @ jb.T
           + rng.standard_normal((len(thetas), 2)) @ chol.T)
-    w = np.exp(thetas[:, models.omega_index(mf.model)])
+    w = np.exp(thetas[:, laws.omega_index(mf.model)])
     return np.hypot(ab[:, 0], ab[:, 1]) / (w * w * mf.gain)
 
 
-def sample_laplace(mf: dfit.ModelFit, data: dfit.Data, n_draws: int = 2000, *,
+def sample_laplace(mf: law_fit.ModelFit, data: law_fit.Data, n_draws: int = 2000, *,
                    seed: int = 0) -> ModelPosterior:
     """Draws from the (nested) Laplace approximation on the prior support (module docstring);
     an ill-conditioned law (:func:`conditioning`) is flagged in ``ill_conditioned``."""
     rng = np.random.default_rng(seed)
     th_hat, cov = mf.theta, mf.cov
-    if models.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
+    if laws.get(mf.model).shape_prior is None:  # no shape parameter: plain Laplace
         if cov is None or not np.all(np.isfinite(cov)):
             return ModelPosterior(mf.model, np.empty((0, mf.k)), np.empty(0), "laplace", False,
                                   warnings=("viscous: no Laplace approximation (fit failed)",))
@@ -230,7 +230,7 @@ class _DeadlineBar:
             raise _WallBudgetReached
 
 
-def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], *, seed: int = 0,
+def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, float], *, seed: int = 0,
                  min_ess: float = 1000.0, max_steps: int = 20000, block: int = 500,
                  progress: bool = False, budget: Budget | None = None) -> ModelPosterior:
     """emcee posterior of one law with the tempered likelihood (module docstring).
@@ -258,8 +258,8 @@ def sample_emcee(mf: dfit.ModelFit, data: dfit.Data, band: tuple[float, float], 
     steps_allowed = int(min(max_steps, budget.max_steps))
 
     def log_prob(thetas):  # the jitted profile of dampfit.model.profile, ~10⁴ evaluations
-        lp = dfit.log_prior(model, thetas, band)
-        return np.where(np.isfinite(lp), temper * dfit.loglik_batch(model, thetas, data) + lp,
+        lp = law_fit.log_prior(model, thetas, band)
+        return np.where(np.isfinite(lp), temper * law_fit.loglik_batch(model, thetas, data) + lp,
                         -np.inf)
 
     # start: a ball drawn from the Laplace approximation (inside the prior support)

@@ -48,7 +48,7 @@ import numpy as np
 from scipy import interpolate, ndimage, signal
 
 from dampfit.signal import filters
-from dampfit.model import viscous as model
+from dampfit.model import viscous
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
 from dampfit.signal.spectrum import auto_band, dominant_frequency
@@ -144,7 +144,7 @@ class FitData:
     @functools.cached_property
     def drift(self) -> np.ndarray:
         """Orthonormal drift basis on ``tau`` (:func:`dampfit.model.viscous.drift_basis`), built once."""
-        return model.drift_basis(self.tau, self.drift_degree)
+        return viscous.drift_basis(self.tau, self.drift_degree)
 
     @functools.cached_property
     def padded(self) -> "Padded":
