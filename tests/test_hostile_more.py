@@ -20,7 +20,6 @@ import pandas as pd
 import pytest
 
 from dampfit import simulate as sim
-from dampfit.cli import options as cli_options
 from dampfit._files import WriteError, atomic_write_text
 from dampfit.errors import InputError
 from dampfit.fem import opensees
@@ -399,10 +398,10 @@ def test_study_refuses_scenarios_simulate_refuses(over, match):
 
 
 def test_check_limits_uses_the_cli_limit():
-    cfg = sim.from_modal(1.0, 2.0, 0.01, duration=cli_options.MAX_SIM_SAMPLES / 100.0, sample_rate=100.0)
+    cfg = sim.from_modal(1.0, 2.0, 0.01, duration=sim.MAX_SIM_SAMPLES / 100.0, sample_rate=100.0)
     sim.check_limits(cfg)  # exactly at the limit: fine
     with pytest.raises(InputError, match="samples; at most"):
-        sim.check_limits(sim.from_modal(1.0, 2.0, 0.01, duration=cli_options.MAX_SIM_SAMPLES / 99.0,
+        sim.check_limits(sim.from_modal(1.0, 2.0, 0.01, duration=sim.MAX_SIM_SAMPLES / 99.0,
                                         sample_rate=100.0))
 
 

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from dampfit._meta import __version__
-from dampfit.physics import MAX_MASS as MAX_MASS
+from dampfit.physics import MAX_MASS
 from dampfit.errors import InputError
 from dampfit.physics import check_mass, critical_damping, quantities, stiffness, to_decay
 from dampfit.io.recording import STANDARD_GRAVITY, Recording

@@ -29,7 +29,8 @@ import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import MAX_MASS, integer_arg, real_arg, seed_arg
+from dampfit.cli.options import integer_arg, real_arg, seed_arg
+from dampfit.physics import MAX_MASS
 from dampfit.cli.options import add_analysis_options, check_analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError

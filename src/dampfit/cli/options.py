@@ -12,10 +12,9 @@ import argparse
 import math
 
 from dampfit.errors import InputError
-from dampfit.physics import MAX_MASS as MAX_MASS
-from dampfit.simulate import MAX_SIM_SAMPLES as MAX_SIM_SAMPLES
+from dampfit.physics import MAX_MASS
 
-__all__ = ["MAX_MASS", "MAX_SIM_SAMPLES", "MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
+__all__ = ["MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
            "check_analysis_options", "float_arg", "seed_arg"]
 
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).

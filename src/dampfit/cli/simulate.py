@@ -12,7 +12,9 @@ import math
 import os
 from pathlib import Path
 
-from dampfit.cli.options import (MAX_MASS, MAX_SIM_SAMPLES, integer_arg, mass_arg, non_negative_arg,
+from dampfit.physics import MAX_MASS
+from dampfit.simulate import MAX_SIM_SAMPLES
+from dampfit.cli.options import (integer_arg, mass_arg, non_negative_arg,
                                  positive_arg, real_arg, seed_arg)
 from dampfit.errors import InputError
 

@@ -36,6 +36,7 @@ from typing import Any
 from dampfit._files import atomic_write_text, check_output_file
 from dampfit.errors import InputError
 from dampfit.fem import sdof as sdof_mod
+from dampfit.result.schema import number
 from dampfit.fem import timestep
 from dampfit.fem import units as units_mod
 from dampfit.errors import shown
@@ -72,8 +73,8 @@ def run_duration(summary: dict[str, Any], duration: float | None, path: Path) ->
         w = summary.get("window") or {}
         if w.get("start_s") is None or w.get("end_s") is None:
             raise InputError(f"{shown(path)} has no analysis window; give --duration S")
-        start = sdof_mod.number(w["start_s"], "window.start_s", path)
-        end = sdof_mod.number(w["end_s"], "window.end_s", path)
+        start = number(w["start_s"], "window.start_s", path)
+        end = number(w["end_s"], "window.end_s", path)
         if not end > start:
             raise InputError(f"{shown(path)}: window.end_s ({end:g}) must be after window.start_s "
                              f"({start:g}); give --duration S")
@@ -89,8 +90,8 @@ def _campaign_duration(summary: dict[str, Any], path: Path) -> float:
     for i, t in enumerate(summary.get("tests") or []):
         w = t.get("window") if isinstance(t, dict) else None
         if isinstance(w, dict) and w.get("start_s") is not None and w.get("end_s") is not None:
-            start = sdof_mod.number(w["start_s"], f"tests[{i}].window.start_s", path)
-            end = sdof_mod.number(w["end_s"], f"tests[{i}].window.end_s", path)
+            start = number(w["start_s"], f"tests[{i}].window.start_s", path)
+            end = number(w["end_s"], f"tests[{i}].window.end_s", path)
             if end > start:
                 spans.append(end - start)
     if not spans:
@@ -102,13 +103,13 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
     """``input.sample_rate_hz`` [Hz] of the summary (``None`` if absent), checked; of a
     campaign the highest of its tests'."""
     if summary.get("kind") == "campaign":
-        rates = [sdof_mod.number(t["input"]["sample_rate_hz"], f"tests[{i}].input.sample_rate_hz",
+        rates = [number(t["input"]["sample_rate_hz"], f"tests[{i}].input.sample_rate_hz",
                                  path, positive=True)
                  for i, t in enumerate(summary.get("tests") or []) if isinstance(t, dict)
                  and isinstance(t.get("input"), dict) and t["input"].get("sample_rate_hz") is not None]
         return max(rates) if rates else None
     fs = (summary.get("input") or {}).get("sample_rate_hz")
-    return None if fs is None else sdof_mod.number(fs, "input.sample_rate_hz", path, positive=True)
+    return None if fs is None else number(fs, "input.sample_rate_hz", path, positive=True)
 
 
 def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
@@ -120,7 +121,7 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     ``duration`` [s] (default: the analysed window); ``name`` is the script's file name
     (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
     summary.json field the deck uses is checked first (type, finite, range; see
-    :func:`dampfit.fem.sdof.number`), so a bad value is one error line and no deck.
+    :func:`dampfit.result.schema.number`), so a bad value is one error line and no deck.
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")

@@ -34,15 +34,11 @@ from typing import Any
 from dampfit.errors import InputError
 from dampfit.errors import shown
 from dampfit.fem.units import STANDARD_GRAVITY
-from dampfit.result.schema import MAX_MAGNITUDE as MAX_MAGNITUDE
-from dampfit.result.schema import MAX_SUMMARY_BYTES as MAX_SUMMARY_BYTES
-from dampfit.result.schema import MIN_POSITIVE as MIN_POSITIVE
 from dampfit.result.schema import brief as _brief
-from dampfit.result.schema import number as number
+from dampfit.result.schema import number
 from dampfit.result.schema import read_summary as read_checked
 
-__all__ = ["MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MIN_POSITIVE", "Sdof", "campaign_note",
-           "campaign_u0", "load", "number", "read_summary", "summary_quantile"]
+__all__ = ["Sdof", "campaign_note", "campaign_u0", "load", "read_summary", "summary_quantile"]
 
 #: Quantiles the summary stores, by key.
 _SUMMARY_QUANTILES = {0.05: "q05", 0.5: "q50", 0.95: "q95"}

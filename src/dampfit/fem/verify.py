@@ -68,12 +68,10 @@ from dampfit.fem import sdof as sdof_mod
 from dampfit.errors import shown
 from dampfit.result.files import REPORT_MARKERS, written_by_dampfit
 from dampfit.result.schema import is_campaign
-from dampfit.result.folder import SIGNAL_KEYS as SIGNAL_KEYS
-from dampfit.result.folder import load_signals as load_signals
+from dampfit.result.folder import load_signals
 from dampfit.result.schema import folder_of
 
-__all__ = ["SIGNAL_KEYS", "exported_script", "figure_format", "load_signals", "plot", "run", "table",
-           "verify"]
+__all__ = ["exported_script", "figure_format", "plot", "run", "table", "verify"]
 
 #: Periods left out at each end for the "interior" error measures (filter settling).
 EDGE_PERIODS = 3.0
