@@ -210,7 +210,7 @@ LAYERS = (
     ("dampfit.errors", 0), ("dampfit._meta", 0), ("dampfit._json", 0), ("dampfit._progress", 0),
     ("dampfit._child", 0), ("dampfit._arviz", 0),
     ("dampfit.physics", 1), ("dampfit.physics_modal", 1), ("dampfit.model", 1),
-    ("dampfit.io", 2), ("dampfit._files", 2), ("dampfit._swap", 2), ("dampfit._private_store", 2),
+    ("dampfit.io", 2), ("dampfit.files", 2),
     ("dampfit.signal", 3), ("dampfit.simulate", 3),
     ("dampfit.inference", 4),
     ("dampfit.estimators", 5), ("dampfit.damping", 5),

@@ -17,7 +17,7 @@ import pytest
 
 import dampfit
 from dampfit import simulate as sim
-from dampfit._files import MARKER
+from dampfit.files.folder import MARKER
 from dampfit.cli import main
 
 

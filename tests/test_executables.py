@@ -6,7 +6,7 @@ foreign entry must be recompiled, never trusted; without the store nothing is wr
 copy of an executable that JAX itself loaded from its own cache (which serialises without its
 fused code) must never be stored.
 
-The store is trusted only when it must be (dampfit._private_store): a folder others could
+The store is trusted only when it must be (dampfit.files.private): a folder others could
 change on the way down, an entry of another owner or mode, a symbolic link, a flipped bit or
 a lost or replaced key all mean "compile", and the process survives with the same result.
 """
@@ -67,7 +67,7 @@ def _entries(cache: Path) -> list[Path]:
 def _resign(cache: Path, entry: Path, edit) -> None:
     """Rewrite ``entry`` with its metadata changed by ``edit`` and a valid tag (as a dampfit of
     another environment with this folder's key would have written it)."""
-    from dampfit._private_store import open_store
+    from dampfit.files.private import open_store
     from dampfit.inference import executables
 
     store = open_store(cache)

@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 
 from dampfit import simulate as sim
-from dampfit._files import WriteError, atomic_write_text
+from dampfit.files.atomic import WriteError, atomic_write_text
 from dampfit.errors import InputError
 from dampfit.fem import opensees
 from dampfit.study import config as sconfig

@@ -25,7 +25,7 @@ from dampfit import cli
 from dampfit import simulate as sim
 from dampfit.cli import messages
 from dampfit.cli import staging as cli_staging
-from dampfit._files import MARKER
+from dampfit.files.folder import MARKER
 
 from .hostile import assert_one_line_error, assert_unchanged, run, snapshot
 

@@ -1,4 +1,4 @@
-"""The private, authenticated folder behind the compiled-kernel cache (dampfit._private_store).
+"""The private, authenticated folder behind the compiled-kernel cache (dampfit.files.private).
 
 In-process checks of every rule: the folders on the way down, the folder itself, each entry
 (owner, mode, type, size, tag) and the key. Loading executables from such a folder is tested
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from dampfit._private_store import KEY_NAME, UnsafeFolder, open_store
+from dampfit.files.private import KEY_NAME, UnsafeFolder, open_store
 
 ROOT = os.geteuid() == 0
 

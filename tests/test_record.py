@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 
 from dampfit import simulate as sim
-from dampfit._files import MARKER
+from dampfit.files.folder import MARKER
 from dampfit.io.readers import read
 from tests.fake_phyphox import FakePhone, Quirks
 from tests.hostile import assert_one_line_error, run

@@ -29,7 +29,7 @@ import pytest
 import dampfit
 from dampfit.output import document as _document
 from dampfit import cli
-from dampfit._files import DEMO_MARKER
+from dampfit.files.folder import DEMO_MARKER
 from dampfit.output import figures as plots
 from dampfit.output import text as render
 from dampfit.output import report

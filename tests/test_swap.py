@@ -1,6 +1,6 @@
 """The swap of a new result onto the previous one loses nothing (issue 19, item 8).
 
-A child process publishes a result folder over a previous one (:class:`dampfit._files.ResultFolder`,
+A child process publishes a result folder over a previous one (:class:`dampfit.files.folder.ResultFolder`,
 the path ``analyze``/``demo`` take) and stops at a named step of the swap: it prints the step
 and waits for a byte on stdin. The test then sends SIGINT or SIGKILL, so every case hits
 exactly the step it names — no sleeps. Both swap methods are run: the one-call exchange
@@ -27,15 +27,15 @@ from pathlib import Path
 
 import pytest
 
-from dampfit._files import MARKER, ResultFolder
+from dampfit.files.folder import MARKER, ResultFolder
 
 from .hostile import assert_one_line_error, run
 
 CHILD = r"""
 import os, signal, sys, threading
 from pathlib import Path
-from dampfit import _swap
-from dampfit._files import ResultFolder
+from dampfit.files import swap
+from dampfit.files.folder import ResultFolder
 
 target, mode = Path(sys.argv[1]), sys.argv[2]
 threading.Thread(target=threading.Event().wait, daemon=True).start()  # another thread
@@ -56,11 +56,11 @@ def paused(fn, before, after):
         return out
     return wrapper
 
-real_exchange, real_rename, real_remove = _swap.exchange, os.rename, _swap.remove_result
+real_exchange, real_rename, real_remove = swap.exchange, os.rename, swap.remove_result
 if mode == "exchange":
-    _swap.exchange = paused(real_exchange, "before-exchange", "after-exchange")
+    swap.exchange = paused(real_exchange, "before-exchange", "after-exchange")
 else:
-    _swap.exchange = lambda a, b: False
+    swap.exchange = lambda a, b: False
     renames = iter(["between-renames", "after-renames"])
     def rename(src, dst):
         real_rename(src, dst)
@@ -73,7 +73,7 @@ def remove(path, marker):
         first.unlink()
         pause("mid-remove")
     real_remove(path, marker)
-_swap.remove_result = remove
+swap.remove_result = remove
 
 try:
     with ResultFolder(target, kind="analyze", force=True) as rf:
@@ -116,9 +116,9 @@ def _run_child(target: Path, mode: str, stop: str, sig: int) -> tuple[int, str]:
     """Run the child until it pauses at ``stop`` (earlier pauses are released), send ``sig``,
     release it and return (exit code, its stdout)."""
     if mode == "exchange":
-        from dampfit import _swap
+        from dampfit.files import swap
 
-        if _swap._libc_renameat2() is None:
+        if swap._libc_renameat2() is None:
             pytest.skip("renameat2 is not available here: only the two-rename swap is used")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     proc = subprocess.Popen([sys.executable, "-c", CHILD, str(target), mode], env=env,

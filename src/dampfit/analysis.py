@@ -24,7 +24,7 @@ import numpy as np
 from dampfit import physics
 from dampfit import stages
 from dampfit._json import jsonable
-from dampfit._files import atomic_write, atomic_write_text
+from dampfit.files.atomic import atomic_write, atomic_write_text
 from dampfit._meta import __version__, versions
 from dampfit.damping.quantities import summarise
 from dampfit.estimators import baselines
@@ -296,12 +296,12 @@ class Analysis(ResultViews):
         swapped in at the end; an existing folder is replaced only with ``force`` and only if
         dampfit wrote it) with summary.json, posterior.nc, signals.npz, the figures unless
         ``figures`` is False, and with ``report`` report.html and report.md. Or ``folder`` is
-        an open :class:`dampfit._files.ResultFolder` (the CLI opens it before the analysis, so
+        an open :class:`dampfit.files.folder.ResultFolder` (the CLI opens it before the analysis, so
         that a folder that cannot be written is refused before the work): the files go into
         its staging folder and the caller publishes it. ``figure_process`` (the CLI's
         :class:`dampfit.output.figure_process.FigureProcess`) draws the figures when given.
         """
-        from dampfit._files import ResultFolder, result_folder
+        from dampfit.files.folder import ResultFolder, result_folder
 
         if isinstance(folder, ResultFolder):
             self._write(folder, figures, figure_process)

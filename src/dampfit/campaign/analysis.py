@@ -52,7 +52,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from dampfit._files import atomic_write, atomic_write_text
+from dampfit.files.atomic import atomic_write, atomic_write_text
 from dampfit import physics
 from dampfit._arviz import arviz
 from dampfit._json import jsonable
@@ -247,9 +247,9 @@ class CampaignAnalysis(ResultViews):
         posterior.nc, ``forest.png`` and, of the added-mass design, ``added_mass.png``; with
         ``report`` report.html/.md) and return its path — written whole as
         :meth:`dampfit.analysis.Analysis.save` does. ``folder`` may be an open
-        :class:`dampfit._files.ResultFolder` (the CLI's): the files go into its staging folder
+        :class:`dampfit.files.folder.ResultFolder` (the CLI's): the files go into its staging folder
         and the caller publishes it."""
-        from dampfit._files import ResultFolder, result_folder
+        from dampfit.files.folder import ResultFolder, result_folder
 
         if isinstance(folder, ResultFolder):
             self._write(folder, figures)

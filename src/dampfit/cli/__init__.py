@@ -16,7 +16,7 @@ positive mass of at most 10⁶ kg, a seed in [0, 2³²), ``--window START END`` 
 ``--band LO HI`` with 0 < LO < HI, …).
 
 Result folders (``analyze``, ``demo``, ``record``) are handled by
-:class:`dampfit._files.ResultFolder` (``record`` publishes its recording before its analysis,
+:class:`dampfit.files.folder.ResultFolder` (``record`` publishes its recording before its analysis,
 see :mod:`.record`):
 
 * each holds a marker file ``.dampfit-result`` (JSON: kind, dampfit version);
@@ -100,8 +100,8 @@ CACHE_ENV = "DAMPFIT_JAX_CACHE"
 
 def _make_private(path: Path) -> list[Path]:
     """Create ``path`` and its missing parents, each 0700, after checking every folder above
-    them (:func:`dampfit._private_store.open_store`); return the folders created."""
-    from dampfit._private_store import open_store
+    them (:func:`dampfit.files.private.open_store`); return the folders created."""
+    from dampfit.files.private import open_store
 
     opened = open_store(path)
     opened.close()
@@ -110,8 +110,8 @@ def _make_private(path: Path) -> list[Path]:
 
 def _unsafe_cache(path: Path, created: Sequence[Path] = ()) -> str | None:
     """Why the cache folder ``path`` must not be used (others could plant code in it), or None
-    (the checks of :mod:`dampfit._private_store`; ``created`` is no longer needed)."""
-    from dampfit._private_store import UnsafeFolder, open_store
+    (the checks of :mod:`dampfit.files.private`; ``created`` is no longer needed)."""
+    from dampfit.files.private import UnsafeFolder, open_store
 
     try:
         open_store(path, create=False).close()
@@ -132,7 +132,7 @@ def _compile_cache() -> Path | None:
     ``DAMPFIT_JAX_CACHE=off`` switches it off, and a ``JAX_COMPILATION_CACHE_DIR`` the user
     set is left alone (JAX's own cache then serves, and dampfit stores nothing). Executables
     loaded from the folder run as code, so it is used only if it is private all the way down
-    (:mod:`dampfit._private_store`): every folder from ``/`` to it owned by the user or root
+    (:mod:`dampfit.files.private`): every folder from ``/`` to it owned by the user or root
     and not writable by group or others (unless sticky, like ``/tmp``), the folder itself the
     user's own (created 0700 with its missing parents); each entry a 0600 file of the user,
     authenticated with an HMAC under a key kept in the folder. Otherwise one warning line on
@@ -144,7 +144,7 @@ def _compile_cache() -> Path | None:
     (:class:`dampfit.signal.prepare.Padded`); entries of other JAX or dampfit versions, another
     processor or an edited source are never read again, so deleting the folder is safe.
     """
-    from dampfit._private_store import UnsafeFolder
+    from dampfit.files.private import UnsafeFolder
     from dampfit.inference.executables import ENV, open_checked
 
     os.environ.pop(ENV, None)  # only a folder checked here is passed on

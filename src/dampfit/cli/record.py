@@ -7,7 +7,7 @@ waiting for the release / decaying / done; only on a terminal, nothing with ``--
 stops at the end of the decay, at ``--duration`` seconds, when stop is pressed on the phone or
 at Ctrl-C, then fetches the full buffers.
 
-The result folder DIR (:class:`dampfit._files.ResultFolder`, marker kind ``record``) is locked
+The result folder DIR (:class:`dampfit.files.folder.ResultFolder`, marker kind ``record``) is locked
 before the phone is touched (a second ``dampfit record`` or ``analyze`` to the same DIR fails
 at once, exit 2; an existing DIR is replaced only with ``--force`` and only if dampfit wrote
 it). It is written in two steps, each staged and swapped in whole:
@@ -104,7 +104,7 @@ def command(args) -> int:
                              "experiment), not both")
         return _experiment(args)
     url = _check(args)
-    from dampfit._swap import signals_deferred
+    from dampfit.files.swap import signals_deferred
     from dampfit.cli.staging import result_folder
     from dampfit.record.live import LiveLine
     from dampfit.record.phyphox import PhyphoxClient

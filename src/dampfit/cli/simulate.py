@@ -103,7 +103,7 @@ def _sim_config(args):
 def _write_failure(out, exc: Exception) -> InputError:
     """One line for a failed write of ``out`` (an OSError, or a WriteError raised while writing
     into the staging folder): nothing was written."""
-    from dampfit._files import error_text
+    from dampfit.files.atomic import error_text
 
     if isinstance(exc, OSError):
         reason = error_text(exc)
@@ -117,7 +117,7 @@ def command(args) -> int:
     """``dampfit simulate``: FILE.csv and FILE.truth.json, both or neither (a campaign:
     :func:`_campaign_command`).
 
-    Before any work: both names are checked (:func:`dampfit._files.check_output_file`: an
+    Before any work: both names are checked (:func:`dampfit.files.folder.check_output_file`: an
     existing file or link only with --force, never a directory; a name too long or a missing
     folder is one line) and the configuration against :func:`dampfit.simulate.check_limits`.
     Both files are written into a private staging folder beside them and renamed into place,
@@ -128,7 +128,7 @@ def command(args) -> int:
     import tempfile
 
     from dampfit import simulate as sim
-    from dampfit._files import error_text, check_output_file
+    from dampfit.files.atomic import check_output_file, error_text
 
     if _campaign_size(args) is not None:
         return _campaign_command(args)
@@ -219,7 +219,7 @@ def _campaign_command(args) -> int:
     import tempfile
 
     from dampfit import simulate as sim
-    from dampfit._files import error_text, check_output_file
+    from dampfit.files.atomic import check_output_file, error_text
 
     n = _campaign_size(args)
     out = Path(args.out)

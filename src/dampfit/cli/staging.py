@@ -1,7 +1,7 @@
 """Result folders of ``analyze`` (one recording or a campaign of several) and ``demo``: staged,
 locked, then published whole.
 
-The folder itself is :class:`dampfit._files.ResultFolder` (marker, lock, staging, free space);
+The folder itself is :class:`dampfit.files.folder.ResultFolder` (marker, lock, staging, free space);
 the result writes itself into it (``Analysis.save``, ``CampaignAnalysis.save``). This module
 routes the folder's notes to the CLI's deferred messages and recognises a demo folder written
 before the marker existed.
@@ -12,8 +12,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from dampfit._files import DEMO_MARKER, ResultFolder
-from dampfit._files import result_folder as files_result_folder
+from dampfit.files.folder import DEMO_MARKER, ResultFolder
+from dampfit.files.folder import result_folder as files_result_folder
 
 __all__ = ["old_demo_folder", "result_folder"]
 
@@ -40,8 +40,8 @@ def old_demo_folder(folder: Path) -> bool:
 
 
 def result_folder(out: Path, kind: str, force: bool, inputs=(), **kw) -> ResultFolder:
-    """The :class:`~dampfit._files.ResultFolder` of a result written to ``out``
-    (:func:`dampfit._files.result_folder`), its notes printed after the command succeeds."""
+    """The :class:`~dampfit.files.folder.ResultFolder` of a result written to ``out``
+    (:func:`dampfit.files.folder.result_folder`), its notes printed after the command succeeds."""
     return files_result_folder(out, kind, force, inputs=inputs, note=_note, **kw)
 
 

@@ -33,7 +33,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import atomic_write_text, check_output_file
+from dampfit.files.atomic import atomic_write_text, check_output_file
 from dampfit.errors import InputError
 from dampfit.fem import sdof as sdof_mod
 from dampfit.result.schema import number

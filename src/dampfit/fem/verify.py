@@ -60,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from dampfit._files import atomic_write, atomic_write_text, check_output_file
+from dampfit.files.atomic import atomic_write, atomic_write_text, check_output_file
 from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response

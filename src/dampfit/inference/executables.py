@@ -14,7 +14,7 @@ When it is used
 ---------------
 Only where the environment variable :data:`ENV` names a folder (the CLI sets it to its
 private cache folder, :mod:`dampfit.cli`; Dask workers of ``dampfit study`` inherit it) *and*
-that folder passes the checks of :mod:`dampfit._private_store` in this process: every folder
+that folder passes the checks of :mod:`dampfit.files.private` in this process: every folder
 from ``/`` down owned by the user or root and writable by nobody else (or sticky), the folder
 itself the user's own. Otherwise a :class:`Kernel` is exactly ``jax.jit`` (one warning, once
 per process, when the folder was named but is unsafe: :func:`store`).
@@ -66,7 +66,7 @@ import warnings
 from pathlib import Path
 from typing import Any, Callable
 
-from dampfit._private_store import PrivateStore, UnsafeFolder, open_store
+from dampfit.files.private import PrivateStore, UnsafeFolder, open_store
 
 __all__ = ["Kernel", "kernel", "open_checked", "source_digest", "store", "store_dir"]
 
@@ -97,7 +97,7 @@ _STORES_LOCK = threading.Lock()
 
 def open_checked(folder: str) -> PrivateStore:
     """The store in ``folder`` for this process (opened and checked once; created 0700 if
-    missing). Raises :class:`~dampfit._private_store.UnsafeFolder` (with the reason) or
+    missing). Raises :class:`~dampfit.files.private.UnsafeFolder` (with the reason) or
     :class:`OSError` (cannot be created or read) when it must not or cannot be used."""
     with _STORES_LOCK:
         if _STORES.get(folder) is not None:

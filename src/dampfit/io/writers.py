@@ -7,7 +7,7 @@
 * :func:`write_truth` — the known parameters of a simulated recording
   (:func:`dampfit.simulate.recording`) as indented JSON, strict (no NaN or infinity).
 
-Both write atomically (:func:`dampfit._files.atomic_write_text`): a file is complete or absent.
+Both write atomically (:func:`dampfit.files.folder.atomic_write_text`): a file is complete or absent.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from dampfit._files import atomic_write_text
+from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 

@@ -43,7 +43,7 @@ from collections.abc import Callable
 import numpy as np
 
 from dampfit import physics
-from dampfit._files import atomic_write
+from dampfit.files.atomic import atomic_write
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
@@ -1103,7 +1103,7 @@ def _release(fig: "Figure") -> None:
 
 def write_png(fig: "Figure", path: str | os.PathLike, dpi: int = 110) -> Path:
     """Draw ``fig`` once on an Agg canvas at ``dpi`` [pixels per inch] and write it to ``path``
-    atomically (:func:`dampfit._files.atomic_write`) as an 8-bit RGB PNG with its resolution
+    atomically (:func:`dampfit.files.folder.atomic_write`) as an 8-bit RGB PNG with its resolution
     and matplotlib's software tag (what ``savefig`` writes, less the alpha channel: every
     figure here is opaque, and the channel costs a quarter more to compress)."""
     import matplotlib

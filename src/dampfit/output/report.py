@@ -54,7 +54,8 @@ from dampfit.output.document import GENERATOR as GENERATOR
 from dampfit.output.document import PNG_MAGIC as PNG_MAGIC
 from dampfit.output.document import render_html as render_html
 from dampfit.output.document import render_markdown as render_markdown
-from dampfit._files import DEMO_MARKER, atomic_write_text
+from dampfit.files.atomic import atomic_write_text
+from dampfit.files.folder import DEMO_MARKER
 from dampfit.errors import InputError
 from dampfit.result.files import (MAX_SIDE_BYTES, MAX_VERIFICATION_BYTES, open_regular,
                                   read_optional)

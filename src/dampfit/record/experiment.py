@@ -34,7 +34,7 @@ import zlib
 from importlib import resources
 from pathlib import Path
 
-from dampfit._files import atomic_write, check_output_file
+from dampfit.files.atomic import atomic_write, check_output_file
 
 __all__ = ["EXPERIMENT", "QR_CHUNK", "experiment_bytes", "qr_payloads", "write_experiment"]
 

@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dampfit._files import atomic_write_text
+from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.record.live import DONE, Detector, LiveLine
 from dampfit.record.phyphox import Chunk, ConnectionLost, NotPhyphox, PhyphoxClient

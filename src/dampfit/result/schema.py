@@ -25,7 +25,7 @@ surrogates get U+FFFD: the result is plain, renderable data. Numbers are checked
 are used (:func:`number`: type, finite, range). A folder that is not usable — not a
 directory, no summary.json, or a summary.json that is not one of the above — is refused
 with one error text, ``DIR is not a dampfit result folder: WHY; run 'dampfit analyze …'``.
-The marker file ``.dampfit-result`` (:data:`dampfit._files.MARKER`) is not required: folders
+The marker file ``.dampfit-result`` (:data:`dampfit.files.folder.MARKER`) is not required: folders
 of older dampfit versions and hand-made folders with a valid summary.json are read too.
 """
 
@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import MARKER
+from dampfit.files.folder import MARKER
 from dampfit.errors import InputError
 from dampfit.errors import shown
 from dampfit.result import files

@@ -9,13 +9,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from dampfit._files import atomic_write
+from dampfit.files.atomic import atomic_write
 
 __all__ = ["save_campaign_figures", "save_figures"]
 
 
 def _save(fig, path: Path) -> None:
-    """Save atomically (:func:`dampfit._files.atomic_write`)."""
+    """Save atomically (:func:`dampfit.files.folder.atomic_write`)."""
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=120, format="png"), suffix=".png")
 
 

@@ -25,7 +25,7 @@ import uuid
 from pathlib import Path
 from typing import Any, TextIO
 
-from dampfit._files import atomic_write_text
+from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.study import tables
 from dampfit.study.config import StudyConfig, Task
@@ -293,7 +293,7 @@ def write_outputs(cfg: StudyConfig, records: list[dict], out: Path, *, figures: 
 
 
 def _atomic_parquet(df, path: Path) -> None:
-    from dampfit._files import atomic_write
+    from dampfit.files.atomic import atomic_write
 
     frame = df.copy()
     for col in frame.columns:  # mixed None/bool columns → pandas nullable booleans

@@ -26,7 +26,9 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from dampfit._files import FileLock, atomic_write_text, error_text, publish, read_marker
+from dampfit.files.atomic import atomic_write_text, error_text, publish
+from dampfit.files.folder import read_marker
+from dampfit.files.lock import FileLock
 from dampfit.errors import InputError
 from dampfit.study.config import StudyConfig
 

@@ -1,6 +1,6 @@
 """The swap of a finished result folder onto its target, so that no signal or kill loses one.
 
-:class:`dampfit._files.ResultFolder` publishes a staging folder with the primitives here:
+:class:`dampfit.files.folder.ResultFolder` publishes a staging folder with the primitives here:
 
 * :func:`exchange` swaps two folders in one system call (Linux ``renameat2`` with
   ``RENAME_EXCHANGE``): at every instant the target is either the old or the new result, so
@@ -22,7 +22,7 @@
 
 A kill between the two renames of the fallback leaves the previous result under its hidden
 name ``.NAME.dampfit-old-PID-XXXX``; the next run for the same target restores it
-(:meth:`dampfit._files.ResultFolder._recover`).
+(:meth:`dampfit.files.folder.ResultFolder._recover`).
 """
 
 from __future__ import annotations

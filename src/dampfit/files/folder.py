@@ -1,20 +1,14 @@
-"""Atomic file output: a result is either complete or absent, never half-written.
-
-Files are written to a temporary name in the target folder and renamed into place
-(``os.replace`` is atomic on one file system). Temporary files and folders are created private
-(``mkstemp``/``mkdtemp``); :func:`publish` gives them the mode the user's umask asks for.
-
-Whole result folders (``dampfit analyze``/``demo``) go through :class:`ResultFolder`: a marker
-file :data:`MARKER` identifies a folder dampfit wrote (only such a folder is ever replaced), a
-lock file keeps two dampfit processes from writing the same folder, write permission and free
-space are checked before the work starts, and the folder is staged beside its target and
-swapped in only when complete.
+"""Whole result folders: :class:`ResultFolder` (``dampfit analyze``/``demo``/``record``, and
+:meth:`dampfit.analysis.Analysis.save`): a marker file :data:`MARKER` identifies a folder dampfit
+wrote (only such a folder is ever replaced), a lock file keeps two dampfit processes from
+writing the same folder, write permission and free space are checked before the work starts,
+and the folder is staged beside its target and swapped in only when complete
+(:mod:`dampfit.files.swap`).
 """
 
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import json
 import os
 import re
@@ -22,125 +16,27 @@ import secrets
 import shutil
 import stat
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from collections.abc import Callable
 
-from dampfit import _swap
 from dampfit.errors import InputError
+from dampfit.files import swap
+from dampfit.files.atomic import WriteError, atomic_write_text, error_text, os_error_in, publish
+from dampfit.files.lock import FileLock, pid_alive
 
-__all__ = ["FileLock", "error_text", "result_folder", "atomic_write_text", "check_output_file", "publish", "DEMO_MARKER", "MARKER",
-           "ResultFolder",
-           "WriteError", "read_marker"]
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+__all__ = ["DEMO_MARKER", "MARKER", "MIN_FREE", "ResultFolder", "read_marker", "result_folder"]
 
 
-def publish(path: str | os.PathLike) -> None:
-    """Give a file (0o666) or folder (0o777) the permissions the process umask allows."""
-    path = Path(path)
-    os.chmod(path, (0o777 if path.is_dir() else 0o666) & ~_umask())
-
-
-class WriteError(InputError):
-    """A file could not be written (the OSError is the ``__cause__``); one line, exit 2."""
-
-
-def _tmp_prefix(name: str) -> str:
-    """Prefix of a temporary file beside ``name``: short enough that the temporary name fits
-    whenever ``name`` itself does (a long ``name`` would otherwise fail in ``mkstemp``)."""
-    return f".{name[:40]}."
-
-
-def check_output_file(path: str | os.PathLike, force: bool, option: str = "--out") -> Path:
-    """Refuse, before any work, to write the single file ``path``: its folder must exist; an
-    existing entry (a file, or a symbolic link even if dangling) is replaced only with
-    ``force`` (a link is then replaced itself, never its target); a directory or a special
-    file never. A name the file system cannot hold (too long) is one line as well."""
-    path = Path(path)
-    try:
-        st = os.lstat(path)
-    except (FileNotFoundError, NotADirectoryError):  # the folder check below names the problem
-        st = None
-    except OSError as exc:  # ENAMETOOLONG, EACCES, ELOOP
-        raise InputError(f"cannot write {path}: {error_text(exc)}") from None
-    try:
-        parent_ok = path.parent.is_dir()
-    except OSError as exc:
-        raise InputError(f"cannot write {path}: {error_text(exc)}") from None
-    if not parent_ok:
-        raise InputError(f"cannot write {path}: directory {path.parent} does not exist")
-    if st is None:
-        return path
-    if stat.S_ISDIR(st.st_mode):
-        raise InputError(f"refusing to overwrite {path}: it is a directory, not a regular file; "
-                         f"give a file name with {option}")
-    if not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
-        raise InputError(f"refusing to overwrite {path}: it is not a regular file")
-    if not force:
-        what = (" (it is a symbolic link: --force replaces the link, never its target)"
-                if stat.S_ISLNK(st.st_mode) else "")
-        raise InputError(f"{path} exists; use --force to replace it{what}")
-    return path
-
-
-
-def atomic_write(path: str | os.PathLike, write: Callable[[str], object], *,
-                 suffix: str = ".tmp", shown: Callable[[object], str] = str) -> Path:
-    """Write ``path`` atomically through ``write(tmp)``, which writes a temporary file ``tmp``
-    in the same folder; it is then made readable like any file the user creates
-    (:func:`publish`) and renamed over ``path`` (a symbolic link at ``path`` is replaced, not
-    followed). Any failure — missing folder, a name too long, no permission, a full disk — is a
-    :class:`WriteError` (an :class:`InputError`: one line, exit 2) and leaves ``path`` as it was
-    and no temporary file behind. ``suffix`` keeps the format visible to writers that infer it
-    from the name (``.png``, ``.nc``); ``shown`` renders paths in the message."""
-    path = Path(path)
-    try:
-        if not path.parent.is_dir():
-            raise WriteError(f"cannot write {shown(path)}: directory {shown(path.parent)} "
-                             "does not exist")
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=_tmp_prefix(path.name), suffix=suffix)
-        os.close(fd)
-    except OSError as exc:
-        raise WriteError(f"cannot write {shown(path)}: {error_text(exc)}") from exc
-    try:
-        write(tmp)
-        publish(tmp)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise WriteError(f"cannot write {shown(path)}: {error_text(exc)}") from exc
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-    return path
-
-
-def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` atomically (:func:`atomic_write`)."""
-
-    def write(tmp: str) -> None:
-        with open(tmp, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-
-    return atomic_write(path, write)
-
-
-# ----------------------------------------------------------------- result folders
 #: File in every result folder dampfit writes (analyze, demo): JSON ``{"kind", "dampfit"}``.
 #: ``--force`` replaces only a real directory holding it.
 MARKER = ".dampfit-result"
 #: File of a demo folder: the truth of the simulated recording (``dampfit demo`` writes it,
 #: also into old demo folders written before :data:`MARKER` existed).
 DEMO_MARKER = "paper-preset.truth.json"
-
 #: Hidden helpers beside a target ``NAME``: ``.NAME.dampfit-stage-PID-XXXX`` (being written),
 #: ``.NAME.dampfit-old-PID-XXXX`` (previous result while it is swapped out) and the lock file.
 _HELPER = re.compile(r"^\.(?P<name>.+)\.dampfit-(?P<what>stage|old)-(?P<pid>\d+)-[A-Za-z0-9_]+$")
 _LOCK_SUFFIX = ".dampfit-lock"
-
 #: Free space [bytes] a result folder is assumed to need at least (posterior, signals, figures).
 MIN_FREE = 50 * 2**20
 
@@ -157,134 +53,6 @@ def read_marker(folder: str | os.PathLike) -> dict | None:
     except (OSError, InputError, ValueError, RecursionError):
         return None
     return data if isinstance(data, dict) and "kind" in data else None
-
-
-def check_lock_file(fd: int, path: Path) -> None:
-    """Refuse (and close ``fd``) a lock file that is not a regular file: a FIFO, device or
-    socket planted under the lock's name cannot be truncated or written like one."""
-    try:
-        mode = os.fstat(fd).st_mode
-    except OSError as exc:
-        os.close(fd)
-        raise InputError(f"cannot use the lock file {path}: {error_text(exc)}") from None
-    if not stat.S_ISREG(mode):
-        os.close(fd)
-        raise InputError(f"the lock file {path} is not a regular file (a FIFO, socket or "
-                         "device); remove it, or choose another --out")
-
-
-def error_text(exc: BaseException) -> str:
-    """One short line describing an I/O failure."""
-    if isinstance(exc, OSError) and exc.strerror:
-        text = exc.strerror
-    else:
-        text = str(exc) or type(exc).__name__
-    text = " ".join(text.split())
-    return text if len(text) <= 200 else text[:197] + "..."
-
-
-def _os_error_in(exc: BaseException) -> OSError | None:
-    """The OSError ``exc`` is or was caused by (h5py, matplotlib and PIL wrap them)."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, OSError):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return None
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # another user's process
-    except OSError:
-        return False
-    return True
-
-
-class FileLock:
-    """An exclusive lock held through the lock file ``path`` (``flock``), the one lock of
-    dampfit: result folders (:class:`ResultFolder`) and studies (:mod:`dampfit.study.store`).
-
-    The lock file is opened without following a link and without blocking, refused if it is
-    not a regular file (:func:`check_lock_file`), locked without waiting, and re-checked to be
-    the file still at ``path`` (its previous holder may have removed it meanwhile); the
-    holder's pid is written into it. A lock that another process holds raises
-    ``InputError(busy(pid))``. :meth:`release` removes the lock file if it is still the one
-    locked — unless ``keep_foreign`` and this process did not create it.
-    """
-
-    def __init__(self, path: str | os.PathLike, *, busy: Callable[[str], str],
-                 keep_foreign: bool = False) -> None:
-        self.path = Path(path)
-        self.busy = busy
-        self.keep_foreign = keep_foreign
-        self.fd: int | None = None
-        self.created = False
-
-    def acquire(self) -> None:
-        """Take the lock, or raise a one-line :class:`InputError`."""
-        path = self.path
-        flags = os.O_RDWR | os.O_NOFOLLOW | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0)
-        for _ in range(20):
-            created = True
-            try:
-                fd = os.open(path, flags | os.O_CREAT | os.O_EXCL, 0o600)
-            except FileExistsError:
-                created = False
-                try:
-                    fd = os.open(path, flags)
-                except FileNotFoundError:
-                    continue  # removed by its holder meanwhile: try again
-                except OSError as exc:
-                    raise InputError(f"cannot open the lock file {path}: "
-                                     f"{error_text(exc)}") from None
-            except OSError as exc:
-                raise InputError(f"cannot create the lock file {path}: {error_text(exc)}") from None
-            check_lock_file(fd, path)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                try:
-                    pid = os.pread(fd, 32, 0).decode("ascii", "replace").strip() or "?"
-                finally:
-                    os.close(fd)
-                raise InputError(self.busy(pid)) from None
-            try:  # its holder may have removed the file before we locked it: lock the one there
-                same = os.path.samestat(os.fstat(fd), os.lstat(path))
-            except FileNotFoundError:
-                same = False
-            if same:
-                os.ftruncate(fd, 0)
-                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-                self.fd, self.created = fd, created
-                return
-            os.close(fd)
-        raise InputError(f"cannot lock {path}: it keeps changing")  # pragma: no cover
-
-    def release(self) -> None:
-        """Release the lock and remove the lock file if it is still the one locked."""
-        if self.fd is None:
-            return
-        if self.created or not self.keep_foreign:
-            try:
-                if os.path.samestat(os.fstat(self.fd), os.lstat(self.path)):
-                    os.unlink(self.path)
-            except OSError:
-                pass
-        os.close(self.fd)
-        self.fd = None
-
-    @property
-    def held(self) -> bool:
-        """Whether this process holds the lock."""
-        return self.fd is not None
 
 
 class ResultFolder:
@@ -410,7 +178,7 @@ class ResultFolder:
         helpers = []
         for entry in entries:
             m = _HELPER.match(entry.name)
-            if m and m["name"] == self.target.name and not _pid_alive(int(m["pid"])):
+            if m and m["name"] == self.target.name and not pid_alive(int(m["pid"])):
                 helpers.append((m["what"], int(m["pid"]), Path(entry.path)))
         olds = [(pid, path) for what, pid, path in helpers if what == "old" and self._ours(path)]
         restored = None
@@ -418,7 +186,7 @@ class ResultFolder:
             if len(olds) == 1:
                 pid, path = olds[0]
                 try:
-                    _swap.rename_noreplace(path, self.target)
+                    swap.rename_noreplace(path, self.target)
                     restored = path
                     self.note(f"restored the previous result {self.target} from {path.name}, "
                               f"left by a dampfit process (pid {pid}) killed while replacing it")
@@ -435,7 +203,7 @@ class ResultFolder:
             if path == restored or not os.path.lexists(path):
                 continue
             if self._ours(path):
-                _swap.remove_result(path, MARKER)
+                swap.remove_result(path, MARKER)
             elif what == "old":
                 self.note(f"{path.name} (left by a killed dampfit process) holds no dampfit "
                           "marker: left alone; remove it yourself")
@@ -460,7 +228,7 @@ class ResultFolder:
 
     def _discard_stage(self) -> None:
         if self.stage is not None and os.path.lexists(self.stage):
-            _swap.remove_result(self.stage, MARKER)
+            swap.remove_result(self.stage, MARKER)
 
     # --------------------------------------------------------------- protocol
     def __enter__(self) -> "ResultFolder":
@@ -491,14 +259,14 @@ class ResultFolder:
         try:
             yield self.stage
         except InputError as exc:
-            if not isinstance(exc, WriteError) or _os_error_in(exc) is None:
+            if not isinstance(exc, WriteError) or os_error_in(exc) is None:
                 raise
             fate = ("the previous result is unchanged" if os.path.lexists(self.target)
                     else "nothing was written")
-            raise InputError(f"cannot write {self.target}: {error_text(_os_error_in(exc))}; "
+            raise InputError(f"cannot write {self.target}: {error_text(os_error_in(exc))}; "
                              f"{fate}") from None
         except Exception as exc:  # noqa: BLE001 - h5py/matplotlib wrap their OSErrors
-            os_error = _os_error_in(exc)
+            os_error = os_error_in(exc)
             if os_error is None:
                 try:
                     full = shutil.disk_usage(self.parent).free < 2**20
@@ -518,7 +286,7 @@ class ResultFolder:
 
         With ``renameat2(RENAME_EXCHANGE)`` (Linux) the old and new folders are swapped in one
         system call; elsewhere two renames run with the signals held back
-        (:func:`dampfit._swap.signals_deferred`), and a kill between them leaves the previous
+        (:func:`dampfit.swap.signals_deferred`), and a kill between them leaves the previous
         result under ``.NAME.dampfit-old-…``, which the next run restores (:meth:`_recover`).
         The previous result is then removed, marker last, if it is still the folder checked;
         a signal that arrives meanwhile acts once both are done."""
@@ -531,7 +299,7 @@ class ResultFolder:
             checked, existed = None, False
         old = None
         try:
-            with _swap.signals_deferred():  # a signal meanwhile acts once all is done
+            with swap.signals_deferred():  # a signal meanwhile acts once all is done
                 try:
                     old = self._move_into_place(existed)
                     self.published = True
@@ -572,7 +340,7 @@ class ResultFolder:
         except OSError:
             same = False
         if same and self._ours(old):
-            _swap.remove_result(old, MARKER)
+            swap.remove_result(old, MARKER)
         else:  # replaced between the check and the swap: never delete what is not ours
             self.note(f"the folder that was at {self.target} was moved to {old} and left "
                       "there: it changed while the result was being written")
@@ -580,9 +348,9 @@ class ResultFolder:
     def _move_into_place(self, existed: bool) -> Path | None:
         """Put the staging folder at the target; return where the previous result went."""
         if not existed:
-            _swap.rename_noreplace(self.stage, self.target)
+            swap.rename_noreplace(self.stage, self.target)
             return None
-        if _swap.exchange(self.stage, self.target):
+        if swap.exchange(self.stage, self.target):
             return self.stage  # the staging name now holds the previous result
         old = self.parent / (f".{self.target.name}.dampfit-old-{os.getpid()}-"
                              f"{secrets.token_hex(4)}")
@@ -610,3 +378,5 @@ def result_folder(out: str | os.PathLike, kind: str, force: bool = False, inputs
             pass  # reading reports a missing input
     return ResultFolder(out, kind=kind, force=force, protect=inputs, need_bytes=need,
                         version=__version__, **kw)
+
+
