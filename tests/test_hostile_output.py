@@ -559,3 +559,25 @@ def test_an_error_naming_a_path_with_newlines_stays_one_line(tmp_path, capsys):
     name = tmp_path / "rec\ndampfit: error: forged\r.csv"
     code, _, err = run(["analyze", name, "--mass", "1", "--out", tmp_path / "o"], capsys)
     assert_one_line_error(code, err, match="not found")
+
+
+def test_a_sigterm_swallowed_by_a_callback_is_delivered_again(tmp_path):
+    """SIGTERM whose exception lands in a callback that cannot raise (JAX's gc callback, a
+    ``__del__``) still ends the command with 143: the CLI sends it again instead of running on
+    and publishing a result after being told to stop."""
+    code = (
+        "import os, signal, time\n"
+        "import dampfit.cli as cli\n"
+        "class Swallower:\n"
+        "    def __del__(self):\n"
+        "        os.kill(os.getpid(), signal.SIGTERM)\n"
+        "        for _ in range(1000): pass\n"
+        "def command(args):\n"
+        "    Swallower()\n"
+        "    time.sleep(5)\n"
+        "    return 0\n"
+        "cli.COMMANDS = [(name, h, o, command) for name, h, o, _ in cli.COMMANDS]\n"
+        "raise SystemExit(cli.main(['demo']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 143, proc.stderr

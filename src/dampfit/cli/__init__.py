@@ -173,17 +173,31 @@ def _on_sigterm(signum, frame):
     raise _Terminated()
 
 
+def _redeliver_swallowed(unraisable) -> None:
+    """``sys.unraisablehook`` while the CLI runs: a SIGTERM whose exception landed inside a
+    callback that cannot propagate it (JAX's gc callback, a ``__del__``) is sent again, so the
+    handler runs at a point where raising works; anything else goes to the usual hook."""
+    if isinstance(unraisable.exc_value, _Terminated):
+        # sent from a thread a moment later: sent from here, the handler would run inside
+        # this hook, where raising is swallowed again
+        threading.Timer(0.01, os.kill, (os.getpid(), signal.SIGTERM)).start()
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI with ``argv`` (default ``sys.argv[1:]``); return the exit code."""
     installed = False
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        previous_hook, sys.unraisablehook = sys.unraisablehook, _redeliver_swallowed
         installed = True
     try:
         return _main(argv)
     finally:
         if installed:
             signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+            sys.unraisablehook = previous_hook
 
 
 def _main(argv: Sequence[str] | None) -> int:
