@@ -323,9 +323,12 @@ class Analysis(ResultViews):
             elif figures:
                 from dampfit.output.figures import save_figures
 
-                # a result loaded from an older folder lacks the figure arrays: say so
+                # a result loaded from an older folder lacks the figure arrays: say so, once
+                notes: list[str] = []
                 save_figures(self, stage, on_missing=None if self._loaded is None else
-                             lambda name, why: warnings.warn(why, stacklevel=4))
+                             lambda name, why: notes.append(why))
+                if notes:
+                    warnings.warn("; ".join(notes), stacklevel=4)
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""

@@ -51,12 +51,13 @@ def _window_f_sd(w: dict) -> float:
 def amplitude_of(an: Any) -> "Figure | None":
     """:func:`amplitude_figure` of an analysis or its
     :class:`~dampfit.output.figures.data.FigureData`: its summary's ``amplitude_curve`` with
-    the least-squares damped frequency f_d [Hz]; None without an amplitude curve (the damping
-    laws were not assessed)."""
+    the least-squares damped frequency f_d [Hz] (from the signals' ω_d); None without an
+    amplitude curve (the damping laws were not assessed)."""
     d = as_data(an)
     curve = d.section("amplitude_curve")
     if not curve:
         return None
+    d.need_signals("amplitude")
     return amplitude_figure(curve, f_d_hz=d.ls_values().get("f_d"))
 
 

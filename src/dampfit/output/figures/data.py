@@ -148,16 +148,21 @@ class FigureData:
             out.append(v)
         return out
 
-    def arrays(self, figure: str, group: str, optional: bool = False) -> dict | None:
-        """The figure arrays of ``group`` (:data:`dampfit.result.signals.FIGURE_GROUPS`).
-        An absent group is :class:`MissingData` naming the reason, or — if ``optional`` and
-        the signals hold other figure arrays (the stage had nothing to keep: the figure does
-        not apply) — None."""
+    def need_signals(self, figure: str) -> dict:
+        """The signals; :class:`MissingData` naming why they are not there."""
         sig = self.signals
         if sig is None:
             why = self._errors.get("signals")
             raise MissingData(f"{figure}.png cannot be drawn: "
                               + (str(why) if why else f"{self.where} has no signals"))
+        return sig
+
+    def arrays(self, figure: str, group: str, optional: bool = False) -> dict | None:
+        """The figure arrays of ``group`` (:data:`dampfit.result.signals.FIGURE_GROUPS`).
+        An absent group is :class:`MissingData` naming the reason, or — if ``optional`` and
+        the signals hold other figure arrays (the stage had nothing to keep: the figure does
+        not apply) — None."""
+        sig = self.need_signals(figure)
         keys = FIGURE_GROUPS[group]
         if all(k in sig for k in keys):
             return {k: sig[k] for k in keys}
