@@ -192,7 +192,7 @@ def test_text_table_names_population_predictive_spread_tests_and_verdict():
 
 
 def test_figures_from_the_summary(tmp_path):
-    from dampfit.output.campaign import save_figures
+    from dampfit.output.figures.campaign import save_figures
 
     written = save_figures(hand_summary(added_mass=True), tmp_path)
     assert set(written) == {"forest", "added_mass"}
@@ -201,6 +201,20 @@ def test_figures_from_the_summary(tmp_path):
     # without the added-mass design the old added_mass.png is removed, forest.png rewritten
     assert set(save_figures(hand_summary(), tmp_path)) == {"forest"}
     assert not (tmp_path / "added_mass.png").exists()
+
+
+def test_missing_campaign_figures_are_redrawn_from_the_summary(tmp_path):
+    from dampfit.output.figures import redraw_missing
+    from dampfit.output.figures.campaign import save_figures
+
+    folder = write_folder(tmp_path, hand_summary(added_mass=True))
+    (tmp_path / "drawn").mkdir()
+    expected = save_figures(hand_summary(added_mass=True), tmp_path / "drawn")
+    (folder / "forest.png").write_bytes(b"mine")  # present: left alone
+    done = redraw_missing(folder)
+    assert done.drawn == ["added_mass"] and done.notes == []
+    assert (folder / "added_mass.png").read_bytes() == expected["added_mass"].read_bytes()
+    assert (folder / "forest.png").read_bytes() == b"mine"
 
 
 def test_tests_of_the_same_file_name_are_told_apart():
@@ -333,7 +347,7 @@ def test_broken_campaign_summary_is_one_line(tmp_path, capsys, edit, match):
 
 
 def test_report_of_a_campaign_folder(tmp_path, capsys):
-    from dampfit.output.campaign import save_figures
+    from dampfit.output.figures.campaign import save_figures
 
     folder = write_folder(tmp_path, hand_summary(added_mass=True))
     save_figures(hand_summary(added_mass=True), folder)

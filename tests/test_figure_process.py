@@ -34,15 +34,19 @@ def _pngs(folder):
     return {p.name: p.read_bytes() for p in sorted(folder.glob("*.png"))}
 
 
-def test_needs_name_every_figure_and_only_analysis_fields():
+def test_needs_name_every_figure_and_only_data_keys():
+    """Every figure is drawn from plain data (issue 20): NEEDS names the data keys a stage
+    delivers — the signals, the posterior and summary sections — never an Analysis field."""
     import dataclasses
 
-    fields = {f.name for f in dataclasses.fields(Analysis) if f.init}
     from dampfit.output.figures import FIGURES
+    from dampfit.output.figures.data import DATA_KEYS
 
+    fields = {f.name for f in dataclasses.fields(Analysis) if f.init}
     assert set(NEEDS) == {*FIGURES, "amplitude"}
     for name, need in NEEDS.items():
-        assert need <= fields, (name, need - fields)
+        assert need <= DATA_KEYS, (name, need - DATA_KEYS)
+        assert not need & fields, (name, need & fields)
 
 
 @needs_two_cores

@@ -18,6 +18,9 @@ import pytest
 from dampfit import simulate
 from dampfit import pipeline as analysis
 from dampfit.output import figures as plots
+from dampfit.output.figures.data import FigureData
+from dampfit.output.figures.posterior import variables
+from dampfit.signal.display import keep_extremes
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 ALL = {"signal", "spectrum", "fit", "displacement", "posterior", "trace", "amplitude"}
@@ -71,7 +74,7 @@ def test_figure_functions_return_figures(with_mass, without_mass):
     from matplotlib.figure import Figure
 
     for an, names in ((with_mass, ["c", "k", "u0"]), (without_mass, ["zeta", "f_n", "u0"])):
-        assert plots._variables(an) == names
+        assert variables(an.posterior.posterior) == names
         for name, make in plots.FIGURES.items():
             fig = make(an)
             assert isinstance(fig, Figure), name
@@ -97,14 +100,15 @@ def test_displacement_skipped_without_baseline(with_mass, tmp_path):
 def test_reduce_keeps_extremes():
     t = np.linspace(0, 100, 200_001)
     y = np.sin(2 * np.pi * 1.7 * t) * np.exp(-0.01 * t)
-    tr, yr = plots._reduce(t, y, 5_000)
+    tr, yr = keep_extremes(t, y, 5_000)
     assert tr.size <= 5_002 and np.all(np.diff(tr) > 0)
     assert yr.max() == y.max() and yr.min() == y.min()
-    assert plots._reduce(t[:10], y[:10])[0].size == 10
+    assert keep_extremes(t[:10], y[:10])[0].size == 10
 
 
-def test_plots_module_imports_matplotlib_lazily():
-    tree = ast.parse(Path(plots.__file__).read_text(encoding="utf-8"))
+@pytest.mark.parametrize("module", sorted(p.name for p in Path(plots.__file__).parent.glob("*.py")))
+def test_plots_module_imports_matplotlib_lazily(module):
+    tree = ast.parse((Path(plots.__file__).parent / module).read_text(encoding="utf-8"))
     for node in tree.body:  # module level only; TYPE_CHECKING blocks never run
         if isinstance(node, ast.If):
             continue
@@ -114,7 +118,7 @@ def test_plots_module_imports_matplotlib_lazily():
         elif isinstance(node, ast.ImportFrom):
             names = [node.module or ""]
         for n in names:
-            assert not n.startswith(("matplotlib", "arviz")), f"plots imports {n} at import time"
+            assert not n.startswith(("matplotlib", "arviz")), f"{module} imports {n} at import time"
 
 
 def test_numeric_core_does_not_import_matplotlib():
@@ -184,9 +188,9 @@ def _errorbar(ax, label_start: str):
 
 def test_amplitude_figure_draws_zeta_and_backbone(with_mass):
     """ζ(A) on top (windows with their 90 % band, each law's ζ_eq) and the f(A) backbone below."""
-    curve = plots._amplitude_curve(with_mass)
+    curve = with_mass.summary()["amplitude_curve"]
     wins = curve["windows"]
-    f_ls = plots._ls_values(with_mass)["f_d"]
+    f_ls = FigureData.of(with_mass).ls_values()["f_d"]
     fig = plots.amplitude_figure(curve, f_d_hz=f_ls)
     ax_z = fig.axes[0]
     ax_f = next(ax for ax in fig.axes if ax.get_ylabel() == "damped frequency f_d [Hz]")

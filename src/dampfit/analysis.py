@@ -14,6 +14,7 @@ import copy
 import json
 import os
 import platform
+import warnings
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -75,6 +76,8 @@ class Analysis(ResultViews):
     #: What :func:`dampfit.result.folder.load` read (summary, lazily posterior and signals).
     _loaded: Any = field(default=None, repr=False, compare=False)
     _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
+    _signals: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False,
+                                                   compare=False)
 
     @classmethod
     def from_loaded(cls, loaded) -> "Analysis":
@@ -122,8 +125,9 @@ class Analysis(ResultViews):
         return copy.deepcopy(self._summary)
 
     def _compute_summary(self) -> dict[str, Any]:
-        """The summary of the live pipeline objects (see :meth:`summary`)."""
-        rec, prep, fd = self.recording, self.prepared, self.fit_data
+        """The summary of the live pipeline objects (see :meth:`summary`): the sections the
+        fit stage knows (:func:`dampfit.stages.fit_summary`), the posterior, baselines, CRLB,
+        damping laws and diagnostics (the sampler's: :func:`dampfit.stages.sampling_summary`)."""
         post = self.posterior.posterior
         params: dict[str, Any] = {}
         for name in PARAMETER_UNITS:
@@ -140,52 +144,24 @@ class Analysis(ResultViews):
             missing = {"c": why, "k": why, "c_crit": why}
         damping = self._damping_summary()
         missing.update(damping.pop("missing", {}))
-        ls = self.least_squares
-        lsd = stages.ls_summary(ls, self.mass, self.noise.psd_ratio)
-        lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
-        s = self.sampling
+        fit = stages.fit_summary(self.recording, self.prepared, self.fit_data,
+                                 self.least_squares, self.noise, self.mass, self.mass_sd)
         return jsonable({
             "dampfit_version": __version__,
-            "input": {
-                "path": os.path.abspath(rec.path) if rec.path else rec.path, "format": rec.format, "sha256": rec.sha256,
-                "n_samples": rec.n_samples, "sample_rate_hz": prep.fs,
-                "duration_s": rec.duration, "timing_jitter": prep.jitter,
-                "axis": prep.axis, "axis_direction": prep.direction,
-                "gravity_removed": rec.gravity_removed, "notes": list(rec.notes),
-            },
-            "window": {"start_s": prep.window[0], "end_s": prep.window[1],
-                       "auto": prep.window_auto,
-                       "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0,
-                       "end_reason": prep.window_end_reason},
-            "band": {"low_hz": prep.band[0], "high_hz": prep.band[1], "auto": prep.band_auto},
-            "dominant_frequency_hz": prep.f0,
-            "mass": {"value": self.mass, "sd": self.mass_sd if self.mass is not None else None,
-                     "unit": "kg"},
+            **{key: fit[key] for key in ("input", "window", "band", "dominant_frequency_hz",
+                                         "mass")},
             "parameters": params,
             "missing": missing,
-            "least_squares": lsd,
+            "least_squares": fit["least_squares"],
             "baselines": _baselines_summary(self.baselines, params.get("p")),
-            "noise_model": self.noise.summary(),
+            "noise_model": fit["noise_model"],
             "crlb": self.crlb,
             **damping,
-            "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
-                    "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded,
-                    "t0_s": fd.t0},
-            "preprocessing": {"n_stale_dropped": prep.n_stale, "n_clipped": prep.n_clipped,
-                              "n_spikes": prep.n_spikes,
-                              "noise_density": prep.noise_density,
-                              "noise_density_unit": "m/s^2/sqrt(Hz)",
-                              "notes": list(prep.notes)},
-            "diagnostics": {
-                "converged": self.converged,
-                "posterior_converged": s.converged,
-                "max_r_hat": s.max_r_hat, "min_ess_bulk": s.min_ess_bulk,
-                "n_steps": s.n_steps, "burn_in": s.burn_in, "thin": s.thin,
-                "n_walkers": posterior.N_WALKERS,
-                "autocorr_time_steps": [float(x) for x in s.autocorr_time],
-                "acceptance_fraction": s.acceptance,
-                "warnings": list(self.warnings),
-            },
+            "fit": fit["fit"],
+            "preprocessing": fit["preprocessing"],
+            "diagnostics": {"converged": self.converged,
+                            **stages.sampling_summary(self.sampling),
+                            "warnings": list(self.warnings)},
             "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
                            "python": platform.python_version(), "versions": versions()},
         })
@@ -245,26 +221,42 @@ class Analysis(ResultViews):
         return self.least_squares.true_quadratures()
 
     def signals(self) -> dict[str, np.ndarray]:
-        """Measured and modelled signals on the analysis window (plain arrays, SI units).
+        """Measured and modelled signals (plain arrays, SI units), a fresh copy on every call.
 
-        ``t`` [s] uniform grid of the window (recording time base), ``accel`` [m/s²]
-        band-passed measured acceleration of the analysed axis, ``accel_model`` [m/s²] the
-        least-squares decay (drift excluded, filter gain removed), ``displacement`` [m] the
-        measured displacement of the paper's pipeline (band-pass, ∫∫, band-pass; NaN when that
-        baseline failed), ``displacement_model`` [m]; scalars ``fs`` [Hz], ``p`` [1/s],
-        ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0).
+        On the analysis window: ``t`` [s] uniform grid of the window (recording time base),
+        ``accel`` [m/s²] band-passed measured acceleration of the analysed axis,
+        ``accel_model`` [m/s²] the least-squares decay (drift excluded, filter gain removed),
+        ``displacement`` [m] the measured displacement of the paper's pipeline (band-pass, ∫∫,
+        band-pass; NaN when that baseline failed), ``displacement_model`` [m]; scalars ``fs``
+        [Hz], ``p`` [1/s], ``omega_d`` [rad/s], ``t0`` [s] (window start, τ = t − t0). And the
+        arrays every figure is drawn from (:func:`dampfit.stages.figure_signals`, each key in
+        :mod:`dampfit.result.signals`): the whole recording reduced for display, its
+        spectrum, the fitted samples and least-squares curve, the envelope pipeline's
+        displacement envelopes — bounded in size whatever the recording's length.
 
-        Of a loaded result: the arrays of its signals.npz (a copy).
+        Computed once (:meth:`keep_signals`: the pipeline computes them at the fit stage);
+        of a loaded result: the arrays of its signals.npz (an older folder has no figure
+        arrays).
         """
         if self._loaded is not None:
             return self._loaded.signals()
-        return stages.window_signals(self.prepared, self.fit_data, self.least_squares,
-                              self.baselines.get("envelope_pipeline"))
+        if self._signals is None:
+            self._signals = stages.figure_signals(self.prepared, self.fit_data,
+                                                  self.least_squares, self.baselines)
+        return {key: np.copy(value) for key, value in self._signals.items()}
+
+    def keep_signals(self, signals: dict[str, np.ndarray]) -> None:
+        """Use ``signals`` — :func:`dampfit.stages.figure_signals` of this analysis's own
+        prepared signal, fit data, least squares and baselines, computed at the fit stage — as
+        :meth:`signals` (so they are not computed twice)."""
+        self._signals = signals
 
     def to_signals(self, path: str | os.PathLike) -> Path:
-        """Write :meth:`signals` to an ``.npz`` file (atomically)."""
-        arrays = self.signals()
-        return atomic_write(path, lambda tmp: np.savez_compressed(tmp, **arrays), suffix=".npz")
+        """Write :meth:`signals` to an ``.npz`` file (atomically;
+        :func:`dampfit.result.signals.write_npz`)."""
+        from dampfit.result.signals import write_npz
+
+        return write_npz(path, self.signals())
 
     # --------------------------------------------------------------- renderings
     def report(self) -> str:
@@ -321,6 +313,8 @@ class Analysis(ResultViews):
         """summary.json, posterior.nc, signals.npz and the figures into ``folder.stage``."""
         stage = folder.stage
         with folder.writing():
+            if figures and figure_process is not None:  # it draws while the files are written
+                figure_process.deliver(self, stage)
             self.to_json(stage / "summary.json")
             self.to_netcdf(stage / "posterior.nc")
             self.to_signals(stage / "signals.npz")
@@ -329,7 +323,12 @@ class Analysis(ResultViews):
             elif figures:
                 from dampfit.output.figures import save_figures
 
-                save_figures(self, stage)
+                # a result loaded from an older folder lacks the figure arrays: say so, once
+                notes: list[str] = []
+                save_figures(self, stage, on_missing=None if self._loaded is None else
+                             lambda name, why: notes.append(why))
+                if notes:
+                    warnings.warn("; ".join(notes), stacklevel=4)
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""

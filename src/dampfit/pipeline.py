@@ -49,12 +49,15 @@ def analyze(
     displacement amplitude at which a non-viscous law's equivalent viscous c is reported
     (default: the geometric mean of the first and last amplitudes of the window).
 
-    ``on_stage(name, fields)``, when given, is called as stages finish with the
-    :class:`Analysis` fields they produced: ``"fit"`` (recording, prepared, fit_data,
-    least_squares, noise, baselines, mass, mass_sd, seed) before the posterior is sampled and
-    ``"posterior"`` (sampling) before the damping laws are assessed — the CLI draws figures
-    from them in a second process meanwhile (:mod:`dampfit.output.figure_process`). Not used
-    for several recordings.
+    ``on_stage(name, data)``, when given, is called as stages finish with the plain data they
+    produced (what the figures are drawn from, :class:`dampfit.output.figures.FigureData`):
+    ``"fit"`` before the posterior is sampled with ``{"signals": …, "summary": …}`` — the
+    arrays of :meth:`Analysis.signals` (computed once, here) and the summary sections the fit
+    stage knows (:func:`dampfit.stages.fit_summary`) — and ``"posterior"`` before the damping
+    laws are assessed with ``{"posterior": InferenceData, "summary": {"diagnostics": …}}``
+    (:func:`dampfit.stages.sampling_summary`) — the CLI draws figures from them in a second
+    process meanwhile (:mod:`dampfit.output.figure_process`). Not used for several
+    recordings.
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
@@ -66,19 +69,22 @@ def analyze(
     warns.extend(prep.warnings)
     warns.extend(stages.unit_plausibility(recording, prep, m))
 
+    signals = []  # the figure signals, computed once at the fit stage when a stage wants them
+
     def fitted(st: stages.FitStages) -> None:
         if on_stage is not None:
-            on_stage("fit", {"recording": recording, "prepared": prep, "fit_data": st.fit_data,
-                             "least_squares": st.least_squares, "noise": st.noise,
-                             "baselines": st.baselines, "mass": m, "mass_sd": sd,
-                             "seed": int(seed)})
+            signals.append(stages.figure_signals(prep, st.fit_data, st.least_squares,
+                                                 st.baselines))
+            on_stage("fit", {"signals": signals[0], "summary": stages.fit_summary(
+                recording, prep, st.fit_data, st.least_squares, st.noise, m, sd)})
 
     run = stages.viscous_stages(prep, m, sd, seed=seed, progress=progress, max_steps=max_steps,
                             min_ess=min_ess, on_fit=fitted)
     base, fd, ls, nm, post = (run.baselines, run.fit_data, run.least_squares, run.noise,
                               run.sampling)
     if on_stage is not None:
-        on_stage("posterior", {"sampling": post})
+        on_stage("posterior", {"posterior": post.idata,
+                               "summary": {"diagnostics": stages.sampling_summary(post)}})
     warns.extend(run.warnings)
     bound = stages.crlb_stage(prep, fd, ls, nm, m, sd, warns)
     viscous_seconds = run.posterior_seconds
@@ -95,8 +101,11 @@ def analyze(
                "band": list(band) if band else None, "max_steps": max_steps,
                "min_ess": min_ess, "model": model, "amplitude": amplitude,
                **recording.read_options}
-    return Analysis(
+    an = Analysis(
         recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
-        sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd, seed=int(seed), options=options,
-        warnings=warns,
+        sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd,
+        seed=int(seed), options=options, warnings=warns,
     )
+    if signals:
+        an.keep_signals(signals[0])
+    return an

@@ -16,7 +16,11 @@ In order, for one :class:`~dampfit.io.recording.Recording`:
 
 :func:`ls_summary` is the one least-squares summary (values, 1-σ from the calibrated Jacobian
 covariance): summary.json's ``least_squares`` and the study's ``least_squares`` estimator both
-report it. :func:`window_signals` are the measured and modelled signals of the window.
+report it. :func:`window_signals` are the measured and modelled signals of the window;
+:func:`figure_signals` adds the bounded arrays every figure of the result is drawn from
+(:mod:`dampfit.output.figures`), kept in signals.npz. :func:`fit_summary` and
+:func:`sampling_summary` are the summary.json sections known once the fit and the posterior
+stage have run (the figure process draws from them meanwhile).
 
 Nothing here reads or writes files; every refusal is a one-line
 :class:`~dampfit.errors.InputError`.
@@ -31,19 +35,22 @@ from typing import Any
 import numpy as np
 
 from dampfit import physics
+from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.estimators import baselines
 from dampfit.inference import least_squares
 from dampfit.inference import noise
 from dampfit.inference import posterior
 from dampfit.io.recording import Recording
+from dampfit.signal import display
 from dampfit.signal import prepare
 
 __all__ = ["FitStages", "ViscousStages", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
            "PLAUSIBLE_K_N_PER_M", "POSSIBLE_RATE_HZ", "R_WARN", "assess_damping",
-           "check_damping_options", "crlb_stage", "fit_stages", "fitted_curve",
-           "initial_decay_rate", "ls_quantities", "ls_summary", "refuse_impossible_time",
-           "unit_plausibility", "viscous_stages", "window_signals"]
+           "check_damping_options", "crlb_stage", "figure_signals", "fit_stages", "fit_summary",
+           "fitted_curve", "initial_decay_rate", "ls_quantities", "ls_summary",
+           "refuse_impossible_time", "sampling_summary", "unit_plausibility", "viscous_stages",
+           "window_signals"]
 
 #: A PSD ratio r above this many times its white-noise value signals residual structure.
 R_WARN = noise.R_WARN
@@ -322,3 +329,166 @@ def window_signals(prep: prepare.Prepared, fd, ls, envelope=None) -> dict[str, n
             "displacement": disp, "displacement_model": disp_model,
             "fs": np.float64(prep.fs), "p": np.float64(ls.p),
             "omega_d": np.float64(ls.omega_d), "t0": np.float64(fd.t0)}
+
+
+# ----------------------------------------------------------------------------- plain data
+def fit_summary(rec: Recording, prep: prepare.Prepared, fd: prepare.FitData,
+                ls: least_squares.LeastSquaresResult, nm: noise.NoiseModel,
+                mass: float | None, mass_sd: float) -> dict[str, Any]:
+    """The summary.json sections known once :func:`fit_stages` has run (JSON-safe): ``input``,
+    ``window``, ``band``, ``dominant_frequency_hz``, ``mass`` (``mass`` and ``mass_sd`` [kg]),
+    ``least_squares`` (:func:`ls_summary` with the solver's state), ``noise_model``, ``fit``
+    and ``preprocessing`` — :meth:`dampfit.analysis.Analysis.summary` holds them unchanged."""
+    import os
+
+    lsd = ls_summary(ls, mass, nm.psd_ratio)
+    lsd.update({"converged": ls.converged, "message": ls.message, "n_steps": ls.n_steps})
+    return jsonable({
+        "input": {
+            "path": os.path.abspath(rec.path) if rec.path else rec.path, "format": rec.format,
+            "sha256": rec.sha256, "n_samples": rec.n_samples, "sample_rate_hz": prep.fs,
+            "duration_s": rec.duration, "timing_jitter": prep.jitter,
+            "axis": prep.axis, "axis_direction": prep.direction,
+            "gravity_removed": rec.gravity_removed, "notes": list(rec.notes),
+        },
+        "window": {"start_s": prep.window[0], "end_s": prep.window[1],
+                   "auto": prep.window_auto,
+                   "n_cycles": (prep.window[1] - prep.window[0]) * prep.f0,
+                   "end_reason": prep.window_end_reason},
+        "band": {"low_hz": prep.band[0], "high_hz": prep.band[1], "auto": prep.band_auto},
+        "dominant_frequency_hz": prep.f0,
+        "mass": {"value": mass, "sd": mass_sd if mass is not None else None, "unit": "kg"},
+        "least_squares": lsd,
+        "noise_model": nm.summary(),
+        "fit": {"path": fd.path, "n_samples": int(fd.y.size), "sample_rate_hz": fd.fs,
+                "drift_degree": fd.drift_degree, "n_excluded": fd.n_excluded, "t0_s": fd.t0},
+        "preprocessing": {"n_stale_dropped": prep.n_stale, "n_clipped": prep.n_clipped,
+                          "n_spikes": prep.n_spikes, "noise_density": prep.noise_density,
+                          "noise_density_unit": "m/s^2/sqrt(Hz)", "notes": list(prep.notes)},
+    })
+
+
+def sampling_summary(post: posterior.PosteriorResult) -> dict[str, Any]:
+    """The sampler's part of summary.json's ``diagnostics`` (JSON-safe), known once the
+    posterior stage has run: its convergence, max R-hat [1], min bulk ESS [draws], steps,
+    burn-in and thinning [steps], walkers, autocorrelation times [steps], acceptance [1]."""
+    return jsonable({
+        "posterior_converged": post.converged,
+        "max_r_hat": post.max_r_hat, "min_ess_bulk": post.min_ess_bulk,
+        "n_steps": post.n_steps, "burn_in": post.burn_in, "thin": post.thin,
+        "n_walkers": posterior.N_WALKERS,
+        "autocorr_time_steps": [float(x) for x in post.autocorr_time],
+        "acceptance_fraction": post.acceptance,
+    })
+
+
+def figure_signals(prep: prepare.Prepared, fd: prepare.FitData,
+                   ls: least_squares.LeastSquaresResult, base: dict) -> dict[str, np.ndarray]:
+    """:func:`window_signals` plus the arrays the figures are drawn from (float64, SI units;
+    every key documented in :mod:`dampfit.result.signals`): the whole recording reduced for
+    display (:func:`recording_arrays`), its amplitude spectrum (:func:`spectrum_arrays`), the
+    fitted samples with the least-squares curve (:func:`fit_arrays`) and the envelope
+    pipeline's displacement envelopes and log-decrement peaks (:func:`displacement_arrays`;
+    absent when that baseline failed). Lines over the whole recording are reduced to at most
+    :data:`dampfit.signal.display.MAX_LINE_POINTS` points, dots to
+    :data:`~dampfit.signal.display.MAX_DOTS`; window-long arrays are as long as ``t``."""
+    out = window_signals(prep, fd, ls, base.get("envelope_pipeline"))
+    out.update(recording_arrays(prep))
+    out.update(spectrum_arrays(prep))
+    out.update(fit_arrays(prep, fd, ls))
+    out.update(displacement_arrays(prep, base))
+    return out
+
+
+def recording_arrays(prep: prepare.Prepared) -> dict[str, np.ndarray]:
+    """The whole recording for the signal figure: each axis on the grid (``rec_axes_t``,
+    ``rec_axes_y`` concatenated, ``rec_axes_n`` points per axis), the selected signal
+    (``rec_signal_*``) and its band-pass envelope (``rec_envelope_*``) reduced
+    (:func:`dampfit.signal.display.keep_extremes`); the masked samples (``rec_masked_*``) and
+    their runs (``rec_masked_runs``, (start, end) [s] split at gaps over 5 samples); the
+    y limits of the axes and of the signal (``rec_ylim`` rows; NaN: none) from the samples
+    away from masked ones."""
+    bad = ~np.asarray(prep.usable, bool)
+    t_bad, y_bad = prep.time[bad], prep.signal[bad]
+    dt = 1.0 / prep.fs
+    grid_ok = display.distance_to(t_bad, prep.grid) > 1.5 * dt  # not beside a masked sample
+    axes = [display.keep_extremes(prep.grid, prep.grid_raw[:, j])
+            for j in range(prep.grid_raw.shape[1])]
+    lims = [display.robust_limits(prep.grid_raw[grid_ok] if grid_ok.any() else prep.grid_raw),
+            display.robust_limits(prep.signal[~bad] if (~bad).any() else prep.signal)]
+    t_sig, y_sig = display.keep_extremes(prep.time, prep.signal)
+    t_env, y_env = display.keep_extremes(prep.grid, prep.envelope)
+    t_mask, y_mask = display.keep_extremes(t_bad, y_bad, display.MAX_DOTS)
+    return {"rec_axes_t": np.concatenate([t for t, _ in axes]),
+            "rec_axes_y": np.concatenate([y for _, y in axes]),
+            "rec_axes_n": np.array([t.size for t, _ in axes], float),
+            "rec_signal_t": t_sig, "rec_signal_y": y_sig,
+            "rec_envelope_t": t_env, "rec_envelope_y": y_env,
+            "rec_masked_t": t_mask, "rec_masked_y": y_mask,
+            "rec_masked_runs": np.array(display.bounded_runs(t_bad, 5 * dt), float).reshape(-1, 2),
+            "rec_ylim": np.array([lim if lim is not None else (np.nan, np.nan) for lim in lims])}
+
+
+def spectrum_arrays(prep: prepare.Prepared) -> dict[str, np.ndarray]:
+    """The single-sided amplitude spectrum [m/s²] of the selected signal up to
+    max(4·f₀, 2·band high) (at most the Nyquist frequency), reduced: ``spectrum_f`` [Hz],
+    ``spectrum_amp``."""
+    fmax = display.spectrum_limit(prep.f0, prep.band[1], prep.fs)
+    sel = (prep.freqs > 0) & (prep.freqs <= fmax)
+    f, amp = display.keep_extremes(prep.freqs[sel], prep.amplitude[sel])
+    return {"spectrum_f": f, "spectrum_amp": amp}
+
+
+def fit_arrays(prep: prepare.Prepared, fd: prepare.FitData,
+               ls: least_squares.LeastSquaresResult) -> dict[str, np.ndarray]:
+    """The fitted samples ``fit_t`` [s], ``fit_y`` [m/s²] and residuals ``fit_residual``, the
+    least-squares model on a grid of 40 points per cycle (2 000 to
+    :data:`~dampfit.signal.display.MAX_DOTS`) over the fitted span (``fit_model_t``,
+    ``fit_model_y``; :func:`fitted_curve`), and, when the fitted samples are filtered (not the
+    raw path), the recorded signal in the first and last
+    :data:`~dampfit.signal.display.ZOOM_CYCLES` cycles of that span
+    (:func:`dampfit.signal.display.zoom_ranges`; ``fit_raw_t``, ``fit_raw_y``; empty on the
+    raw path)."""
+    t_fit = np.asarray(fd.t0 + fd.tau, float)
+    f_d = float(ls_quantities(ls)["f_d"])
+    n_curve = int(np.clip(40 * f_d * float(fd.tau[-1] - fd.tau[0]), 2000, display.MAX_DOTS))
+    t_mod, y_mod = fitted_curve(fd, ls, n_curve)
+    keep = np.zeros(prep.time.size, bool)
+    if fd.path != "raw":
+        t_start, t_end = float(t_fit[0]), float(t_fit[-1])
+        for lo, hi in display.zoom_ranges(t_start, t_end, f_d):
+            keep |= (prep.time >= t_start) & (prep.time <= t_end) & (prep.time >= lo) & (
+                prep.time <= hi)
+    return {"fit_t": t_fit, "fit_y": np.asarray(fd.y, float),
+            "fit_residual": np.asarray(ls.residuals, float),
+            "fit_model_t": t_mod, "fit_model_y": y_mod,
+            "fit_raw_t": np.asarray(prep.time[keep], float),
+            "fit_raw_y": np.asarray(prep.signal[keep], float)}
+
+
+def displacement_arrays(prep: prepare.Prepared, base: dict) -> dict[str, np.ndarray]:
+    """The envelope pipeline's Hilbert envelope ``disp_envelope`` [m], its fit K·e^(−pt)
+    ``disp_envelope_fit`` [m] and the samples that fit used ``disp_fit_mask`` (1/0) on the
+    window's ``t``, with its ``disp_p`` [1/s], ``disp_c`` [N·s/m] (NaN without a mass) and
+    ``disp_zeta``; the log decrement's peaks ``logdec_peak_t`` [s], ``logdec_peak_a`` [m/s²]
+    and ``logdec_p`` [1/s] when it found them. Empty when the envelope pipeline failed."""
+    env = base.get("envelope_pipeline")
+    n = int(np.count_nonzero((prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])))
+    det = env.details if env is not None else {}
+    if env is None or np.size(det.get("displacement", [])) != n or n < 2:
+        return {}
+    out = {"disp_envelope": np.asarray(det["envelope"], float),
+           "disp_envelope_fit": np.asarray(det["envelope_fit"], float),
+           "disp_fit_mask": np.asarray(det.get("fit_mask", np.ones(n, bool)), bool).astype(float),
+           "disp_p": _number(env.p), "disp_c": _number(env.c), "disp_zeta": _number(env.zeta)}
+    ld = base.get("log_decrement")
+    if ld is not None and "peak_times" in ld.details:
+        out.update({"logdec_peak_t": np.asarray(ld.details["peak_times"], float),
+                    "logdec_peak_a": np.asarray(ld.details["peak_amplitudes"], float),
+                    "logdec_p": _number(ld.p)})
+    return out
+
+
+def _number(x) -> np.float64:
+    """``x`` as a float64 scalar, NaN for None."""
+    return np.float64(np.nan if x is None else x)

@@ -270,7 +270,7 @@ class CampaignAnalysis(ResultViews):
             self.to_json(stage / "summary.json")
             self.to_netcdf(stage / "posterior.nc")
             if figures:
-                from dampfit.output.campaign import save_figures
+                from dampfit.output.figures.campaign import save_figures
 
                 save_figures(self.summary(), stage)
 

@@ -2,23 +2,26 @@
 
 Drawing the seven figures is the largest part of a warm ``dampfit analyze --report`` after
 the analysis itself (≈ 1.2 s of ≈ 5 s on the 60 s / 500 Hz paper recording), and most of
-them need only the early stages: the signal and spectrum figures the prepared signal, the
-fit and displacement figures the least squares and baselines, the posterior and trace
-figures the viscous posterior, the amplitude figure the damping-law assessment
-(:data:`dampfit.output.figures.NEEDS`). While this process samples the posterior — mostly one
-core — a second Python process draws what is ready on the other core:
+them need only the early stages: every figure is drawn from plain data
+(:class:`dampfit.output.figures.FigureData`), and the signal, spectrum, fit and displacement
+figures need only what the fit stage delivers (the signals and the fit's summary sections),
+the posterior and trace figures the posterior and the sampler's diagnostics, the amplitude
+figure the summary (:data:`dampfit.output.figures.NEEDS`). While this process samples the
+posterior — mostly one core — a second Python process draws what is ready on the other core:
 
 1. :meth:`FigureProcess.start` starts a Python running :func:`main` before the analysis
    (isolated, with this process's import path minus the working folder:
-   :func:`dampfit._child.command`); it imports matplotlib, the figure module and what
-   unpickling an analysis needs (overlapping this process's own imports), then waits on its
+   :func:`dampfit._child.command`); it imports matplotlib, the figure modules and arviz (to
+   unpickle the posterior), overlapping this process's own imports, then waits on its
    standard input;
 2. :meth:`FigureProcess.target` names the folder to write into (the result folder's staging
-   folder), :meth:`FigureProcess.send` passes each stage's fields as they appear
-   (``dampfit.analyze(..., on_stage=…)``), and the process draws every figure whose fields
-   have all arrived;
-3. :meth:`FigureProcess.finish` passes the finished :class:`~dampfit.analysis.Analysis`,
-   waits for the last figures and returns the files written.
+   folder), :meth:`FigureProcess.send` passes each stage's plain data as it appears
+   (``dampfit.analyze(..., on_stage=…)``: ``signals`` and ``summary`` sections after the fit,
+   ``posterior`` and the sampler's ``summary`` section after sampling), and the process draws
+   every figure whose data have all arrived;
+3. :meth:`FigureProcess.deliver` passes the finished :class:`~dampfit.analysis.Analysis`'s
+   summary (and whatever was not sent before) before the result's files are written, and
+   :meth:`FigureProcess.finish` waits for the last figures and returns the files written.
 
 Messages are pickles, each preceded by its length (8 bytes, big-endian), written to the
 process's standard input; the process answers with one JSON line on its standard output and
@@ -80,6 +83,8 @@ class FigureProcess:
             self._writer.start()
         #: Where the figures of the last :meth:`finish` came from: "process" or "here".
         self.drawn_by: str | None = None
+        self._sent: set[str] = set()  # "signals", "posterior" once a stage has sent them
+        self._delivered = False  # the finished analysis was sent (deliver)
 
     # ------------------------------------------------------------------ life cycle
     @classmethod
@@ -164,20 +169,32 @@ class FigureProcess:
         """The folder the figures are written into."""
         self._write({"outdir": str(outdir), "dpi": self._dpi})
 
-    def send(self, stage: str, fields: dict[str, Any]) -> None:
-        """Fields of :class:`~dampfit.analysis.Analysis` that the stage ``stage`` produced
-        (the ``on_stage`` callback of :func:`dampfit.analyze`)."""
-        self._write({"fields": dict(fields)})
+    def send(self, stage: str, data: dict[str, Any]) -> None:
+        """The plain data the stage ``stage`` produced (the ``on_stage`` callback of
+        :func:`dampfit.analyze`): ``signals``, ``posterior`` and ``summary`` sections."""
+        self._sent.update(k for k in ("signals", "posterior") if data.get(k) is not None)
+        self._write({"data": dict(data)})
+
+    def deliver(self, an, outdir: str | os.PathLike) -> None:
+        """The finished analysis ``an``: send its summary (and its signals and posterior when
+        no stage sent them) and the folder ``outdir``, without waiting — the process draws
+        the last figures while this process writes the result's other files."""
+        if self._delivered or self._broken or self._proc is None:
+            return
+        data = {"summary": an.summary()}
+        if "signals" not in self._sent:
+            data["signals"] = an.signals()
+        if "posterior" not in self._sent:
+            data["posterior"] = an.posterior
+        self._write({"outdir": str(outdir), "dpi": self._dpi, "data": data, "end": True})
+        self._delivered = True
 
     def finish(self, an, outdir: str | os.PathLike) -> dict[str, Path]:
-        """The finished analysis ``an``: wait for the process to write every figure into
-        ``outdir`` (or draw them here, module docstring); ``{name: path}`` written."""
-        import dataclasses
-
+        """The finished analysis ``an`` (:meth:`deliver`, unless done): wait for the process to
+        write every figure into ``outdir`` (or draw them here, module docstring);
+        ``{name: path}`` written."""
+        self.deliver(an, outdir)
         if not self._broken and self._proc is not None:
-            fields = {f.name: getattr(an, f.name) for f in dataclasses.fields(an) if f.init}
-            self._write({"outdir": str(outdir), "dpi": self._dpi, "fields": fields,
-                         "end": True})
             written = self._answer() if self._drain(TIMEOUT_S) else None
             if written is not None:
                 self.drawn_by = "process"
@@ -222,20 +239,21 @@ def _read(stream) -> dict[str, Any] | None:
 
 
 def main() -> int:
-    """The drawing process: import, then draw each figure once its fields have arrived."""
+    """The drawing process: import, then draw each figure once its data have arrived."""
     import gc
 
     import matplotlib
 
     matplotlib.use("Agg")
-    from dampfit import analysis  # noqa: F401 - unpickling an analysis needs it
-    from dampfit.inference import posterior  # noqa: F401
+    from dampfit._arviz import arviz
     from dampfit.output import figures
+    from dampfit.output.figures import layout
 
-    figures._text_width("0")  # font cache and text measurement: first-use costs paid now
+    layout.text_width("0")  # font cache and text measurement: first-use costs paid now
+    arviz()  # unpickling the posterior needs arviz and xarray: imported while waiting
     gc.freeze()
     stdin = sys.stdin.buffer
-    fields: dict[str, Any] = {}
+    data = figures.FigureData()
     outdir, dpi, done = None, 110, {}
     try:
         while True:
@@ -244,34 +262,24 @@ def main() -> int:
                 return 0  # the parent gave up: nothing to report
             outdir = msg.get("outdir", outdir)
             dpi = msg.get("dpi", dpi)
-            fields.update(msg.get("fields", {}))
-            end = bool(msg.get("end"))
+            data.add(msg.get("data", {}))
             if outdir is None:
                 continue
-            if end:
-                an = analysis.Analysis(**fields)
-                written = figures.save_figures(an, outdir, dpi=dpi, skip=tuple(done))
+            if msg.get("end"):
+                written = figures.save_figures(data, outdir, dpi=dpi, skip=tuple(done))
                 names = sorted({n for n, p in done.items() if p is not None} | set(written))
                 sys.stdout.write(json.dumps({"ok": True, "written": names}) + "\n")
                 sys.stdout.flush()
                 return 0
             ready = [n for n in figures.FIGURES
-                     if n not in done and figures.NEEDS[n] <= fields.keys()]
+                     if n not in done and figures.NEEDS[n] <= data.keys()]
             if ready:
-                an = analysis.Analysis(**{**_EMPTY, **fields})
-                done.update(figures.render(an, ready, outdir, dpi))
+                done.update(figures.render(data, ready, outdir, dpi))
     except Exception as exc:  # noqa: BLE001 - reported; the parent draws the figures itself
         text = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
         sys.stdout.write(json.dumps({"ok": False, "error": text}) + "\n")
         sys.stdout.flush()
         return 1
-
-
-#: An analysis's fields before their stages have run (a partial analysis for early figures).
-_EMPTY: dict[str, Any] = {"recording": None, "prepared": None, "fit_data": None,
-                          "least_squares": None, "noise": None, "sampling": None,
-                          "baselines": None, "crlb": None, "mass": None, "mass_sd": 0.0,
-                          "seed": 0, "options": {}}
 
 
 if __name__ == "__main__":

@@ -14,8 +14,9 @@ What :meth:`dampfit.analysis.Analysis.save` writes and how it is read:
   :data:`MAX_POSTERIOR_BYTES`, and the sizes its datasets declare are checked against the file
   before anything is allocated;
 * ``signals.npz`` — :func:`load_signals` (the ZIP directory and array headers are checked
-  before anything is allocated, as :mod:`dampfit.io.readers` does for recordings), on first use
-  of ``Analysis.signals()``; at most :data:`MAX_SIGNALS_BYTES`.
+  before anything is allocated, as :mod:`dampfit.io.readers` does for recordings; the arrays
+  then as :mod:`dampfit.result.signals` says), on first use of ``Analysis.signals()``; at most
+  :data:`MAX_SIGNALS_BYTES`.
 
 Every file is opened through :mod:`dampfit.result.files` (a regular file of the folder, not a
 link, FIFO or device; size-limited).
@@ -36,13 +37,12 @@ from dampfit.errors import DampfitError, InputError
 from dampfit.errors import shown
 from dampfit.result.files import Unusable, open_regular
 from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
+from dampfit.result.signals import KNOWN_KEYS, SIGNAL_KEYS, check_signals
 
 __all__ = ["LIVE_FIELDS", "Loaded", "MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES",
            "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "Unavailable", "load_signals", "open_result",
            "read_posterior", "real"]
 
-#: Arrays and scalars ``signals.npz`` must hold.
-SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p", "omega_d", "t0")
 #: Largest posterior.nc read [bytes]: the longest chain ``--max-steps`` allows is ≈ 2 GB.
 MAX_POSTERIOR_BYTES = 4 * 2**30
 #: Largest signals.npz read [bytes]: the analysed window of a recording, a few MB.
@@ -234,14 +234,15 @@ def _check_declared(name: str, size: int, path: Path) -> None:
 
 # ------------------------------------------------------------------------- signals.npz
 def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[str, Any]:
-    """Arrays of ``folder/signals.npz`` as float64 NumPy arrays/floats; :class:`InputError` if unusable.
+    """Arrays of ``folder/signals.npz`` as float64 NumPy arrays (with ``checked``, the scalars
+    ``p``, ``omega_d``, ``t0`` as floats); :class:`InputError` if unusable.
 
     The file must be a regular file of the folder (not a link, FIFO or device) of at most
-    :data:`MAX_SIGNALS_BYTES` and hold :data:`SIGNAL_KEYS`: ``t`` at least 16 finite increasing
-    times [s], ``accel``, ``accel_model`` [m/s²] finite, ``displacement``,
-    ``displacement_model`` [m] of the same length, scalars ``p`` ≥ 0 [1/s], ``omega_d`` > 0
-    [rad/s], ``t0`` [s] finite. The ZIP directory and array headers are checked before
-    anything is allocated, on the descriptor that is then read.
+    :data:`MAX_SIGNALS_BYTES` holding :data:`SIGNAL_KEYS` and optionally the figure arrays,
+    as :func:`dampfit.result.signals.check_signals` checks them (shapes, bounds, finite
+    values); other arrays are ignored. The ZIP directory and array headers are checked before
+    anything is allocated, on the descriptor that is then read; only numeric arrays are
+    converted.
     """
     import numpy as np
 
@@ -258,31 +259,21 @@ def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[
         fh.seek(0)
         try:
             with np.load(fh, allow_pickle=False) as data:
-                missing = [k for k in SIGNAL_KEYS if k not in data.files]
-                if missing:
-                    raise InputError(f"{shown(path)} lacks {', '.join(missing)}; re-run 'dampfit analyze'")
-                sig = {k: np.asarray(data[k], dtype=float) for k in data.files}
+                sig = {}
+                for key in (k for k in data.files if k in KNOWN_KEYS):
+                    array = data[key]
+                    if array.dtype.kind not in "biuf":
+                        raise InputError(f"{shown(path)}: '{key}' holds {array.dtype} values, "
+                                         "not numbers; re-run 'dampfit analyze'")
+                    sig[key] = np.asarray(array, dtype=float)
         except InputError:
             raise
         except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
             raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
-    t = sig["t"]
-    n = t.size
-    if t.ndim != 1 or n < 16 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
-        raise InputError(f"{shown(path)}: 't' must be at least 16 finite, increasing times")
-    for key in ("accel", "accel_model", "displacement", "displacement_model"):
-        if sig[key].shape != (n,):
-            raise InputError(f"{shown(path)}: '{key}' has shape {sig[key].shape}, expected ({n},)")
-    if not (np.all(np.isfinite(sig["accel"])) and np.all(np.isfinite(sig["accel_model"]))):
-        raise InputError(f"{shown(path)}: 'accel' and 'accel_model' must be finite")
-    for key in ("p", "omega_d", "t0"):
-        if sig[key].size != 1:
-            raise InputError(f"{shown(path)}: '{key}' must be one number, got shape {sig[key].shape}")
-        if checked:
-            sig[key] = float(sig[key])
-    if not (math.isfinite(sig["p"]) and sig["p"] >= 0 and math.isfinite(sig["omega_d"])
-            and sig["omega_d"] > 0 and math.isfinite(sig["t0"])):
-        raise InputError(f"{shown(path)}: p, omega_d and t0 must be finite (p >= 0, omega_d > 0)")
+    sig = check_signals(sig, path)
+    if checked:
+        for key in ("p", "omega_d", "t0"):
+            sig[key] = float(sig[key].reshape(()))
     return sig
 
 
