@@ -185,11 +185,12 @@ def _inside(path: str, directory: Path) -> bool:
     if not os.path.isabs(path):  # relative to a folder the report does not know
         return False
     p = Path(os.path.abspath(path))
-    for file, folder in ((p, directory), (Path(os.path.realpath(p)),
-                                          Path(os.path.realpath(directory)))):
-        if file == folder or folder in file.parents:
-            return True
-    return False
+    pairs = [(p, directory)]
+    try:  # an edited summary may hold a path no system call takes (a NUL byte)
+        pairs.append((Path(os.path.realpath(p)), Path(os.path.realpath(directory))))
+    except (OSError, ValueError):
+        pass
+    return any(file == folder or folder in file.parents for file, folder in pairs)
 
 
 def reanalysis_folder(directory: str | os.PathLike) -> Path:
