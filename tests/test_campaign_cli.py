@@ -180,7 +180,7 @@ def write_folder(tmp_path: Path, summary: dict, name: str = "camp") -> Path:
 
 # ----------------------------------------------------------------------------- text, figures
 def test_text_table_names_population_predictive_spread_tests_and_verdict():
-    from dampfit.output.campaign import text
+    from dampfit.output.text_campaign import text
 
     t = text(hand_summary())
     for words in ("campaign of 3 tests", "c      [N s/m]", "new test (predictive)",
@@ -218,7 +218,7 @@ def test_missing_campaign_figures_are_redrawn_from_the_summary(tmp_path):
 
 
 def test_tests_of_the_same_file_name_are_told_apart():
-    from dampfit.output.campaign import labels, text
+    from dampfit.output.text_campaign import labels, text
 
     paths = [f"/data/40cm/08-12_11-4{i}-04_adxl6cmfromtip/accelerometer_data.npy" for i in range(3)]
     names = labels(hand_summary(paths=paths)["tests"])

@@ -16,6 +16,7 @@ import pytest
 
 from dampfit.estimators import baselines
 from dampfit.output import text as render
+from dampfit.output.format import interval
 from dampfit.analysis import _baselines_summary
 from dampfit.inference.law_sampler import (MIN_BUDGET_STEPS, STEP_FACTOR, TIME_ALLOWANCE_S, Budget,
                                     conditioning, sample_emcee, sample_laplace)
@@ -153,12 +154,12 @@ def test_digits_adapt_to_the_interval():
     fn = next(x for x in text.splitlines() if x.strip().startswith("f_n"))
     assert "1.72031" in fn and "1.71992" in fn and "1.72068" in fn
     assert "[1.72, 1.72]" not in fn.replace(" ", "")
-    assert render.interval(1.72031, 1.71992, 1.72068) == ("1.72031", "1.71992", "1.72068")
+    assert interval(1.72031, 1.71992, 1.72068) == ("1.72031", "1.71992", "1.72068")
     # a wide interval does not pretend to six digits
-    assert render.interval(0.0623456, 0.0191234, 0.2812345) == ("0.06", "0.02", "0.28")
+    assert interval(0.0623456, 0.0191234, 0.2812345) == ("0.06", "0.02", "0.28")
     # tiny and huge values keep the interval's precision in scientific notation
-    assert render.interval(1.234e-7, 1.1e-7, 1.3e-7) == ("1.23e-07", "1.10e-07", "1.30e-07")
-    assert render.interval(3.2e9, 3.1e9, 3.35e9) == ("3.20e+09", "3.10e+09", "3.35e+09")
+    assert interval(1.234e-7, 1.1e-7, 1.3e-7) == ("1.23e-07", "1.10e-07", "1.30e-07")
+    assert interval(3.2e9, 3.1e9, 3.35e9) == ("3.20e+09", "3.10e+09", "3.35e+09")
     # a point estimate takes the digits of its posterior interval, a baseline those of its
     # own expected spread (log decrement ± 30 %: two digits, not six)
     s = summary(least_squares={"c": 0.0201, "f_n": 1.7203117, "converged": True})
@@ -168,7 +169,7 @@ def test_digits_adapt_to_the_interval():
     assert "c = 0.18," in render.text(s)
     # a width always shows at least two significant digits
     for lo, hi in ((0.99, 1.01), (619.1, 628.4), (0.004997, 0.005731)):
-        _, a, b = render.interval((lo + hi) / 2, lo, hi)
+        _, a, b = interval((lo + hi) / 2, lo, hi)
         width = float(b) - float(a)
         assert width == pytest.approx(hi - lo, rel=0.1)
 
@@ -176,15 +177,15 @@ def test_digits_adapt_to_the_interval():
 def test_small_numbers_get_their_own_exponent():
     """A median ten times smaller than its upper bound is 4e-06, not 0.4e-05 (one exponent
     per number; the interval's absolute precision, at least one significant digit)."""
-    assert render.interval(4e-6, 1e-7, 2e-5) == ("4e-06", "1e-07", "2.0e-05")
-    assert render.interval(9.96e-6, 0.0, 2e-5) == ("1e-05", "0", "2.0e-05")  # rounds up
+    assert interval(4e-6, 1e-7, 2e-5) == ("4e-06", "1e-07", "2.0e-05")
+    assert interval(9.96e-6, 0.0, 2e-5) == ("1e-05", "0", "2.0e-05")  # rounds up
     s = summary(c_equivalent={"model": "coulomb", "amplitude_m": 0.004,
                               "c": {"q05": 1e-7, "q50": 4e-6, "q95": 2e-5}})
     s["model_checks"] = {"verdict": "amplitude-dependent", "verdict_law": "coulomb",
                          "amplitude_dependence": {"p_viscous": 1e-9}}
     line = next(x for x in render.text(s).splitlines() if "c_equivalent" in x)
     assert "4e-06 [1e-07, 2.0e-05] N s/m" in line and "0.4e-05" not in line
-    for text in render.interval(-4e-6, -2e-5, 1e-5):
+    for text in interval(-4e-6, -2e-5, 1e-5):
         assert not text.lstrip("-").startswith("0.") or text == "0"
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import io
 import json
 import os
+import re
+import shlex
 import signal
 import subprocess
 import sys
@@ -367,6 +369,43 @@ def test_a_failed_analysis_keeps_the_recording(tmp_path, capsys, monkeypatch):
     assert {p.name for p in out.iterdir()} == {MARKER, "recording.csv", "recording.json"}
     assert recording(out)[0].duration == pytest.approx(5.0, abs=0.05)
     no_staging_left(out)
+
+
+def test_the_report_of_a_record_folder_gives_a_command_that_works(tmp_path, capsys):
+    """A record folder holds its own recording, so its report cannot say ``dampfit analyze
+    DIR/recording.csv … --out DIR`` (analyze refuses an --out that holds its input, and
+    replacing the folder would lose the recording): the command it prints re-analyses the
+    recording into a folder beside it, and running it gives the same numbers."""
+    out = tmp_path / "decay"
+    with FakePhone(Quirks(speed=40.0)) as phone:
+        code, _, err = record(phone, out, capsys, "--mass", "5.3", "--duration", "20",
+                              "--max-steps", "300", "--model", "viscous", "--no-figures", "--quiet", "--report",
+                              "--timeout", "2")
+    assert code == 0, err
+    md = (out / "report.md").read_text(encoding="utf-8")
+    section = md.split("## How to reproduce and cite", 1)[1]
+    assert "This folder holds its own recording (dampfit record wrote it)" in section
+    args = shlex.split(re.search(r"```bash\n(dampfit analyze .*?)\n```", section).group(1))
+    again = Path(args[args.index("--out") + 1])
+    assert args[2] == str((out / "recording.csv").resolve())
+    assert again == out.resolve().parent / "decay.reanalysed" and not again.exists()
+    # what the report used to print is refused, and the record folder is kept whole
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    code, _, err = run(args[1:args.index("--out")] + ["--out", out, "--force"], capsys)
+    assert_one_line_error(code, err, match="holds the input")
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    # the printed command runs as printed (no figures, to keep the test short)
+    code, _, err = run(args[1:] + ["--no-figures"], capsys)
+    assert code == 0, err
+    first = json.loads((out / "summary.json").read_text())
+    second = json.loads((again / "summary.json").read_text())
+    assert second["input"]["sha256"] == first["input"]["sha256"]
+    assert second["parameters"] == first["parameters"]
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    # the commands of the sections not computed go there too, never into the record folder
+    for cmd in re.findall(r"```bash\n(dampfit analyze .*?)\n```", md):
+        words = shlex.split(cmd)
+        assert Path(words[words.index("--out") + 1]) == again, cmd
 
 
 # ------------------------------------------------------------------------ options

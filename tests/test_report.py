@@ -29,10 +29,12 @@ import pytest
 import dampfit
 from dampfit.output import document as _document
 from dampfit import cli
-from dampfit.files.folder import DEMO_MARKER
+from dampfit.files.folder import DEMO_MARKER, MARKER
 from dampfit.output import figures as plots
-from dampfit.output import text as render
 from dampfit.output import report
+from dampfit.output import text as render
+from dampfit.output.format import interval, own_spread, point
+from dampfit.output.report import single, values
 from dampfit.errors import InputError
 
 from .conftest import REAL
@@ -145,14 +147,14 @@ def test_numbers_come_from_summary(folder, summary):
     md = (folder / "report.md").read_text(encoding="utf-8")
     p = summary["parameters"]
     for text in (html, md):
-        for name in report.MAIN:  # the median with the digits its interval supports
-            assert render.interval(p[name]["q50"], p[name]["q05"], p[name]["q95"])[0] in text, name
-            assert report._interval(p[name]).replace("[", "").split(",")[0] in text
+        for name in values.MAIN:  # the median with the digits its interval supports
+            assert interval(p[name]["q50"], p[name]["q05"], p[name]["q95"])[0] in text, name
+            assert values.bracket(p[name]).replace("[", "").split(",")[0] in text
         # least squares with the posterior's digits, a baseline with those of its own spread
-        assert report._point(summary, "c", summary["least_squares"]["c"]) in text
+        assert values.estimate(summary, "c", summary["least_squares"]["c"]) in text
         for b in summary["baselines"].values():
-            assert render._own_spread(b, "c") in text
-        assert report._num(summary["noise_model"]["psd_ratio_at_f0"]) in text
+            assert own_spread(b.get("c"), b.get("expected_rel_sd")) in text
+        assert values.number(summary["noise_model"]["psd_ratio_at_f0"]) in text
         assert summary["input"]["format"] in text and summary["dampfit_version"] in text
         for unit in ("N s/m", "N/m", "Hz", "1/s", "m/s^2", "kg"):
             assert unit in text, unit
@@ -160,15 +162,15 @@ def test_numbers_come_from_summary(folder, summary):
     table = _section(md, "Result")
     assert "| R-hat | bulk ESS |" in table
     rows = [r for r in table.splitlines() if r.startswith("| ") and "---" not in r][1:6]
-    assert [r.split(" | ")[0][2:] for r in rows] == [_document._md(report.NAMES[n]) for n in report.MAIN]
+    assert [r.split(" | ")[0][2:] for r in rows] == [_document._md(values.NAMES[n]) for n in values.MAIN]
     assert f"{p['c']['r_hat']:.4f}" in rows[0] and f"{p['c']['ess_bulk']:.0f}" in rows[0]
     assert "| sha256 | — |" in md  # an in-memory recording has no file hash
     # the Cramér–Rao bound, when the analysis computed it, beside each posterior sd
     if isinstance(summary.get("crlb"), dict):
         assert "| CRLB sd | sd / CRLB sd |" in table
-        for row, name in zip(rows, report.MAIN):
-            bound = p[name].get("crlb_sd") or report._crlb_sd(summary["crlb"], name)
-            assert f"| {report._num(bound, 3)} | {p[name]['sd'] / bound:.2f} |" in row
+        for row, name in zip(rows, values.MAIN):
+            bound = p[name].get("crlb_sd") or single.crlb_sd(summary["crlb"], name)
+            assert f"| {values.number(bound, 3)} | {p[name]['sd'] / bound:.2f} |" in row
 
 
 def test_absent_optional_sections_say_not_computed(summary, tmp_path):
@@ -239,9 +241,9 @@ def test_optional_sections_present(folder, summary, tmp_path):
         assert "sliding windows of 5 cycles" in text and "0.0197" in text
         assert "0.00015" in text and "0.0125" in text and "0.01887" in text
         assert "Not computed" not in text
-    c_row = next(r for r in md.splitlines() if r.startswith(f"| {report.NAMES['c']}"))
-    assert f"| {report._num(s['crlb']['c'], 3)} | 2.00 |" in c_row  # posterior sd / bound
-    k_row = next(r for r in md.splitlines() if r.startswith(f"| {report.NAMES['k']}"))
+    c_row = next(r for r in md.splitlines() if r.startswith(f"| {values.NAMES['c']}"))
+    assert f"| {values.number(s['crlb']['c'], 3)} | 2.00 |" in c_row  # posterior sd / bound
+    k_row = next(r for r in md.splitlines() if r.startswith(f"| {values.NAMES['k']}"))
     assert "| 1.25 |" in k_row
     assert "amplitude [m]" in html and "p [1/s]" in html  # units from the key suffixes
     assert "c2 [N s^2/m^2]" in html
@@ -289,7 +291,7 @@ def test_verdict_c_equivalent_and_zero_reaching_intervals_are_explained(summary)
     s["parameters"]["Q"].update(q95=None, mean=None, sd=None, reaches_zero=True)
     md = _render(s)[1]
     assert "No decay measured:" in md and "intervals reach 0" in md
-    q_row = next(r for r in md.splitlines() if r.startswith(f"| {report.NAMES['Q']}"))
+    q_row = next(r for r in md.splitlines() if r.startswith(f"| {values.NAMES['Q']}"))
     assert ", ∞)" in q_row
     # the new fields of an edited summary, of any type: rendered, never a crash
     for odd in (5, "x", [1], [None, "a"], {"a": 1}, None, True, float("nan")):
@@ -401,8 +403,9 @@ def test_missing_figures_are_announced(folder, tmp_path):
 def test_report_module_imports_only_the_standard_library():
     import sys
 
-    tree = ast.parse(Path(report.__file__).read_text(encoding="utf-8")
-                     + "\n" + Path(_document.__file__).read_text(encoding="utf-8"))
+    files = sorted(Path(report.__file__).parent.glob("*.py")) + [Path(_document.__file__)]
+    assert len(files) >= 6  # the package's modules, not only its face
+    tree = ast.parse("\n".join(f.read_text(encoding="utf-8") for f in files))
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names = [a.name for a in node.names]
@@ -495,7 +498,7 @@ def test_noise_level_is_defined_once(folder, summary):
     md = (folder / "report.md").read_text(encoding="utf-8")
     nm, crlb = summary["noise_model"], summary["crlb"]
     noise = _section(md, "Noise model")
-    sigma, dens = report._num(nm["sigma"], 3), report._num(crlb["noise_density"], 3)
+    sigma, dens = values.number(nm["sigma"], 3), values.number(crlb["noise_density"], 3)
     assert _count_number(md, sigma) == 1 and _count_number(noise, sigma) == 1
     assert _count_number(md, dens) == 1 and _count_number(noise, dens) == 1
     rows = {r.split(" | ")[0][2:]: r for r in noise.splitlines() if r.startswith("| ")}
@@ -505,7 +508,7 @@ def test_noise_level_is_defined_once(folder, summary):
     assert "m/s^2/sqrt(Hz)" in rows["noise density at f₀"]
     # the CRLB's own per-raw-sample σ is not a second, unlabelled "noise" number
     for digits in (3, 4, 6):
-        assert _count_number(md, report._num(crlb["noise_sigma"], digits)) == 0
+        assert _count_number(md, values.number(crlb["noise_sigma"], digits)) == 0
     # the bound refers to the definition instead of repeating a number
     result = _section(md, "Result")
     assert "noise density at f₀ defined in the section “Noise model”" in result
@@ -530,6 +533,80 @@ def test_reproduce_command_is_absolute_and_quoted(folder, summary, tmp_path, mon
     assert "rel/data.csv was recorded relative to the folder the analysis ran in" in md
 
 
+def test_a_folder_holding_its_input_is_recreated_beside_it(summary, tmp_path):
+    """analyze refuses an --out that holds its input: a folder holding its own input (moved
+    there, or a record folder, wherever it was moved since) gets a command writing beside it."""
+    d = tmp_path / "run"
+    d.mkdir()
+    s = copy.deepcopy(summary)
+    s["input"]["path"] = str(d / "sub" / "rec.csv")  # inside the folder, not a record folder
+    args = shlex.split(report.reproduce_command(s, d))
+    assert args[2] == str(d / "sub" / "rec.csv")
+    assert args[args.index("--out") + 1] == str(tmp_path / "run.reanalysed")
+    _, md = _render(s, d)
+    assert "This folder holds its own input file" in md and "record anew" not in md
+    # a record folder moved away from where it was recorded: its own recording.csv
+    (d / MARKER).write_text(json.dumps({"kind": "record", "dampfit": "0"}))
+    for recorded in ("/elsewhere/decay/recording.csv", "..", None):
+        s["input"]["path"] = recorded
+        args = shlex.split(report.reproduce_command(s, d))
+        assert args[2] == str(d / "recording.csv"), recorded
+        assert args[args.index("--out") + 1] == str(tmp_path / "run.reanalysed")
+    _, md = _render(s, d)
+    assert "This folder holds its own recording (dampfit record wrote it)" in md
+    # any other folder: re-created in place, as before
+    (d / MARKER).write_text(json.dumps({"kind": "analyze", "dampfit": "0"}))
+    s["input"]["path"] = "/data/rec.csv"
+    args = shlex.split(report.reproduce_command(s, d))
+    assert args[2] == "/data/rec.csv" and args[args.index("--out") + 1] == str(d)
+    # a campaign whose inputs lie in its folder
+    from tests.test_campaign_cli import hand_summary
+
+    c = hand_summary(paths=[d / "a.csv", "/data/b.csv", "/data/c.csv"])
+    args = shlex.split(report.campaign_reproduce_command(c, d))
+    assert args[args.index("--out") + 1] == str(tmp_path / "run.reanalysed")
+    c = hand_summary()
+    args = shlex.split(report.campaign_reproduce_command(c, d))
+    assert args[args.index("--out") + 1] == str(d)
+
+
+def test_one_number_is_printed_alike_by_the_tables_and_the_reports(summary):
+    """The one formatter (dampfit.output.format): the text table, the notebook table, the
+    report and a caller of the public functions print a value with the same digits."""
+    s = copy.deepcopy(summary)
+    q = {"q05": 0.1912345, "q50": 0.2001234, "q95": 0.2098765}
+    s["parameters"]["c"].update(q)
+    s["least_squares"]["c"] = 0.20031234
+    med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
+    assert (med, lo, hi) == ("0.200", "0.191", "0.210")  # not six digits: the width's
+    ls = point(0.20031234, q["q05"], q["q95"])
+    assert ls == "0.200" and point(q["q50"], q["q05"], q["q95"]) == med
+    table = render.text(s)
+    row = next(x for x in table.splitlines() if x.lstrip().startswith("c "))
+    assert re.search(rf" {re.escape(med)} +\[ *{re.escape(lo)}, +{re.escape(hi)}\]", row), row
+    assert f"c = {ls}," in next(x for x in table.splitlines() if "least squares" in x)
+    assert f"<td>{med}</td><td>[{lo}, {hi}]</td>" in render.html_table(s)
+    html, md = _render(s)
+    assert f"c = {med} N s/m</strong> (90 % interval [{lo}, {hi}])" in html
+    assert f"c = {med} N s/m** (90 % interval \\[{lo}, {hi}\\])" in md
+    methods = _section(md, "Result")
+    ls_row = next(x for x in methods.splitlines() if x.startswith("| least squares"))
+    assert ls_row.split(" | ")[1].startswith(f"{ls} ± ")
+    for b in s["baselines"].values():  # a baseline: the digits of its own spread
+        if isinstance(b, dict) and b.get("c") is not None:
+            digits = own_spread(b["c"], b.get("expected_rel_sd"))
+            assert digits in table and digits in md
+    # a campaign: the table and its report
+    from tests.test_campaign_cli import hand_summary
+    from dampfit.output.text_campaign import text as campaign_text
+
+    c = hand_summary()
+    pop = c["parameters"]["c"]
+    shown = "{} [{}, {}]".format(*interval(pop["q50"], pop["q05"], pop["q95"]))
+    _, cmd = _render(c)
+    assert shown in campaign_text(c) and shown in cmd.replace("\\[", "[").replace("\\]", "]")
+
+
 def test_mass_without_sd_says_so(summary):
     s = copy.deepcopy(summary)
     for sd in (None, 0.0):
@@ -545,14 +622,14 @@ def test_digits_show_the_interval(summary):
     s["parameters"]["f_n"].update(q05=1.71992, q50=1.72031, q95=1.72068, mean=1.720305)
     html, md = _render(s)
     assert "**f\\_n = 1.72031 Hz** (90 % interval \\[1.71992, 1.72068\\])" in md
-    row = next(r for r in md.splitlines() if r.startswith(f"| {_document._md(report.NAMES['f_n'])}"))
+    row = next(r for r in md.splitlines() if r.startswith(f"| {_document._md(values.NAMES['f_n'])}"))
     assert "| 1.72031 | 1.72030 |" in row and "\\[1.71992, 1.72068\\]" in row
     # every posterior row: median and both ends distinct as printed
-    for name in report.MAIN + report.DERIVED:
+    for name in values.MAIN + values.DERIVED:
         q = s["parameters"][name]
         if q["q05"] < q["q50"] < q["q95"]:
-            lo, hi = report._interval(q)[1:-1].split(", ")
-            assert len({report._median(q), lo, hi}) == 3, name
+            lo, hi = values.bracket(q)[1:-1].split(", ")
+            assert len({values.median(q), lo, hi}) == 3, name
 
 
 def test_amplitude_figures_are_embedded(folder, summary):
@@ -670,5 +747,5 @@ def test_real_recording_report(tmp_path):
     assert "c and k not identified" in md and "not identified" in _section(md, "Result")
     assert "l2LongTheta5.csv" in md and rec.sha256 in md
     f_n = an.summary()["parameters"]["f_n"]  # with the digits its interval supports
-    assert render.interval(f_n["q50"], f_n["q05"], f_n["q95"])[0] in md
+    assert interval(f_n["q50"], f_n["q05"], f_n["q95"])[0] in md
     assert _image_check(d / "report.html", tmp_path) == (len(FIGS), 0)

@@ -230,10 +230,10 @@ class CampaignAnalysis(ResultViews):
 
     # --------------------------------------------------------------- renderings
     def report(self) -> str:
-        """The text table the CLI prints (:func:`dampfit.output.campaign.text`)."""
-        from dampfit.output import campaign
+        """The text table the CLI prints (:func:`dampfit.output.text_campaign.text`)."""
+        from dampfit.output import text_campaign
 
-        return campaign.text(self.summary())
+        return text_campaign.text(self.summary())
 
     def _repr_html_(self) -> str:
         """A short HTML table of the population's headline numbers, for notebooks."""

@@ -10,9 +10,10 @@ Several files (``dampfit analyze FILE FILE… [--mass KG [--mass-sd KG] | --adde
 model, or the added-mass method when ``--added-mass`` gives each recording's known added mass
 [kg], 0 for the bare system). The folder (marker kind ``campaign``) holds summary.json
 (``"kind": "campaign"``), posterior.nc, ``forest.png`` and, with ``--added-mass``,
-``added_mass.png`` (:mod:`dampfit.output.campaign`); no signals.npz. Default ``--out``: the
-first FILE's name + ``.campaign.dampfit`` in the current folder. Every input file is protected
-like the one input of a single analysis (``--out`` may not be or hold the folder of any of them).
+``added_mass.png`` (:mod:`dampfit.output.campaign`); no signals.npz; the table it prints is
+:mod:`dampfit.output.text_campaign`. Default ``--out``: the first FILE's name +
+``.campaign.dampfit`` in the current folder. Every input file is protected like the one input
+of a single analysis (``--out`` may not be or hold the folder of any of them).
 Refused before any work, one line, exit 2, nothing written: ``--added-mass`` with a count other
 than the number of files, ``--added-mass`` together with ``--mass`` (the added-mass method
 estimates the effective mass m₀ itself), ``--added-mass-sd`` without ``--added-mass``, a file
@@ -235,7 +236,7 @@ def _read_named(read, path: str, opts: dict):
 
 def _print_campaign(an, out: Path, as_json: bool) -> None:
     """The campaign table (or its summary.json) on stdout; not converged: a warning on stderr."""
-    from dampfit.output import campaign as render
+    from dampfit.output import text_campaign
 
     s = an.summary()
     if as_json:
@@ -243,7 +244,7 @@ def _print_campaign(an, out: Path, as_json: bool) -> None:
 
         print(json.dumps(s, indent=2))
     else:
-        print(render.text(s))
+        print(text_campaign.text(s))
         extras = "".join(f", {name}" for name in ("forest.png", "added_mass.png", "report.html")
                          if (out / name).exists())
         print(f"\n  written to {out}/ (summary.json, posterior.nc{extras})")

@@ -4,23 +4,26 @@ Only the summary dict is read here, so anything that has a ``summary.json`` can 
 again without re-running the analysis.
 
 Honest digits: a value printed with its 90 % interval gets its digits from the interval's
-width — enough decimals that the width shows two significant digits (:func:`interval`), so a
-narrow interval is never printed as ``1.72 [1.72, 1.72]`` and a wide one does not pretend to
-six digits. Every quantity a line names is printed with its value (ζ_eq of a non-viscous law
-too), a baseline that rests on too few cycles or disagrees with the posterior beyond its
-expected spread is marked as such, and a mass without a standard deviation says so instead of
-printing ``± 0``.
+width — enough decimals that the width shows two significant digits, so a narrow interval is
+never printed as ``1.72 [1.72, 1.72]`` and a wide one does not pretend to six digits: the one
+formatter :mod:`dampfit.output.format`, which the reports use too (a least-squares value gets
+its posterior's digits, a baseline those of its own expected spread). Every quantity a line
+names is printed with its value (ζ_eq of a non-viscous law too), a baseline that rests on too
+few cycles or disagrees with the posterior beyond its expected spread is marked as such, and a
+mass without a standard deviation says so instead of printing ``± 0``.
+
+The campaign's table is :mod:`dampfit.output.text_campaign`.
 """
 
 from __future__ import annotations
 
 import html
-import math
 from typing import Any
 
+from dampfit.output.format import interval, own_spread, point
 from dampfit.physics import UNITS
 
-__all__ = ["headline", "html_table", "interval", "text"]
+__all__ = ["headline", "html_table", "text"]
 
 #: Row label of each posterior quantity: name and unit (:data:`dampfit.physics.UNITS`).
 _LABELS = {name: f"{name:6s} [{UNITS[name]}]"
@@ -36,52 +39,6 @@ def _f(x: Any, fmt: str) -> str:
     return "—" if x is None else format(x, fmt)
 
 
-def _decimals(lo: Any, hi: Any) -> int | None:
-    """Decimals that show the width |hi − lo| with two significant digits (None: no width;
-    negative: the last significant digit lies left of the point)."""
-    try:
-        width = abs(float(hi) - float(lo))
-    except (TypeError, ValueError):
-        return None
-    if not (math.isfinite(width) and width > 0):
-        return None
-    return 1 - math.floor(math.log10(width))  # negative for widths ≥ 100
-
-
-def _fixed(x: Any, dec: int | None, scale: float | None = None) -> str:
-    """``x`` with ``dec`` decimals; in scientific notation with the same absolute precision
-    when ``scale`` (the largest magnitude printed alongside, default |x|) is below 10⁻⁴ or
-    above 10⁹, where fixed point gets unwieldy.
-
-    In scientific notation every number has its own exponent (a normalised mantissa), with
-    as many mantissa digits as the absolute precision 10^−dec allows and at least one: 4·10⁻⁶
-    beside an upper bound of 2·10⁻⁵ prints as ``4e-06``, never ``0.4e-05``."""
-    if x is None:
-        return "—"
-    x = float(x)
-    if dec is None or not math.isfinite(x):
-        return _g(x, 6)
-    scale = abs(x) if scale is None else scale
-    if scale >= 1e9 or 0 < scale < 1e-4:
-        if x == 0:
-            return "0"
-        digits = max(0, math.floor(math.log10(abs(x))) + dec)
-        return f"{x:.{digits}e}"
-    return f"{x:.{max(0, dec)}f}"
-
-
-def interval(q50: Any, q05: Any, q95: Any) -> tuple[str, str, str]:
-    """(median, q05, q95) as strings with digits chosen from the interval width (module
-    docstring): ``interval(1.72031, 1.71992, 1.72068)`` → ``("1.72031", "1.71992", "1.72068")``;
-    ``interval(0.062, 0.019, 0.28)`` → ``("0.06", "0.02", "0.28")``. Without a width (missing
-    or zero) six significant digits."""
-    dec = _decimals(q05, q95)
-    vals = [abs(float(v)) for v in (q50, q05, q95)
-            if isinstance(v, (int, float)) and math.isfinite(v)]
-    scale = max(vals) if vals else None
-    return _fixed(q50, dec, scale), _fixed(q05, dec, scale), _fixed(q95, dec, scale)
-
-
 def _with_interval(q: dict[str, Any]) -> str:
     """``median [q05, q95]`` of a summary dict with honest digits."""
     m, lo, hi = interval(q.get("q50"), q.get("q05"), q.get("q95"))
@@ -91,19 +48,13 @@ def _with_interval(q: dict[str, Any]) -> str:
 def _like_posterior(s: dict[str, Any], name: str, x: Any) -> str:
     """A point estimate of ``name`` with the digits of its posterior interval (else 6 sig.)."""
     q = (s.get("parameters") or {}).get(name) or {}
-    dec = _decimals(q.get("q05"), q.get("q95"))
-    if dec is None:
-        return _g(x, 6)
-    return _fixed(x, dec, max(abs(float(x)), abs(float(q["q95"])), abs(float(q["q05"]))))
+    return point(x, q.get("q05"), q.get("q95"))
 
 
 def _own_spread(b: dict[str, Any], name: str) -> str:
     """A baseline's value with the digits of its own expected 90 % spread
-    (± 1.645·expected_rel_sd), so it shows no more precision than it has (else 6 sig.)."""
-    x, rel = b.get(name), b.get("expected_rel_sd")
-    if x is None or rel is None or not math.isfinite(rel):
-        return _g(x, 6)
-    return _fixed(x, _decimals(0.0, 2 * 1.645 * rel * abs(float(x))))
+    (:func:`dampfit.output.format.own_spread`)."""
+    return own_spread(b.get(name), b.get("expected_rel_sd"))
 
 
 def _baseline_mark(b: dict[str, Any]) -> str:
@@ -179,6 +130,29 @@ def _backbone_lines(s: dict) -> list[str]:
 
 def text(s: dict[str, Any]) -> str:
     """A readable multi-line table of a summary dict."""
+    lines = _head_lines(s) + [""] + _posterior_lines(s) + [""] + _estimate_lines(s)
+    nm = s["noise_model"]
+    lines.append(
+        f"  noise           sigma = {nm['sigma']:.3g} m/s^2 per sample at {nm['sample_rate_hz']:.4g} Hz, "
+        f"spectral factor r = {nm['psd_ratio_at_f0']:.3g}"
+    )
+    if isinstance(s.get("model_checks"), dict):
+        lines.append(_damping_law_line(s))
+        lines.extend(_backbone_lines(s))
+    d = s["diagnostics"]
+    state = "yes" if d["converged"] else "NO"
+    lines.append(
+        f"  converged       {state} (max R-hat {_f(d['max_r_hat'], '.4f')}, min bulk ESS "
+        f"{_f(d['min_ess_bulk'], '.0f')}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
+    )
+    if d["warnings"]:
+        lines.append("")
+        lines += [f"  WARNING: {w}" for w in d["warnings"]]
+    return "\n".join(lines)
+
+
+def _head_lines(s: dict[str, Any]) -> list[str]:
+    """Input, window, band and mass."""
     inp, win, band = s["input"], s["window"], s["band"]
     lines = [
         f"dampfit {s['dampfit_version']} — {inp['path'] or '(array)'}",
@@ -198,7 +172,13 @@ def text(s: dict[str, Any]) -> str:
         lines.append(f"  mass {m['value']:.6g} ± {m['sd']:.3g} kg")
     else:
         lines.append(f"  mass {m['value']:.6g} kg (sd not given)")
-    lines += ["", f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} {'R-hat':>7s} {'ESS':>6s}"]
+    return lines
+
+
+def _posterior_lines(s: dict[str, Any]) -> list[str]:
+    """The posterior table: median, 90 % interval (honest digits), sd, R-hat, ESS."""
+    lines = [f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} "
+             f"{'R-hat':>7s} {'ESS':>6s}"]
     for name in ("c", "k", "u0", "zeta", "f_n", "p"):
         q = s["parameters"].get(name)
         if q is None:
@@ -209,8 +189,13 @@ def text(s: dict[str, Any]) -> str:
             f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
             + ("   reaches 0: no decay measured" if q.get("reaches_zero") is True else "")
         )
+    return lines
+
+
+def _estimate_lines(s: dict[str, Any]) -> list[str]:
+    """Least squares (with the posterior's digits) and the baselines (with their own)."""
     ls = s["least_squares"]
-    lines += ["", "  least squares   " + ", ".join(
+    lines = ["  least squares   " + ", ".join(
         f"{k} = {_like_posterior(s, k, ls.get(k))}" for k in ("c", "k", "u0", "zeta", "f_n")
         if ls.get(k) is not None
     ) + ("" if ls["converged"] else "   (NOT converged)")]
@@ -222,63 +207,51 @@ def text(s: dict[str, Any]) -> str:
         extra = f" over {b['n_cycles']} cycles" if b.get("n_cycles") else ""
         lines.append(f"  {label:15s} c = {_own_spread(b, 'c')}, zeta = {_own_spread(b, 'zeta')}"
                      f"{extra}{_baseline_mark(b)}")
-    nm = s["noise_model"]
-    lines.append(
-        f"  noise           sigma = {nm['sigma']:.3g} m/s^2 per sample at {nm['sample_rate_hz']:.4g} Hz, "
-        f"spectral factor r = {nm['psd_ratio_at_f0']:.3g}"
-    )
-    mc = s.get("model_checks")
-    if isinstance(mc, dict):
-        amp = mc.get("amplitude_dependence") or {}
-        verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
-        pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
-        law = mc.get("verdict_law") or (mc.get("preferred_model") if "verdict_law" not in mc
-                                        else None)
-        reasons = mc.get("verdict_reasons")
-        first = reasons[0] if isinstance(reasons, list) and reasons and isinstance(
-            reasons[0], str) else None
-        line = "  damping law     " + {
-            "adequate": (f"viscous adequate ({first}; {pv})" if first and first.startswith(
-                "no amplitude dependence") else f"viscous adequate (no amplitude dependence, {pv})"),
-            "amplitude-dependent": (f"{law} preferred (amplitude-dependent, {pv})" if law else
-                                    f"amplitude-dependent; no damping law describes it reliably "
-                                    f"({pv})"),
-            "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
-            "inconclusive": (f"inconclusive: {first or 'the evidence is too weak either way'} "
-                             f"({pv}, {mc.get('preferred_model')} fits best)"),
-        }.get(verdict, f"{verdict} ({pv})")
-        ceq = s.get("c_equivalent")
-        why = (s.get("missing") or {}).get("c_equivalent") if isinstance(
-            s.get("missing"), dict) else None
-        if ceq is None and isinstance(why, str):
-            line += f"\n  c_equivalent    not given: {why}"
-        if isinstance(ceq, dict):
-            extra = ""
-            if ceq.get("extrapolated") is True:
-                rng = ceq.get("recorded_amplitude_range_m")
-                ok = isinstance(rng, list) and len(rng) == 2 and all(
-                    isinstance(x, (int, float)) and not isinstance(x, bool) for x in rng)
-                extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
-                         if ok else ", EXTRAPOLATED beyond the recorded amplitudes")
-            where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
-                     f"amplitude{extra}){_law_state(s, ceq['model'])}")
-            if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
-                line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
-                where = ""
-            if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
-                line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()
-        lines.append(line)
-        lines.extend(_backbone_lines(s))
-    d = s["diagnostics"]
-    state = "yes" if d["converged"] else "NO"
-    lines.append(
-        f"  converged       {state} (max R-hat {_f(d['max_r_hat'], '.4f')}, min bulk ESS "
-        f"{_f(d['min_ess_bulk'], '.0f')}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
-    )
-    if d["warnings"]:
-        lines.append("")
-        lines += [f"  WARNING: {w}" for w in d["warnings"]]
-    return "\n".join(lines)
+    return lines
+
+
+def _damping_law_line(s: dict[str, Any]) -> str:
+    """The damping-law verdict, and the equivalent viscous c (or why it is not given)."""
+    mc = s["model_checks"]
+    amp = mc.get("amplitude_dependence") or {}
+    verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
+    pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
+    law = mc.get("verdict_law") or (mc.get("preferred_model") if "verdict_law" not in mc
+                                    else None)
+    reasons = mc.get("verdict_reasons")
+    first = reasons[0] if isinstance(reasons, list) and reasons and isinstance(
+        reasons[0], str) else None
+    line = "  damping law     " + {
+        "adequate": (f"viscous adequate ({first}; {pv})" if first and first.startswith(
+            "no amplitude dependence") else f"viscous adequate (no amplitude dependence, {pv})"),
+        "amplitude-dependent": (f"{law} preferred (amplitude-dependent, {pv})" if law else
+                                f"amplitude-dependent; no damping law describes it reliably "
+                                f"({pv})"),
+        "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
+        "inconclusive": (f"inconclusive: {first or 'the evidence is too weak either way'} "
+                         f"({pv}, {mc.get('preferred_model')} fits best)"),
+    }.get(verdict, f"{verdict} ({pv})")
+    ceq = s.get("c_equivalent")
+    why = (s.get("missing") or {}).get("c_equivalent") if isinstance(
+        s.get("missing"), dict) else None
+    if ceq is None and isinstance(why, str):
+        line += f"\n  c_equivalent    not given: {why}"
+    if isinstance(ceq, dict):
+        extra = ""
+        if ceq.get("extrapolated") is True:
+            rng = ceq.get("recorded_amplitude_range_m")
+            ok = isinstance(rng, list) and len(rng) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) for x in rng)
+            extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
+                     if ok else ", EXTRAPOLATED beyond the recorded amplitudes")
+        where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
+                 f"amplitude{extra}){_law_state(s, ceq['model'])}")
+        if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
+            line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
+            where = ""
+        if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
+            line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()
+    return line
 
 
 def _rows(s: dict[str, Any]) -> list[tuple[str, str, str, str]]:

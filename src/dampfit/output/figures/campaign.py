@@ -20,10 +20,10 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dampfit.output.campaign import labels
+from dampfit.output.text_campaign import labels
 from dampfit.output.figures import layout as L
 from dampfit.output.figures.png import save_png
-from dampfit.output.text import interval
+from dampfit.output.format import interval
 from dampfit.physics import UNITS
 from dampfit.result.folder import real
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from dampfit.output.figures import layout as L
 from dampfit.output.figures.data import LABELS, MissingData, as_data, label
-from dampfit.output.text import interval
+from dampfit.output.format import interval
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
