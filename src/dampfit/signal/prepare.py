@@ -15,6 +15,9 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    the median rate, for the spectrum, filters and window detection only; the grid never has
    more than ``GRID_FACTOR`` × the samples (memory follows the samples, not the time span).
    The model itself is fitted at the *recorded* sample times when no decimation is needed.
+   Stamps that scatter around a steady sample clock while the signal follows the clock (a
+   phone stamping samples on arrival) are detected and the samples placed on that clock
+   (:mod:`dampfit.signal.clock`); stamps that are right are kept.
 4. **Axis** — ``x|y|z`` picks a column; ``auto`` projects the axes on the first principal
    direction of the band-passed signal (the oscillation direction, whatever the tilt).
 5. **Clipping and impact spikes** — samples at a saturated level and isolated spikes
@@ -42,7 +45,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import interpolate, ndimage, signal
 
-from dampfit.signal import filters
+from dampfit.signal import clock, filters
 from dampfit.model import viscous as model
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary, time_segments
@@ -104,6 +107,9 @@ class Prepared:
     n_spikes: int
     notes: tuple[str, ...] = field(default_factory=tuple)
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    #: the sample-clock test (:meth:`dampfit.signal.clock.ClockCheck.summary`); ``time`` holds
+    #: the clock's times when ``moved``
+    timing: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -434,12 +440,22 @@ def prepare(
             f"the free-decay window {w0:.3f}–{w1:.3f} s holds only {(w1 - w0) * f0:.1f} cycles "
             f"of {f0:.3g} Hz; at least {MIN_CYCLES:g} are needed (give --window START END?)"
         )
+    # the free decay decides whether the samples follow their stamps or a steady clock
+    timing = clock.check(t, y, usable & (t >= w0) & (t <= w1), grid, bp, f0)
+    if timing.moved:  # on the clock: rebuild the grid and its filtered signals
+        t = timing.time
+        notes.append(timing.note())
+        grid, graw = _to_grid(t, a, fs)
+        yg = graw @ d if usable.all() else _inpaint_on_grid(grid, t, y, usable)
+        bp = filters.bandpass(yg, fs, bnd)
+        env = np.abs(signal.hilbert(bp))
     return Prepared(
         time=t, signal=y, usable=usable, axis=axis, direction=direction, fs=fs, jitter=jitter,
         grid=grid, grid_signal=yg, grid_raw=graw, bandpassed=bp, envelope=env, freqs=freqs,
         amplitude=amp, f0=f0, band=bnd, band_auto=band is None, window=(w0, w1),
         window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
+        timing=timing.summary(),
     )
 
 

@@ -88,7 +88,7 @@ __all__ = ["CAMPAIGN_AXES", "CAMPAIGN_KEYS", "FIELDS", "MAX_RUNS", "StudyConfig"
 #: Simulator fields a study may set, with their kind: float, int, bool, str or bias.
 FIELDS: dict[str, str] = {
     "f_n": "float", "zeta": "float", "u0": "float", "duration": "float", "sample_rate": "float",
-    "jitter": "float", "gaps": "int", "noise_density": "float", "bias": "bias", "drift": "float",
+    "jitter": "float", "timestamp_jitter": "float", "gaps": "int", "noise_density": "float", "bias": "bias", "drift": "float",
     "quantization": "float", "tilt_deg": "float", "azimuth_deg": "float", "main_axis": "str",
     "gravity": "bool", "handheld": "float", "catch": "bool",
 }
