@@ -54,6 +54,9 @@ __all__ = ["KAPPA_Z", "KAPPA_MIN", "ClockCheck", "steady_clock", "check"]
 KAPPA_Z = 4.0
 #: … and this fraction of the stamp deviation [1] must be timing error.
 KAPPA_MIN = 0.5
+#: Stamps within this fraction of a step [1] of the clock are regular (rounding, not timing
+#: error): nothing to test.
+REGULAR = 1e-4
 #: Fewest usable samples [1] for the test.
 MIN_SAMPLES = 64
 
@@ -107,7 +110,7 @@ def check(t: np.ndarray, y: np.ndarray, usable: np.ndarray, grid: np.ndarray,
     delta = t - steady_clock(t)
     rms = float(np.sqrt(np.mean(delta**2)))
     sel = usable & (t >= grid[0]) & (t <= grid[-1])
-    if rms == 0 or sel.sum() < MIN_SAMPLES:
+    if rms < REGULAR * float(np.median(np.diff(t))) or sel.sum() < MIN_SAMPLES:
         return ClockCheck(0.0, float("inf"), rms, False, t)
     s = interpolate.make_interp_spline(grid, bandpassed, k=3)(t[sel])
     quadrature = np.imag(signal.hilbert(bandpassed))
