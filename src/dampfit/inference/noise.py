@@ -74,8 +74,11 @@ __all__ = ["NoiseModel", "estimate", "white_ratio", "path_gain", "projection_dep
            "sensor_density", "expected_sigma", "misfit_check", "R_FLOOR", "R_WARN",
            "RESID_FRACTION", "NOISE_EXCESS"]
 
-#: Smallest calibration factor used (a guard; r below ≈ 0.3 is not seen on real or simulated data).
-R_FLOOR = 0.2
+#: Smallest calibration factor used [1], a numerical guard (temper ≤ 100). In the calibrated
+#: mode r falls below 1 when slow drift below f₀/2 carries much of the residual variance
+#: (0.53 on paper/calibration.py's drift scenario; 0.07 with a drift 14× the noise power);
+#: the plain mode never goes below r_white ≥ 1.
+R_FLOOR = 0.01
 #: r_raw/r_white above this signals structure at f₀ (misfit, a second mode or red noise).
 R_WARN = 3.0
 #: Residual rms / fitted signal rms [1] above which the residual is "large" …

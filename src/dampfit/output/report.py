@@ -79,7 +79,7 @@ LABELS = {"mae": "MAE", "mse": "MSE", "nmse": "NMSE", "rmse": "RMSE", "r_hat": "
           "ess_bulk": "bulk ESS", "max_r_hat": "max R-hat", "min_ess_bulk": "min bulk ESS",
           "autocorr_time_steps": "integrated autocorrelation time", "n_steps": "steps",
           "psd_ratio_at_f0": "Whittle factor r (PSD ratio at f₀)",
-          "psd_ratio_at_f0_unclipped": "r before the floor at its white-noise value (noise.estimate)",
+          "psd_ratio_at_f0_unclipped": "r as measured (plain Welch ratio), before its calibration (noise.estimate)",
           "residual_lag1_autocorrelation": "residual lag-1 autocorrelation", "sigma": "σ",
           "converged": "converged (least squares and posterior)",
           "posterior_converged": "posterior converged", "burn_in": "burn-in",
@@ -655,8 +655,9 @@ def _noise(s: dict) -> list[Block]:
                      "is tempered by 1/r, which widens the intervals accordingly"])
     raw = nm.get("psd_ratio_at_f0_unclipped")
     if _isnum(raw) and _isnum(r) and abs(raw - r) > 1e-9 * abs(r):
-        rows.append(["r before its floor", _num(raw, 3), "1",
-                     "r as measured, before it was floored at its white-noise value"])
+        rows.append(["r as measured", _num(raw, 3), "1",
+                     "the plain Welch ratio, before the correction for what the fit itself "
+                     "removes near f₀ and the floor at the residual's white level above f₀/2"])
     if _isnum(nm.get("psd_ratio_expected_for_white_noise")):
         rows.append(["r for white noise", _num(nm["psd_ratio_expected_for_white_noise"], 3), "1",
                      "the r that white sensor noise alone would give on this signal path"])
