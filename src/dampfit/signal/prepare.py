@@ -63,8 +63,14 @@ SPIKE_SIGMA = 8.0
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
-#: maximum; resolves bias drift up to ≈ f₀/8 while staying orthogonal to the oscillation.
-DRIFT_CYCLES_PER_DEGREE, MAX_DRIFT_DEGREE = 4.0, 24
+#: maximum. Legendre polynomials up to degree N follow a sinusoid of up to ≈ N/π cycles over
+#: the window, so one degree per 2.5 cycles absorbs bias drift up to ≈ f₀/(2.5π) ≈ f₀/8, still
+#: far from the oscillation. (One per 4 cycles, capped at 24, absorbed only up to f₀/12.6, f₀/15
+#: on a 36 s, 3.3 Hz window: the drift left between that and f₀/10 leaked into the estimates of
+#: ω_d and p through the window's edges — 0.5–0.8 posterior sd on the simulator's phone preset,
+#: 90 % intervals of ω_d covering 82 % — while it inflated the residual variance, which the
+#: noise calibration rightly does not count as information about the decay.)
+DRIFT_CYCLES_PER_DEGREE, MAX_DRIFT_DEGREE = 2.5, 48
 #: Settling time of the decimation low-pass, in periods of its cut-off frequency.
 SETTLE_PERIODS = 3.0
 #: A masked run bridged over more than this fraction of a period is excluded from the
