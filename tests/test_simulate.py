@@ -124,6 +124,34 @@ def test_jitter_cv_matches_config():
     assert regular.n_samples == 5000
 
 
+def test_timestamp_jitter_moves_the_stamps_not_the_samples():
+    """With timestamp_jitter the recording carries stamps off their samples' true times by
+    independent errors (sd = the fraction of the interval), still strictly increasing; the
+    acceleration is that of the true, regular times."""
+    cfg = SimulationConfig(**CLEAN, timestamp_jitter=0.08, seed=5)
+    rec, truth = simulate_recording(cfg)
+    exact, truth0 = simulate_recording(dataclasses.replace(cfg, timestamp_jitter=0.0))
+    np.testing.assert_array_equal(rec.accel, exact.accel)
+    err = rec.time - exact.time
+    assert np.std(err) * cfg.sample_rate == pytest.approx(0.08, rel=0.05)
+    assert np.all(np.abs(err) <= 0.45 / cfg.sample_rate + 1e-12)
+    assert np.all(np.diff(rec.time) > 0)
+    # consecutive intervals anti-correlated, as stamp errors make them
+    d = np.diff(rec.time)
+    assert np.corrcoef(d[:-1], d[1:])[0, 1] == pytest.approx(-0.5, abs=0.05)
+    assert truth["config"]["timestamp_jitter"] == 0.08 and truth["c"] == truth0["c"]
+
+
+def test_timestamp_jitter_limits():
+    from dampfit.simulate import check_limits
+
+    with pytest.raises(InputError, match="timestamp_jitter must not be negative"):
+        SimulationConfig(timestamp_jitter=-0.01)
+    with pytest.raises(InputError, match=r"timestamp_jitter must be a fraction of the sample "
+                                          r"interval in \[0, 0.3\], got 0.5"):
+        check_limits(SimulationConfig(timestamp_jitter=0.5))
+
+
 def test_gaps_remove_samples():
     rec, _ = simulate_recording(SimulationConfig(**CLEAN, gaps=5, seed=4))
     big = np.diff(rec.time) > 1.5 / 500.0

@@ -12,6 +12,10 @@ with envelope amplitude ``U = u0·ω_n/ω_d`` and phase ``φ = atan(p/ω_d)``. (
 ansatz ``u = e^{−pτ}(A cos ω_d τ + B sin ω_d τ)`` solves the ODE; ``u(0) = u0`` gives
 ``A = u0`` and ``u̇(0) = −pA + ω_d B = 0`` gives ``B = p·u0/ω_d``.) It is evaluated exactly at
 the irregular sample times, so jitter and gaps are in the time stamps, not in the physics.
+With ``timestamp_jitter`` the recording's time stamps are *not* the sample times: each stamp is
+the sample time plus an independent error — a phone stamps a sample when the operating system
+receives it, while the sensor samples on its own steady clock — and an analysis that reads the
+stamps as given sees every sample at a slightly wrong time.
 
 A phone/MEMS recording adds, in the phone frame (axes x, y, z):
 
@@ -107,7 +111,14 @@ class SimulationConfig:
     sample_rate : float
         Nominal sample rate [Hz].
     jitter : float
-        Coefficient of variation of the sample interval [1].
+        Coefficient of variation of the sample interval [1] (the samples are taken at these
+        irregular times, and stamped with them).
+    timestamp_jitter : float
+        Standard deviation of each time stamp's error, as a fraction of the nominal interval
+        1/sample_rate [1] (independent errors, truncated at ±0.45 of the neighbouring
+        intervals so the stamps stay in order): the samples are taken at their true times and
+        the recording carries the true times plus these errors (8 % gives an interval CV of
+        ≈ 11 %). 0 for exact stamps.
     gaps : int
         Number of gaps of a few (2–10) missing samples each.
     noise_density : float
@@ -142,6 +153,7 @@ class SimulationConfig:
     duration: float = 60.0
     sample_rate: float = 500.0
     jitter: float = 0.0
+    timestamp_jitter: float = 0.0
     gaps: int = 0
     noise_density: float = 150.0
     flicker: float = 0.0
@@ -161,8 +173,8 @@ class SimulationConfig:
         check_mass(self.mass)
         for name in ("k", "sample_rate", "duration"):
             _require_number(self, name, positive=True)
-        for name in ("c", "u0", "jitter", "noise_density", "flicker", "drift", "quantization",
-                     "handheld"):
+        for name in ("c", "u0", "jitter", "timestamp_jitter", "noise_density", "flicker", "drift",
+                     "quantization", "handheld"):
             _require_number(self, name, positive=False)
         for name in ("tilt_deg", "azimuth_deg"):
             _require_number(self, name, positive=None)
@@ -261,6 +273,9 @@ MIN_SAMPLES = 16
 MAX_U0 = 100.0
 MAX_NOISE_DENSITY = 1e6
 MAX_ACCEL = 1e4
+#: Largest time-stamp error sd [1 = one nominal interval] simulated: beyond it most errors would
+#: be truncated to keep the stamps in order.
+MAX_TIMESTAMP_JITTER = 0.3
 
 
 def check_limits(cfg: SimulationConfig) -> None:
@@ -269,7 +284,8 @@ def check_limits(cfg: SimulationConfig) -> None:
     The one check shared by ``dampfit simulate`` and ``dampfit study`` (each scenario):
     mass ≤ :data:`MAX_MASS` [kg]; duration × sample rate between
     :data:`MIN_SAMPLES` and :data:`MAX_SIM_SAMPLES` samples (memory); sample rate
-    ≤ :data:`MAX_SAMPLE_RATE` [Hz]; natural frequency below Nyquist; jitter in [0, 1]; tilt
+    ≤ :data:`MAX_SAMPLE_RATE` [Hz]; natural frequency below Nyquist; jitter in [0, 1];
+    timestamp_jitter in [0, :data:`MAX_TIMESTAMP_JITTER`]; tilt
     in [−90°, 90°]; u0 ≤ :data:`MAX_U0` [m]; noise densities ≤ :data:`MAX_NOISE_DENSITY`
     [µg/√Hz]; |bias|, drift and quantization ≤ :data:`MAX_ACCEL` [m/s²]; the gaps must fit
     into the recording. Raises :class:`InputError` (one line naming the option).
@@ -292,6 +308,9 @@ def check_limits(cfg: SimulationConfig) -> None:
                          f"{cfg.sample_rate / 2:g} Hz of sample_rate {cfg.sample_rate:g} Hz")
     if not 0 <= cfg.jitter <= 1:
         raise InputError(f"jitter must be a coefficient of variation in [0, 1], got {cfg.jitter:g}")
+    if not 0 <= cfg.timestamp_jitter <= MAX_TIMESTAMP_JITTER:
+        raise InputError(f"timestamp_jitter must be a fraction of the sample interval in "
+                         f"[0, {MAX_TIMESTAMP_JITTER:g}], got {cfg.timestamp_jitter:g}")
     if abs(cfg.tilt_deg) > 90:
         raise InputError(f"tilt_deg must be an angle in [-90, 90] degrees, got {cfg.tilt_deg:g}")
     if abs(cfg.azimuth_deg) > 360:
@@ -435,6 +454,18 @@ def _sample_times(rng: np.random.Generator, cfg: SimulationConfig) -> np.ndarray
     return t[t < cfg.duration - 1e-6 * dt0]
 
 
+def _stamps(rng: np.random.Generator, t: np.ndarray, cfg: SimulationConfig) -> np.ndarray:
+    """Time stamps [s] of samples taken at ``t`` [s]: ``t`` plus independent normal errors of
+    sd ``timestamp_jitter``/sample_rate, each truncated at ±0.45 of the shorter neighbouring
+    interval (so the stamps stay strictly increasing); ``t`` itself without timestamp jitter."""
+    if cfg.timestamp_jitter == 0 or t.size < 2:
+        return t
+    err = cfg.timestamp_jitter / cfg.sample_rate * rng.standard_normal(t.size)
+    step = np.diff(t)
+    room = 0.45 * np.minimum(np.concatenate([[step[0]], step]), np.concatenate([step, [step[-1]]]))
+    return t + np.clip(err, -room, room)
+
+
 def _remove_gaps(rng: np.random.Generator, t: np.ndarray, gaps: int) -> np.ndarray:
     """``t`` [s] with ``gaps`` runs of a few samples removed (never the first or last ones)."""
     if gaps == 0:
@@ -511,8 +542,9 @@ def recording(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
     if not isinstance(config, SimulationConfig):
         raise InputError(f"recording() needs a SimulationConfig, got {type(config).__name__}")
     cfg = config
-    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(6)]
-    rng_time, rng_gaps, rng_tremor, rng_drift, rng_noise, rng_flicker = streams
+    # a seventh stream for the stamp errors: spawn(7)'s first six children are spawn(6)'s
+    streams = [np.random.default_rng(s) for s in np.random.SeedSequence(cfg.seed).spawn(7)]
+    rng_time, rng_gaps, rng_tremor, rng_drift, rng_noise, rng_flicker, rng_stamp = streams
 
     t = _remove_gaps(rng_gaps, _sample_times(rng_time, cfg), cfg.gaps)
     t_release = cfg.handheld
@@ -546,7 +578,7 @@ def recording(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
         accel = np.round(accel / cfg.quantization) * cfg.quantization
 
     recording = Recording(
-        time=t,
+        time=_stamps(rng_stamp, t, cfg),
         accel=accel,
         axes=_AXES,
         format="simulated",

@@ -163,9 +163,11 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
         )
     if not ls.converged:
         warns.append(f"least squares did not converge ({ls.message})")
-    # r floored at its white-noise value on this path: intervals only widen (dampfit.inference.noise)
+    # r calibrated at f0: corrected for the fit's own projection, floored at the white level of
+    # the residual above f0/2 (dampfit.inference.noise)
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
-                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0))
+                        white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0),
+                        jacobian=ls.jacobian, sos=fd.lowpass_sos, fs_filter=fd.fs_filter)
     return FitStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, warnings=warns)
 
 

@@ -476,6 +476,37 @@ def _start(data, added: bool, rng, n_walkers: int) -> np.ndarray:
     return np.concatenate([loc, ln_tau], axis=1)
 
 
+def _to_hyper(x: np.ndarray, data, shared: bool) -> np.ndarray:
+    """φ rows (N, k) from sampler coordinates x (N, k or k − 1 under M₀ ``shared``) of
+    (C8); ln τ_ω = −inf under M₀."""
+    import jax
+    import jax.numpy as jnp
+
+    from dampfit.campaign import model
+
+    x = np.asarray(x, dtype=float)
+    if shared:
+        x = np.concatenate([x, np.full((x.shape[0], 1), -np.inf)], axis=1)
+    with jax.enable_x64(True):
+        phi = jax.vmap(lambda row: model.to_hyper(row, data)[0])(jnp.asarray(x))
+    out = np.array(phi)
+    if shared:
+        out[:, -1] = -np.inf
+    return out
+
+
+def _to_sampler(phi: np.ndarray, data, shared: bool) -> np.ndarray:
+    """Sampler coordinates (C8) of φ rows (N, k); under M₀ (``shared``) without ln τ_ω,
+    whatever φ's last entry (M₁'s walkers seed M₀)."""
+    from dampfit.campaign import model
+
+    phi = np.array(phi, dtype=float)
+    if shared:
+        phi[:, -1] = -np.inf
+    x = model.from_hyper(phi, data)
+    return x[:, :-1] if shared else x
+
+
 def _laplace_start(target, data, candidates: np.ndarray, rng) -> np.ndarray:
     """Walkers (len(candidates), k) drawn from the Laplace approximation N(φ*, −H⁻¹) of the
     log posterior ``target`` (a batched model function of :mod:`dampfit.campaign.model`),
@@ -544,14 +575,14 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
     from dampfit.inference import posterior
 
     ndim = len(model.hyper_names(added)) - (1 if shared else 0)
-    target = model.log_posterior_shared if shared else model.log_posterior
+    target = model.sampler_log_posterior(shared)  # non-centred levels (C8)
 
-    def log_prob(phis: np.ndarray) -> np.ndarray:  # inside jax.enable_x64(True)
-        return np.asarray(target(jnp.asarray(phis, dtype=jnp.float64), data))
+    def log_prob(xs: np.ndarray) -> np.ndarray:  # inside jax.enable_x64(True)
+        return np.asarray(target(jnp.asarray(xs, dtype=jnp.float64), data))
 
     sampler = _ensemble(ndim, log_prob, rng)
     if start is None:
-        start = _start(data, added, rng, sampler.nwalkers)
+        start = _to_sampler(_start(data, added, rng, sampler.nwalkers), data, shared)
     start = start[:, :ndim]
     bar = progress_bar(max_steps, "campaign posterior (emcee steps)", enabled=progress)
     try:
@@ -560,11 +591,9 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
     finally:
         bar.close()
     burn, thin = posterior.burn_thin(run.tau)
-    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, k)
+    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, k), coordinates (C8)
     n_draw, n_walk, _ = chain.shape
-    phi = chain.reshape(-1, ndim)
-    if shared:
-        phi = np.concatenate([phi, np.full((phi.shape[0], 1), -np.inf)], axis=1)
+    phi = _to_hyper(chain.reshape(-1, ndim), data, shared)  # with ln τ_ω = −inf under M₀
     psi = model.conditional(phi, data, rng)  # (N, n, 2)
     logw = _importance_log_weights(tests, psi, data)
     finite = logw[np.isfinite(logw)]
@@ -574,7 +603,8 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
     return _ModelRun(phi=phi[idx], psi=psi[idx], n_draw=n_draw, n_walk=n_walk,
                      log_mean_weight=log_mean, ess_fraction=ess_frac, run=run, burn=burn,
                      thin=thin, acceptance=float(np.mean(sampler.acceptance_fraction)),
-                     m1_draws=None if shared else phi, last=sampler.get_last_sample().coords)
+                     m1_draws=None if shared else phi,
+                     last=_to_hyper(sampler.get_last_sample().coords, data, shared))
 
 
 #: A model whose posterior probability is below this [1] need not have converged (its draws
@@ -601,8 +631,8 @@ def _sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
         # pins ω₀ to its own 1e-5 — and a walker left 100 posterior sd out stays there under
         # the DE moves and spoils the importance weights (measured: importance ESS 0.006 %)
         m0 = _run_model(tests, data, added, True, rng, progress, max_steps, min_ess,
-                        start=_laplace_start(model.log_posterior_shared, data,
-                                             m1.last[:, :-1], rng))
+                        start=_laplace_start(model.sampler_log_posterior(True), data,
+                                             _to_sampler(m1.last, data, True), rng))
         log_bf = model.log_bayes_factor_shared(m1.m1_draws, data, rng)
     log_bf += m0.log_mean_weight - m1.log_mean_weight
     prior_odds = np.log(model.P_SHARED_FREQUENCY / (1 - model.P_SHARED_FREQUENCY))

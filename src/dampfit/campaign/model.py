@@ -52,6 +52,24 @@ T_i − T_i(T_i + Σ_i)⁻¹T_i — the non-centred draw ψ_i = μ_i + (T_i)^{½
 data, well defined as τ → 0. emcee therefore samples only φ (4 or 5 dimensions); the z's are
 drawn exactly given φ.
 
+Sampler coordinates (non-centred levels)
+----------------------------------------
+With few tests the spreads are barely identified and the levels' conditional width follows
+them: given τ_ω, ln ω_n of the population is known to ≈ √((τ_ω² + Σ_ωω)/n), from the tests'
+own 1e-5 when τ_ω → 0 to τ_ω/√n when the scatter prior allows ≈ 5 % — a funnel. With two tests
+the posterior of ln τ_ω is flat over that whole range (one difference of two frequencies cannot
+tell the spread from zero), and emcee needed τ_int ≈ 240 steps and 20,000 steps in all
+(3–6× a 3-test campaign). emcee therefore samples x = (η_p, η_ω, [ln m₀], ln τ_p, [ln τ_ω]),
+
+    level_j = c_j(τ, m₀) + s_j(τ, m₀)·η_j,   s_j = (Σ_i w_ij)^{−½},
+    c_j = s_j²·Σ_i w_ij·(ψ̂_ij + δ_ij),   w_ij = 1/(τ_j² + Σ_i,jj + D_i,jj),                (C8)
+
+for the two levels (μ_p, μ_ω; or ln p₀, ln ω₀), δ_i = ln(M_i/m₀)·(1, ½) and D_i the added-mass
+term of T_i (both 0 in the known-mass design): the precision-weighted mean of the tests and
+its width, so that η is ≈ standard normal whatever τ. The map is triangular (τ and m₀ are
+kept), its log-Jacobian Σ_j ln s_j is added to the log posterior, and every result is
+reported in φ (:func:`to_hyper`).
+
 Priors (weakly informative; documented in ``summary.json`` terms)
 -----------------------------------------------------------------
 * τ_p ~ half-normal(scale :data:`TAU_P_SCALE` = 0.5): relative spreads of up to ≈ 100 % in
@@ -96,7 +114,7 @@ from dampfit.model.laws import ViscousM1
 
 __all__ = ["TAU_P_SCALE", "TAU_OMEGA_SCALE", "P_SHARED_FREQUENCY", "LOCATION_SD", "CampaignData", "hyper_names",
            "log_posterior", "log_posterior_shared", "log_bayes_factor_shared", "means_and_scatter", "conditional", "exact_log_likelihood",
-           "laplace", "M1"]
+           "laplace", "M1", "sampler_log_posterior", "to_hyper", "from_hyper"]
 
 #: Half-normal scale of τ_p, the between-test sd of ln p [1].
 TAU_P_SCALE = 0.5
@@ -210,6 +228,72 @@ def log_posterior_shared(phis, data: CampaignData):
         return jnp.where(jnp.isfinite(out), out, -jnp.inf)
 
     return jax.vmap(one)(full)
+
+
+
+# ----------------------------------------------------------------------- sampler coordinates
+def _centring(phi, data: CampaignData, xp=jnp):
+    """(c, s) of (C8) (2,) each for the levels at φ's spreads (and m₀); φ's levels unused."""
+    tau2 = xp.exp(2.0 * phi[-2:])  # τ_p², τ_ω² (0 for ln τ = −inf)
+    own = data.sigma[:, [0, 1], [0, 1]]  # Σ_i,jj (n, 2)
+    if phi.shape[0] == 5:
+        big_m = xp.exp(phi[2]) + data.dm
+        ratio = xp.log1p(data.dm * xp.exp(-phi[2]))
+        shift = xp.stack([ratio, 0.5 * ratio], axis=-1)
+        extra = ((data.dm_sd / big_m) ** 2)[:, None] * xp.asarray([1.0, 0.25])[None]
+    else:
+        shift = xp.zeros_like(own)
+        extra = xp.zeros_like(own)
+    w = 1.0 / (tau2[None, :] + own + extra)
+    total = xp.sum(w, axis=0)
+    centre = xp.sum(w * (data.psi_hat + shift), axis=0) / total
+    return centre, 1.0 / xp.sqrt(total)
+
+
+def to_hyper(x, data: CampaignData, xp=jnp):
+    """φ (k,) and ln|∂φ/∂x| [1] from sampler coordinates x (k,) of (C8); x's η in the level
+    slots, the rest of x as in φ (``xp`` = jnp or np)."""
+    centre, scale = _centring(x, data, xp)
+    phi = xp.concatenate([centre + scale * x[:2], x[2:]])
+    return phi, xp.sum(xp.log(scale))
+
+
+def from_hyper(phi: np.ndarray, data: CampaignData) -> np.ndarray:
+    """Sampler coordinates x (N, k) of φ rows (N, k) (the inverse of :func:`to_hyper`)."""
+    phi = np.atleast_2d(np.asarray(phi, dtype=float))
+    d = CampaignData(*(np.asarray(a) for a in data))
+    out = phi.copy()
+    for i, row in enumerate(phi):
+        centre, scale = _centring(row, d, np)
+        out[i, :2] = (row[:2] - centre) / scale
+    return out
+
+
+@jax.jit
+def _sampler_m1(xs, data: CampaignData):
+    def one(x):
+        phi, logdet = to_hyper(x, data)
+        out = _one_log_posterior(phi, data) + logdet
+        return jnp.where(jnp.isfinite(out), out, -jnp.inf)
+
+    return jax.vmap(one)(xs)
+
+
+@jax.jit
+def _sampler_m0(xs, data: CampaignData):
+    full = jnp.concatenate([xs, jnp.full((xs.shape[0], 1), -jnp.inf)], axis=1)
+
+    def one(x):
+        phi, logdet = to_hyper(x, data)
+        return log_posterior_shared(phi[None, :-1], data)[0] + logdet
+
+    return jax.vmap(one)(full)
+
+
+def sampler_log_posterior(shared: bool):
+    """Batched log posterior [1] in the sampler coordinates of (C8): of M₀ (``shared``: τ_ω = 0,
+    x without ln τ_ω) or of M₁; the log posterior of φ plus the map's log-Jacobian."""
+    return _sampler_m0 if shared else _sampler_m1
 
 
 @jax.jit

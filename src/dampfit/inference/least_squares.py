@@ -40,7 +40,10 @@ class LeastSquaresResult:
 
     ``theta`` = (ln p, ln ω_d); ``beta`` = (A [m/s²], B [m/s²], drift coefficients [m/s²]);
     ``cov`` covariance of (θ, β) *before* the calibration factor r; ``rss`` [(m/s²)²];
-    ``residuals`` [m/s²]; ``gain`` complex gain of the pre-decimation filter on the decay.
+    ``residuals`` [m/s²]; ``gain`` complex gain of the pre-decimation filter on the decay;
+    ``jacobian`` (n, 2 + q) of the full model in (θ, β) at the optimum [m/s² per unit], the
+    design whose projection the noise calibration corrects for
+    (:func:`dampfit.inference.noise.estimate`).
     """
 
     theta: np.ndarray
@@ -54,6 +57,7 @@ class LeastSquaresResult:
     n_steps: int
     gain: complex
     rss_drift: float  # residual sum of squares of the drift terms alone [(m/s²)²]
+    jacobian: np.ndarray | None = None
 
     @property
     def explained(self) -> float:
@@ -178,4 +182,5 @@ def least_squares(fd: FitData, p0: float, f0: float, *, max_steps: int = 200) ->
             residuals=resid, converged=ok and finite, message=message, n_steps=steps,
             gain=amplitude_gain(fd, p, wd),
             rss_drift=float(np.sum((y - drift @ (drift.T @ y)) ** 2)),
+            jacobian=np.asarray(jac, dtype=float),
         )

@@ -6,9 +6,9 @@ Model and priors
   linear coefficients (acceleration quadratures A, B and the drift terms) have flat priors
   and σ a Jeffreys prior 1/σ, all marginalised analytically
   (:func:`dampfit.model.profile.log_marginal`), tempered by 1/r (:mod:`dampfit.inference.noise`),
-  where r is floored at its white-noise value r_white on the fit path: misfit or coloured
-  noise can only widen the intervals, never make the likelihood sharper than white noise of
-  the same residual variance would.
+  where r is the residual spectrum at f₀ corrected for what the fit itself removes there,
+  floored at the level white noise carrying the residual's power above f₀/2 would have: misfit
+  at f₀ or at its harmonics widens the intervals, slow drift below f₀/2 does not.
 * Decay rate p [1/s]: log-uniform on [10⁻⁶·ω_d, ω_d] (ζ up to ≈ 0.7).
 * Damped frequency ω_d [rad/s]: log-uniform over the analysis pass band.
 * Mass m [kg]: normal(m, sd) truncated to m > 0, independent of the data — the recording
@@ -207,7 +207,8 @@ def sample(
 ) -> PosteriorResult:
     """Sample the posterior; see the module docstring for the model, priors and stopping rule.
 
-    ``temper`` = 1/r (r from :func:`dampfit.inference.noise.estimate`, ≥ r_white); ``mass``, ``mass_sd`` [kg]; ``seed`` makes the run reproducible.
+    ``temper`` = 1/r (r from :func:`dampfit.inference.noise.estimate`); ``mass``, ``mass_sd``
+    [kg]; ``seed`` makes the run reproducible.
     """
     rng = np.random.default_rng(seed)
     log_prob = _make_log_prob(fd, band, temper)

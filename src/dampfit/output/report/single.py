@@ -418,8 +418,9 @@ def _noise(s: dict) -> list[Block]:
                      "is tempered by 1/r, which widens the intervals accordingly"])
     raw = nm.get("psd_ratio_at_f0_unclipped")
     if isnum(raw) and isnum(r) and abs(raw - r) > 1e-9 * abs(r):
-        rows.append(["r before its floor", number(raw, 3), "1",
-                     "r as measured, before it was floored at its white-noise value"])
+        rows.append(["r as measured", number(raw, 3), "1",
+                     "the plain Welch ratio, before the correction for what the fit itself "
+                     "removes near f₀ and the floor at the residual's white level above f₀/2"])
     if isnum(nm.get("psd_ratio_expected_for_white_noise")):
         rows.append(["r for white noise", number(nm["psd_ratio_expected_for_white_noise"], 3), "1",
                      "the r that white sensor noise alone would give on this signal path"])

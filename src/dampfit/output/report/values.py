@@ -39,7 +39,8 @@ LABELS = {"mae": "MAE", "mse": "MSE", "nmse": "NMSE", "rmse": "RMSE", "r_hat": "
           "ess_bulk": "bulk ESS", "max_r_hat": "max R-hat", "min_ess_bulk": "min bulk ESS",
           "autocorr_time_steps": "integrated autocorrelation time", "n_steps": "steps",
           "psd_ratio_at_f0": "Whittle factor r (PSD ratio at f₀)",
-          "psd_ratio_at_f0_unclipped": "r before the floor at its white-noise value (noise.estimate)",
+          "psd_ratio_at_f0_unclipped": "r as measured (plain Welch ratio), before its calibration "
+                                       "(noise.estimate)",
           "residual_lag1_autocorrelation": "residual lag-1 autocorrelation", "sigma": "σ",
           "converged": "converged (least squares and posterior)",
           "posterior_converged": "posterior converged", "burn_in": "burn-in",

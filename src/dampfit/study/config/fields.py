@@ -19,9 +19,9 @@ __all__ = ["FIELDS", "check_field", "field_value", "number"]
 #: Simulator fields a study may set, with their kind: float, int, bool, str or bias.
 FIELDS: dict[str, str] = {
     "f_n": "float", "zeta": "float", "u0": "float", "duration": "float", "sample_rate": "float",
-    "jitter": "float", "gaps": "int", "noise_density": "float", "bias": "bias", "drift": "float",
-    "quantization": "float", "tilt_deg": "float", "azimuth_deg": "float", "main_axis": "str",
-    "gravity": "bool", "handheld": "float", "catch": "bool",
+    "jitter": "float", "timestamp_jitter": "float", "gaps": "int", "noise_density": "float",
+    "bias": "bias", "drift": "float", "quantization": "float", "tilt_deg": "float",
+    "azimuth_deg": "float", "main_axis": "str", "gravity": "bool", "handheld": "float", "catch": "bool",
 }
 _SET_ELSEWHERE = {"mass": "set it as [study] mass", "k": "give f_n and the mass instead",
                   "c": "give zeta instead", "seed": "each run's seed is derived from [study] seed"}
