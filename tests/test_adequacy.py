@@ -270,7 +270,14 @@ def test_adequate_needs_a_bound_on_the_dependence_and_a_white_residual():
     assert rule(slope=wide)["verdict"] == "inconclusive"
     good = rule()
     assert good["verdict"] == "adequate" and good["reasons"][0].startswith(
-        "no amplitude dependence: zeta changes less than 1.06x over the recorded 3x")
+        "no amplitude dependence: zeta changes less than 5.6 % over the recorded 3x")
+
+
+def test_a_tiny_bound_reads_as_a_percentage_not_1x():
+    """A bound of ζ changing by 0.5 % is printed as such, never rounded to "less than 1x"."""
+    tiny = {**SLOPE_NULL, "s_q05": -0.004, "s_q95": 0.0045}
+    reason = rule(slope=tiny)["reasons"][0]
+    assert "less than 0.5 % over" in reason and "1x" not in reason
 
 
 def test_the_power_law_slope_can_bound_the_dependence():

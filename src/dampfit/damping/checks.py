@@ -236,6 +236,16 @@ def _fit_misfit(name: str, fit: dict | None) -> list[str]:
     return out
 
 
+def _factor(ratio: float) -> str:
+    """A change of ζ by the factor ``ratio`` [1] in words: a percentage below 1.1× (where a
+    factor rounds to "1x"), a factor above."""
+    if not np.isfinite(ratio):
+        return "an unbounded factor"
+    if ratio < 1.1:
+        return f"{100 * (ratio - 1):.2g} %"
+    return f"{ratio:.3g}x"
+
+
 def _bound(q05: float, q95: float, span: float) -> float:
     """Largest change of ζ [1] over the amplitude span ``span`` a slope interval allows."""
     return float(span ** max(abs(q05), abs(q95)))
@@ -257,7 +267,7 @@ def _slope_criteria(slope: dict | None, span: float, power: dict | None) -> dict
         out["s_null"] = out["bound"] < ZETA_RATIO_MATTERS
         out["reasons"].append(
             f"windowed slope d ln p/d ln a = {s:.2g} [{slope['s_q05']:.2g}, "
-            f"{slope['s_q95']:.2g}] (90 %), zeta changes {ratio:.3g}x over {span:.3g}x in "
+            f"{slope['s_q95']:.2g}] (90 %), zeta changes {_factor(ratio)} over {span:.3g}x in "
             f"amplitude, chi2/dof = {slope['chi2_per_dof']:.3g}")
     if power is not None and slope is not None:  # the same slope from the whole decay
         b = _bound(power["q05"], power["q95"], span)
@@ -369,7 +379,7 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
                      f"{P_WHITE_ADEQUATE:g} to call one viscous c adequate)")
     if blind:
         return out("inconclusive", blind + reasons)
-    reasons.insert(0, f"no amplitude dependence: zeta changes less than {sc['bound']:.3g}x "
+    reasons.insert(0, f"no amplitude dependence: zeta changes less than {_factor(sc['bound'])} "
                       f"over the recorded {span:.3g}x amplitude range ({sc['bound_source']}, "
                       f"90 %) and the residual is white at f0 (Ljung-Box p = {lb_v:.2g})")
     return out("adequate", reasons)
@@ -435,8 +445,8 @@ def _span_text(sc: dict, span: float) -> str:
     if not np.isfinite(sc["bound"]):
         return "the amplitudes span too little to tell (no slope of zeta against amplitude)"
     return (f"the amplitudes span too little to tell (zeta could change up to "
-            f"{sc['bound']:.3g}x over the recorded {span:.3g}x amplitude range; one viscous c "
-            f"needs the data to rule out {ZETA_RATIO_MATTERS:g}x)")
+            f"{_factor(sc['bound'])} over the recorded {span:.3g}x amplitude range; one "
+            f"viscous c needs the data to rule out {ZETA_RATIO_MATTERS:g}x)")
 
 
 def _no_decay_text(decay: dict) -> str:
