@@ -138,6 +138,30 @@ def test_redraw_missing_restores_every_figure_byte_for_byte(folder, tmp_path):
     assert _pngs(copy) == before
 
 
+def test_dampfit_report_redraws_deleted_figures_into_the_report(folder, tmp_path, capsys):
+    """``rm DIR/*.png; dampfit report DIR``: every figure is back, byte for byte, and shown in
+    report.html; ``--no-redraw`` writes the report without them."""
+    import shutil
+
+    from dampfit import cli
+
+    copy = tmp_path / "copy"
+    shutil.copytree(folder, copy)
+    before = _pngs(copy)
+    bare = tmp_path / "bare"
+    shutil.copytree(folder, bare)
+    for d in (copy, bare):
+        for png in d.glob("*.png"):
+            png.unlink()
+    assert cli.main(["report", str(copy)]) == 0
+    assert "redrew" in capsys.readouterr().out
+    assert _pngs(copy) == before
+    assert (copy / "report.html").read_text().count("data:image/png") == len(ALL)
+    assert cli.main(["report", str(bare), "--no-redraw"]) == 0
+    assert _pngs(bare) == {}
+    assert "data:image/png" not in (bare / "report.html").read_text()
+
+
 def test_redraw_missing_draws_only_what_is_missing_and_never_follows_a_link(folder, tmp_path):
     import shutil
 
