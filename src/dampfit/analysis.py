@@ -110,7 +110,7 @@ class Analysis(ResultViews):
         return np.asarray(self.posterior.posterior[name]).ravel()
 
     def summary(self) -> dict[str, Any]:
-        """The JSON-safe summary (schema in the README; ``schema_version``
+        """The JSON-safe summary (schema in :mod:`dampfit.result.schema`; ``schema_version``
         :data:`dampfit.result.schema.SCHEMA_VERSION`), a fresh copy on every call.
 
         Computed once per analysis and cached; of a loaded result it is the summary.json read.

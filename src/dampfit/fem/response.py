@@ -1,7 +1,7 @@
 """Pure numerics of the FEM verification: initial state from the fit, error measures, decay rate.
 
 * :func:`initial_state` — the fitted model's acceleration is ``a(τ) = e^{−pτ}(A cos ω_dτ +
-  B sin ω_dτ)`` (README eq. M1) = Re[Z·e^{sτ}] with Z = A − iB and s = −p + iω_d. Its
+  B sin ω_dτ)`` (paper/method.md eq. M1) = Re[Z·e^{sτ}] with Z = A − iB and s = −p + iω_d. Its
   displacement and velocity are the antiderivatives Re[Z s⁻²e^{sτ}] and Re[Z s⁻¹e^{sτ}], so the
   state at τ₀ is ``u = Re[Z s⁻² e^{sτ₀}]``, ``v = Re[Z s⁻¹ e^{sτ₀}]``. (A, B) are found by
   linear least squares of the samples of ``accel_model`` on the two columns e^{−pτ}cos ω_dτ,

@@ -60,7 +60,7 @@ calibrated that way (``tests/test_adequacy.py``). ``psd_ratio_raw`` is always th
 residual rms above ``RESID_FRACTION`` (5 %) of the fitted signal rms while the sensor noise
 predicts less than a third of it — the sensor level is the residuals' own density away from
 f₀ and its harmonics (:func:`sensor_density`), taken through the same path
-(:func:`expected_sigma`); the same rule in code, docstring and README.
+(:func:`expected_sigma`); the same rule in code, docstring and paper/method.md.
 """
 
 from __future__ import annotations

@@ -27,6 +27,93 @@ directory, no summary.json, or a summary.json that is not one of the above — i
 with one error text, ``DIR is not a dampfit result folder: WHY; run 'dampfit analyze …'``.
 The marker file ``.dampfit-result`` (:data:`dampfit.files.folder.MARKER`) is not required: folders
 of older dampfit versions and hand-made folders with a valid summary.json are read too.
+
+The layout of summary.json (schema_version 1)
+---------------------------------------------
+Plain JSON: non-finite numbers become ``null``; every physical quantity is in SI units, named
+in a ``unit`` field or in the key (``_s`` [s], ``_hz`` [Hz], ``_m`` [m], ``_kg`` [kg]). A
+new field may be added within a version; an incompatible change bumps
+:data:`SCHEMA_VERSION`. Keys scripts can rely on, top level exactly as listed (tested:
+``tests/test_schema_doc.py``), sections abridged with ``…``.
+
+Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summary`)::
+
+    {"schema_version": 1,                          # SCHEMA_VERSION
+     "dampfit_version": str,
+     "input": {"path", "format", "sha256", "n_samples", "sample_rate_hz", "duration_s",
+             "timing_jitter", "axis", "axis_direction", "gravity_removed", "notes"},
+     "window": {"start_s", "end_s", "auto", "n_cycles",      # recording's own time base
+             "end_reason"},                      # why it ends: noise floor, catch, impact…
+     "band": {"low_hz", "high_hz", "auto"},
+     "dominant_frequency_hz": float,
+     "mass": {"value", "sd", "unit"},              # kg; value null if not given
+     "parameters": {                               # posterior summaries
+             "c": {"unit": "N s/m", "mean", "sd", "q05", "q50", "q95", "r_hat",
+                   "ess_bulk", "crlb_sd"},
+             "k": {"unit": "N/m", …}, "u0": {"unit": "m", …}, "zeta": {"unit": "1", …},
+             "f_n": {"unit": "Hz", …}, "p": {"unit": "1/s", …}, "f_d", "delta", "Q",
+             "c_crit": {"unit": "N s/m", …}},   # c, k, c_crit null without mass;
+                                                 # no decay measured: p, zeta, c, delta
+                                                 # q05 = 0, Q q95 null, "reaches_zero": true
+     "missing": {"c": why, "k": why, "c_crit": why,  # only without mass
+             "c_equivalent": why},               # under misfit / an unconverged law
+     "least_squares": {"c", "k", "u0", "zeta", "f_n", "p", "p_sd", "c_sd", "zeta_sd",
+             "converged", "message", "n_steps"},
+     "baselines": {"log_decrement": {"method", "c", "zeta", "p", "delta", "f_d", "k",
+                   "n_cycles", "n_cycles_used", "supported", "agrees_with_posterior",
+                   "note", …},
+             "envelope_pipeline": {…the same keys}},
+     "noise_model": {"kind", "sigma", "sigma_unit", "psd_ratio_at_f0",
+             "residual_lag1_autocorrelation", "psd_ratio_expected_for_white_noise", …},
+     "crlb": {"c": {"value", "sd", "sd_with_mass"}, "k", "u0", "zeta", "f_n", "p",
+             "omega_d": {"value", "sd"}, "units", "n_samples", "drift_degree", "mass",
+             "mass_sd", "noise_sigma", "noise_density", …},  # Cramér–Rao bound
+     "model_checks": {"verdict", "verdict_reasons", "verdict_law", "decay": {"z",
+             "resolved", …}, "requested_model", "preferred_model", "chosen_model",
+             "single_viscous_c_adequate", "amplitude_dependence": {"detected",
+             "p_viscous", "slope_ln_p_vs_ln_amplitude", …}, "residual_whiteness": {…},
+             "adequacy", "warning"},             # verdict: dampfit.damping.checks
+     "damping_models": {"comparison": [...], "models": {law: {…}}, "preferred_model",
+             "chosen_model", …},               # each law's parameters and weight
+     "amplitude_curve": {"windows": [{"amplitude_m", "zeta", "zeta_sd", "f_d_hz",
+             "f_d_sd_hz", …}], "slope", "backbone", …},     # ζ(A) and f(A)
+     "c_equivalent": null | {"model", "c", "zeta", "amplitude_m", "note",
+             "recorded_amplitude_range_m", "extrapolated"},
+     "fit": {"path": "raw" | "decimated", "n_samples", "sample_rate_hz", "drift_degree",
+             "n_excluded", "t0_s"},
+     "preprocessing": {"n_stale_dropped", "n_clipped", "n_spikes", "noise_density",
+             "noise_density_unit", "notes"},
+     "diagnostics": {"converged", "posterior_converged", "max_r_hat", "min_ess_bulk",
+             "n_steps", "burn_in", "thin", "n_walkers", "autocorr_time_steps",
+             "acceptance_fraction", "warnings": [str]},
+     "provenance": {"seed", "options", "date", "python", "versions"}}
+
+``model_checks``, ``damping_models`` and ``amplitude_curve`` are null when the damping-law
+assessment could not run.
+
+Top-level keys of a campaign's summary (several recordings of one damper,
+:mod:`dampfit.campaign`)::
+
+    {"schema_version": 1,
+     "kind": "campaign",
+     "dampfit_version": str,
+     "design": {"n_tests", "model", "mass", "added_mass", "priors"},
+     "parameters": {"c", "k", "zeta", "f_n", "p", "m0" (added-mass method only), …},
+             # the population, each {"unit", "mean", "sd", "q05", "q50", "q95", …}
+     "mass": {"value", "sd", "unit"},              # m0's posterior with added masses
+     "population": {"spread": {"p", "omega"}, "predictive": {"c", "zeta", "f_n", "k"},
+             "spread_consistent_with_zero"},   # predictive: a new test of this damper
+     "tests": [{"index", "input", "window", "band", "dominant_frequency_hz",
+             "added_mass_kg", "amplitude_m", "noise_psd_ratio", "damping_verdict",
+             "own", "pooled", "outlier"}],
+     "checks": {"verdict", "text", "tau_over_within", "heterogeneity_p_value",
+             "outliers", "amplitude", "within_test_inadequate", …},
+     "added_mass": null | {"m0", "k", "points", "line"},
+     "diagnostics": {"converged", "max_r_hat", "min_ess_bulk", "n_steps",
+             "importance_ess_fraction", "log_bayes_factor_shared_frequency",
+             "warnings", …},
+     "warnings": [str],
+     "provenance": {"seed", "options", "date"}}
 """
 
 from __future__ import annotations
