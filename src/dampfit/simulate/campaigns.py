@@ -85,6 +85,26 @@ def campaign(
         raise InputError(f"{n} tests of {base.duration:g} s at {base.sample_rate:g} Hz would be "
                          f"{total:.3g} samples; at most {MAX_SIM_SAMPLES:g} are simulated")
 
+    configs, dm_true = _test_configs(base, spread, seed, dm, dm_sd, u0)
+
+    recordings, truths = [], []
+    for i, cfg in enumerate(configs):
+        rec, truth = recording(cfg)
+        note = (f"simulated campaign test {i + 1} of {n}: added mass {dm[i]:g} kg, "
+                f"c_spread {spread:g}, campaign seed {seed}")
+        recordings.append(dataclasses.replace(rec, notes=rec.notes + (note,)))
+        truths.append(truth)
+    out = _campaign_truth(base, spread, seed, dm, added_mass is not None, truths)
+    return recordings, {**out, "added_mass_true": [float(x) for x in dm_true],
+                        "added_mass_sd": dm_sd}
+
+
+def _test_configs(base: SimulationConfig, spread: float, seed: int, dm: list[float],
+                  dm_sd: float, u0: list[float]) -> tuple[list[SimulationConfig], list[float]]:
+    """Each test's config and the added masses [kg] actually simulated, drawn as
+    :func:`campaign` says (the ``z_i``, the tests' seeds and the ``e_i`` from the children of
+    ``SeedSequence(seed)``); each config within :func:`check_limits`."""
+    n = len(dm)
     children = np.random.SeedSequence(seed).spawn(n + 2)
     z = np.random.default_rng(children[0]).standard_normal(n)
     c_tests = [float(base.c * math.exp(spread * zi)) for zi in z]
@@ -99,17 +119,7 @@ def campaign(
                for i in range(n)]
     for cfg in configs:
         check_limits(cfg)
-
-    recordings, truths = [], []
-    for i, cfg in enumerate(configs):
-        rec, truth = recording(cfg)
-        note = (f"simulated campaign test {i + 1} of {n}: added mass {dm[i]:g} kg, "
-                f"c_spread {spread:g}, campaign seed {seed}")
-        recordings.append(dataclasses.replace(rec, notes=rec.notes + (note,)))
-        truths.append(truth)
-    out = _campaign_truth(base, spread, seed, dm, added_mass is not None, truths)
-    return recordings, {**out, "added_mass_true": [float(x) for x in dm_true],
-                        "added_mass_sd": dm_sd}
+    return configs, dm_true
 
 
 def _check_added_mass_sd(sd: Any, added: bool) -> float:
