@@ -183,6 +183,30 @@ def test_sampler_coordinates_map_back_exactly():
                 assert float(logdet) == pytest.approx(np.log(abs(np.linalg.det(jac))), abs=1e-5)
 
 
+def test_sampler_log_posterior_is_never_nan_far_out():
+    """emcee stops the whole campaign at a NaN log probability: walkers far out in the sampler
+    coordinates of (C8) (levels at ±1e3, spreads at e^±700) get −inf or a number, under both
+    frequency models."""
+    import jax
+    import jax.numpy as jnp
+
+    from dampfit.campaign import model, tests as campaign_tests
+
+    class Fit:
+        def __init__(self, psi):
+            self.psi_hat, self.sigma_psi = np.array(psi), np.array([[4e-4, 1e-6], [1e-6, 1e-8]])
+
+    tests = [Fit([np.log(0.2), 0.5 * np.log(900.0) + 1e-4 * i]) for i in range(2)]
+    data, _ = campaign_tests.campaign_data(tests, None, 0.0)
+    with jax.enable_x64(True):
+        for shared, k in ((False, 4), (True, 3)):
+            xs = np.array([[s * 1e3] * k for s in (1, -1)]
+                          + [[0.0, 0.0] + [s * 700.0] * (k - 2) for s in (1, -1)]
+                          + [[np.inf] * k, [-np.inf] * k])
+            lp = np.asarray(model.sampler_log_posterior(shared)(jnp.asarray(xs), data))
+            assert not np.isnan(lp).any(), (shared, lp)
+
+
 def test_two_tests_converge_like_three():
     """Two tests barely identify the frequency scatter: sampled in (μ_ω, ln τ_ω) the M₁ model
     was a funnel that ran 20,000 steps without converging (3–6× a 3-test campaign). In the

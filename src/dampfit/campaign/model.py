@@ -285,7 +285,10 @@ def _sampler_m0(xs, data: CampaignData):
 
     def one(x):
         phi, logdet = to_hyper(x, data)
-        return log_posterior_shared(phi[None, :-1], data)[0] + logdet
+        out = log_posterior_shared(phi[None, :-1], data)[0] + logdet
+        # a level far out makes the map's log-Jacobian inf − inf: outside, not NaN (emcee
+        # stops at a NaN)
+        return jnp.where(jnp.isfinite(out), out, -jnp.inf)
 
     return jax.vmap(one)(full)
 
