@@ -15,7 +15,7 @@ import pytest
 import dampfit
 from dampfit import simulate as sim
 from dampfit.campaign import CampaignAnalysis, analyze_campaign
-from dampfit.campaign.analysis import SUMMARY_KEYS
+from dampfit.campaign.result import SUMMARY_KEYS
 from dampfit.errors import InputError
 
 FAST = dict(max_steps=2500, min_ess=200)
@@ -127,16 +127,16 @@ def test_bare_system_added_mass_is_exact_in_the_model():
     import jax
     import jax.numpy as jnp
 
-    from dampfit.campaign import analysis, model
+    from dampfit.campaign import model, tests as campaign_tests
 
-    class Fit:  # the two fields _campaign_data reads of a TestFit
+    class Fit:  # the two fields campaign_data reads of a TestFit
         def __init__(self, psi):
             self.psi_hat, self.sigma_psi = np.array(psi), np.diag([1e-4, 1e-8])
 
     m0, k, dm = 1.0, 1000.0, np.array([0.0, 0.5, 1.0])
     w = np.sqrt(k / (m0 + dm))
     tests = [Fit([np.log(0.2 / (m0 + d)), np.log(x)]) for d, x in zip(dm, w)]
-    data, _ = analysis._campaign_data(tests, dm, 0.01)
+    data, _ = campaign_tests.campaign_data(tests, dm, 0.01)
     np.testing.assert_array_equal(np.asarray(data.dm_sd), [0.0, 0.01, 0.01])
     with jax.enable_x64(True):
         phi = jnp.array([np.log(0.1), np.log(np.sqrt(k / m0)), 0.0, np.log(0.1), np.log(0.01)])
@@ -154,7 +154,7 @@ def test_sampler_coordinates_map_back_exactly():
     import jax
     import jax.numpy as jnp
 
-    from dampfit.campaign import analysis, model
+    from dampfit.campaign import model, tests as campaign_tests
 
     class Fit:
         def __init__(self, psi):
@@ -165,7 +165,7 @@ def test_sampler_coordinates_map_back_exactly():
         masses = 1.0 + (dm if dm is not None else np.zeros(3))  # m₀ = 1 kg, k = 900 N/m
         tests = [Fit([np.log(0.2 / m) + 0.1 * rng.standard_normal(),
                       0.5 * np.log(900.0 / m) + 1e-4 * i]) for i, m in enumerate(masses)]
-        data, centre = analysis._campaign_data(tests, dm, 0.01 if dm is not None else 0.0)
+        data, centre = campaign_tests.campaign_data(tests, dm, 0.01 if dm is not None else 0.0)
         k = 5 if dm is not None else 4
         with jax.enable_x64(True):
             for u_w in (np.log(0.02), -np.inf):
@@ -181,6 +181,30 @@ def test_sampler_coordinates_map_back_exactly():
                     jac[:, j] = (np.asarray(model.to_hyper(jnp.asarray(x + dx), data)[0][:2])
                                  - np.asarray(model.to_hyper(jnp.asarray(x - dx), data)[0][:2])) / (2 * h)
                 assert float(logdet) == pytest.approx(np.log(abs(np.linalg.det(jac))), abs=1e-5)
+
+
+def test_sampler_log_posterior_is_never_nan_far_out():
+    """emcee stops the whole campaign at a NaN log probability: walkers far out in the sampler
+    coordinates of (C8) (levels at ±1e3, spreads at e^±700) get −inf or a number, under both
+    frequency models."""
+    import jax
+    import jax.numpy as jnp
+
+    from dampfit.campaign import model, tests as campaign_tests
+
+    class Fit:
+        def __init__(self, psi):
+            self.psi_hat, self.sigma_psi = np.array(psi), np.array([[4e-4, 1e-6], [1e-6, 1e-8]])
+
+    tests = [Fit([np.log(0.2), 0.5 * np.log(900.0) + 1e-4 * i]) for i in range(2)]
+    data, _ = campaign_tests.campaign_data(tests, None, 0.0)
+    with jax.enable_x64(True):
+        for shared, k in ((False, 4), (True, 3)):
+            xs = np.array([[s * 1e3] * k for s in (1, -1)]
+                          + [[0.0, 0.0] + [s * 700.0] * (k - 2) for s in (1, -1)]
+                          + [[np.inf] * k, [-np.inf] * k])
+            lp = np.asarray(model.sampler_log_posterior(shared)(jnp.asarray(xs), data))
+            assert not np.isnan(lp).any(), (shared, lp)
 
 
 def test_two_tests_converge_like_three():

@@ -91,7 +91,7 @@ def hand_summary(added_mass: bool = False, n: int = 3, paths=None) -> dict:
 
 
 class FakeCampaign:
-    """Stands for :class:`dampfit.campaign.analysis.CampaignAnalysis` (writing path only)."""
+    """Stands for :class:`dampfit.campaign.result.CampaignAnalysis` (writing path only)."""
 
     def __init__(self, summary: dict):
         self._s = summary
@@ -105,12 +105,12 @@ class FakeCampaign:
         Path(path).write_text(json.dumps(self._s, indent=2) + "\n")
 
     def save(self, folder, **kw):  # the real writing path
-        from dampfit.campaign.analysis import CampaignAnalysis
+        from dampfit.campaign.result import CampaignAnalysis
 
         return CampaignAnalysis.save(self, folder, **kw)
 
     def _write(self, folder, figures):
-        from dampfit.campaign.analysis import CampaignAnalysis
+        from dampfit.campaign.result import CampaignAnalysis
 
         return CampaignAnalysis._write(self, folder, figures)
 
@@ -314,7 +314,7 @@ def test_every_input_folder_is_protected(recordings, fake_campaign, tmp_path, ca
 
 # ----------------------------------------------------------------------------- read back
 def test_campaign_folder_round_trips_through_load(tmp_path):
-    from dampfit.campaign.analysis import CampaignAnalysis
+    from dampfit.campaign.result import CampaignAnalysis
 
     s = hand_summary(added_mass=True)
     folder = write_folder(tmp_path, s)
@@ -381,7 +381,7 @@ def test_export_of_a_campaign_is_the_population_damper(tmp_path, capsys, fmt, co
 # ----------------------------------------------------------------------------- end to end
 def test_end_to_end_campaign_round_trip_report_export(recordings, tmp_path, capsys):
     """The real joint analysis (short chain: not converged, exit 0 with the warning)."""
-    from dampfit.campaign.analysis import CampaignAnalysis
+    from dampfit.campaign.result import CampaignAnalysis
 
     paths, _ = recordings
     out = tmp_path / "camp"

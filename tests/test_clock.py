@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dampfit import simulate as sim
+from dampfit import stages
 from dampfit.signal import clock, prepare
 
 BASE = dict(duration=30.0, sample_rate=100.0, noise_density=150.0, u0=0.004)
@@ -75,5 +76,5 @@ def test_phone_stamps_are_analysed_like_exact_stamps(monkeypatch):
     assert fa["sd"] == pytest.approx(fb["sd"], rel=0.2)
     assert a.noise.sigma == pytest.approx(b.noise.sigma, rel=0.1)
     monkeypatch.setattr(clock, "KAPPA_Z", np.inf)  # the stamps read as given
-    st = dampfit.pipeline.fit_stages(prepare.prepare(rec), 0.8)
+    st = stages.fit_stages(prepare.prepare(rec), 0.8)
     assert st.noise.sigma > 1.2 * b.noise.sigma

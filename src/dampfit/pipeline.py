@@ -69,17 +69,10 @@ def analyze(
     warns.extend(prep.warnings)
     warns.extend(stages.unit_plausibility(recording, prep, m))
 
-    signals = []  # the figure signals, computed once at the fit stage when a stage wants them
-
-    def fitted(st: stages.FitStages) -> None:
-        if on_stage is not None:
-            signals.append(stages.figure_signals(prep, st.fit_data, st.least_squares,
-                                                 st.baselines))
-            on_stage("fit", {"signals": signals[0], "summary": stages.fit_summary(
-                recording, prep, st.fit_data, st.least_squares, st.noise, m, sd)})
-
+    signals: list[dict] = []  # the figure signals, computed once at the fit stage if wanted
     run = stages.viscous_stages(prep, m, sd, seed=seed, progress=progress, max_steps=max_steps,
-                            min_ess=min_ess, on_fit=fitted)
+                                min_ess=min_ess,
+                                on_fit=_on_fit(on_stage, recording, prep, m, sd, signals))
     base, fd, ls, nm, post = (run.baselines, run.fit_data, run.least_squares, run.noise,
                               run.sampling)
     if on_stage is not None:
@@ -89,14 +82,8 @@ def analyze(
     bound = stages.crlb_stage(prep, fd, ls, nm, m, sd, warns)
     viscous_seconds = run.posterior_seconds
     assessment = stages.assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
-                                 max_steps, min_ess, warns, post.n_steps, viscous_seconds)
-    # the r warning, unless the adequacy verdict's warning already explains the structure
-    if nm.excess > stages.R_WARN and assessment.verdict_name not in ("misfit", "amplitude-dependent"):
-        warns.append(
-            f"residuals near f0 are {nm.excess:.1f}x what white noise alone would leave on this "
-            "path (coloured noise, amplitude-dependent damping or a second mode?); intervals "
-            "were widened to match"
-        )
+                                       max_steps, min_ess, warns, post.n_steps, viscous_seconds)
+    warns.extend(_noise_warning(nm, assessment))
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
                "min_ess": min_ess, "model": model, "amplitude": amplitude,
@@ -109,3 +96,27 @@ def analyze(
     if signals:
         an.keep_signals(signals[0])
     return an
+
+
+def _on_fit(on_stage, recording: Recording, prep, m: float | None, sd: float,
+            signals: list[dict]):
+    """The fit stage's callback: with ``on_stage``, the figure signals (kept in ``signals``)
+    and the fit's summary sections are handed to ``on_stage("fit", …)``."""
+    def fitted(st: stages.FitStages) -> None:
+        if on_stage is not None:
+            signals.append(stages.figure_signals(prep, st.fit_data, st.least_squares,
+                                                 st.baselines))
+            on_stage("fit", {"signals": signals[0], "summary": stages.fit_summary(
+                recording, prep, st.fit_data, st.least_squares, st.noise, m, sd)})
+
+    return fitted
+
+
+def _noise_warning(nm, assessment) -> list[str]:
+    """The r warning (residuals near f₀ far above white noise), unless the adequacy
+    verdict's warning already explains the structure."""
+    if nm.excess > stages.R_WARN and assessment.verdict_name not in ("misfit", "amplitude-dependent"):
+        return [f"residuals near f0 are {nm.excess:.1f}x what white noise alone would leave on "
+                "this path (coloured noise, amplitude-dependent damping or a second mode?); "
+                "intervals were widened to match"]
+    return []

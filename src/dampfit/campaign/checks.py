@@ -62,13 +62,16 @@ from dampfit.errors import shown
 __all__ = ["MAX_FREQUENCY_RATIO", "MIN_FREQUENCY_CHANGE_SD", "ALPHA", "check_design",
            "duplicate_recordings",
            "check_same_system", "check_added_mass_design", "heterogeneity", "loo_outliers",
-           "amplitude_regression", "verdict"]
+           "amplitude_regression", "verdict", "INADEQUATE"]
 
 #: Largest ratio of the tests' dominant frequencies [1] of one system without added masses.
 MAX_FREQUENCY_RATIO = 1.3
 #: Predicted change of ln ω_n across the added masses must exceed this many sds of a test's
 #: ln ω_n for m₀ to be identified.
 MIN_FREQUENCY_CHANGE_SD = 3.0
+#: Damping-law verdicts that say one viscous c does not describe a test's decay
+#: ("inconclusive" says nothing either way and is only reported per test).
+INADEQUATE = ("amplitude-dependent", "misfit")
 #: Significance level of the heterogeneity tests [1].
 ALPHA = 0.01
 #: The amplitude "explains" a spread when the residual spread about the regression line is at

@@ -15,7 +15,7 @@ Laplace expansion about its maximum ψ̂_i,
     ℓ̃_i(ψ) = ℓ_i(θ̂_i) − ½·(ψ − ψ̂_i)ᵀ·Σ_i⁻¹·(ψ − ψ̂_i),   Σ_i = J·(−∇²ℓ_i)⁻¹·Jᵀ,     (C2)
 
 J = ∂ψ/∂θ = [[1, 0], [p²/ω_n², ω_d²/ω_n²]]. The exact ℓ_i is restored afterwards by importance
-weights (:mod:`dampfit.campaign.analysis`), so (C2) only has to be a good proposal.
+weights (:mod:`dampfit.campaign.sampling`), so (C2) only has to be a good proposal.
 
 Population (hierarchical, non-centred)
 --------------------------------------
@@ -96,7 +96,7 @@ L the likelihood (C5), π the normalised half-normal. The τ-integral is a quadr
 :data:`BF_GRID` points from τ = 10⁻¹⁰ (below it L is flat at L(φ₋, 0): the rest adds
 L(φ₋, 0)·π(0)·10⁻¹⁰) to 10 scales. (C7) uses the Gaussian (C2); the exact likelihoods multiply
 it by the ratio of the two models' mean importance weights (C6)
-(:mod:`dampfit.campaign.analysis`). P(M₀ | data) = B₀₁/(1 + B₀₁) for even prior odds.
+(:mod:`dampfit.campaign.sampling`). P(M₀ | data) = B₀₁/(1 + B₀₁) for even prior odds.
 * μ_p, μ_ω (or ln p₀, ln ω₀, ln m₀): normal with sd :data:`LOCATION_SD` = 5 (a factor e⁵ ≈ 150)
   about the least-squares values — flat wherever the data have anything to say.
 """
@@ -285,7 +285,10 @@ def _sampler_m0(xs, data: CampaignData):
 
     def one(x):
         phi, logdet = to_hyper(x, data)
-        return log_posterior_shared(phi[None, :-1], data)[0] + logdet
+        out = log_posterior_shared(phi[None, :-1], data)[0] + logdet
+        # a level far out makes the map's log-Jacobian inf − inf: outside, not NaN (emcee
+        # stops at a NaN)
+        return jnp.where(jnp.isfinite(out), out, -jnp.inf)
 
     return jax.vmap(one)(full)
 

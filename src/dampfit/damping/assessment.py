@@ -217,44 +217,21 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     def ratio(mf):  # floored at r_white: the likelihood is never sharper than for white noise
         return noise_of(mf).psd_ratio
 
-    visc = _viscous_with_drift(fd, data, p_start, w_start, ratio)
-    p_start, w_start = (visc.p0, visc.omega) if visc.converged else (p_start, w_start)
-    phase0 = visc.theta[2:]
-    fits = {"viscous": visc}
-    fits.update({m: law_fit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
-                 for m in laws.MODELS[1:]})
-    warns = [f"{m} damping law: least squares did not converge ({mf.message})"
-             for m, mf in fits.items() if not mf.converged]
-    ok = [mf for mf in fits.values() if mf.converged] or [fits["viscous"]]
-    best = min(ok, key=lambda mf: mf.rss)
-
+    fits, best, p_start, warns = _fit_laws(fd, data, p_start, w_start, ratio)
     r = ratio(best)
     fits = {m: law_fit.laplace(mf, data, 1.0 / r, prep.band) for m, mf in fits.items()}
     table, verdict = evidence.compare(fits, data, f0)
     decay = law_fit.decay_test(fits["viscous"], data, 1.0 / r)
     chosen = verdict["preferred"] if model == "auto" else model
-
-    # posteriors
-    posts: dict[str, dsample.ModelPosterior] = {}
-    for i, (m, mf) in enumerate(fits.items()):
-        use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen) or (
-            posterior == "chosen-nonviscous" and m == chosen and m != "viscous")
-        if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
-            posts[m] = dsample.sample_emcee(mf, data, prep.band, seed=seed + i,
-                                            min_ess=min_ess, max_steps=max_steps, budget=budget,
-                                            progress=progress)
-        else:
-            posts[m] = dsample.sample_laplace(mf, data, seed=seed + i)
-        warns.extend(posts[m].warnings)
+    posts = _posteriors(fits, data, prep.band, chosen, posterior, seed=seed, min_ess=min_ess,
+                        max_steps=max_steps, budget=budget, progress=progress, warns=warns)
 
     # ζ(amplitude) windows on the drift-free signal of the best law
     ref = fits[verdict["preferred"]] if fits[verdict["preferred"]].converged else best
-    y_free = fd.y - fd.drift @ ref.beta[2:]
-    spc = fd.fs / f0
     n_cyc = float((fd.tau[-1] - fd.tau[0]) * f0)
-    cyc = window_cycles or curve.auto_cycles(n_cyc, spc)
-    wins = curve.windows(fd.tau, y_free, ref.omega, p_start, cycles=cyc, psd_ratio=r, gain=ref.gain)
-    slope = curve.slope(wins)
+    cyc = window_cycles or curve.auto_cycles(n_cyc, fd.fs / f0)
+    wins = curve.windows(fd.tau, fd.y - fd.drift @ ref.beta[2:], ref.omega, p_start, cycles=cyc,
+                         psd_ratio=r, gain=ref.gain)
 
     amps = _amplitudes(fits[chosen], wins, fd, amplitude)
     rng = np.random.default_rng(seed + 101)
@@ -271,8 +248,8 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     out = DampingAssessment(
         fits=fits, posteriors=posts, table=table, verdict=verdict, requested=model,
         chosen=chosen, psd_ratio=float(r), psd_ratios=ratios, whiteness=white, windows=wins,
-        slope=slope, window_cycles=float(cyc), amplitudes=amps, mass=mass, quantities=qts,
-        t0=float(fd.t0), warnings=warns,
+        slope=curve.slope(wins), window_cycles=float(cyc), amplitudes=amps, mass=mass,
+        quantities=qts, t0=float(fd.t0), warnings=warns,
         pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
         decay=decay,
     )
@@ -281,17 +258,62 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None)
     if out.warning:
         out.warnings.append(out.warning)
-    if amplitude is not None and chosen != "viscous" and out.extrapolated:
-        lo, hi = out.recorded_amplitudes
-        out.warnings.append(
-            f"--amplitude {amplitude:.3g} m is outside the recorded displacement amplitudes "
-            f"{lo:.3g}–{hi:.3g} m: the {chosen} law's c_equivalent there is an extrapolation "
-            "of the law beyond the data")
-    if model != "auto" and model != verdict["preferred"]:
-        out.warnings.append(
-            f"the {model} damping law was requested, but the evidence prefers "
-            f"{verdict['preferred']} (P = {_weight(table, verdict['preferred']):.2g})")
+    out.warnings.extend(_request_warnings(out, model, amplitude))
     return out
+
+
+def _fit_laws(fd, data, p_start: float, w_start: float, ratio):
+    """Least squares of every damping law, started from the viscous fit with drift:
+    (fits by law, the one with the least residual sum of squares among the converged, the
+    decay rate p [1/s] the others start from, warnings of the laws that did not converge)."""
+    visc = _viscous_with_drift(fd, data, p_start, w_start, ratio)
+    p_start, w_start = (visc.p0, visc.omega) if visc.converged else (p_start, w_start)
+    phase0 = visc.theta[2:]
+    fits = {"viscous": visc}
+    fits.update({m: law_fit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
+                 for m in laws.MODELS[1:]})
+    warns = [f"{m} damping law: least squares did not converge ({mf.message})"
+             for m, mf in fits.items() if not mf.converged]
+    ok = [mf for mf in fits.values() if mf.converged] or [fits["viscous"]]
+    return fits, min(ok, key=lambda mf: mf.rss), p_start, warns
+
+
+def _posteriors(fits, data, band, chosen: str, posterior: str, *, seed: int, min_ess: float,
+                max_steps: int, budget, progress: bool, warns: list[str]):
+    """Each law's posterior: emcee where ``posterior`` (:data:`POSTERIORS`) asks for it and
+    the fit has a finite covariance, the Laplace approximation otherwise; their warnings are
+    appended to ``warns``."""
+    posts: dict[str, dsample.ModelPosterior] = {}
+    for i, (m, mf) in enumerate(fits.items()):
+        use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen) or (
+            posterior == "chosen-nonviscous" and m == chosen and m != "viscous")
+        if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
+            posts[m] = dsample.sample_emcee(mf, data, band, seed=seed + i,
+                                            min_ess=min_ess, max_steps=max_steps, budget=budget,
+                                            progress=progress)
+        else:
+            posts[m] = dsample.sample_laplace(mf, data, seed=seed + i)
+        warns.extend(posts[m].warnings)
+    return posts
+
+
+def _request_warnings(out: DampingAssessment, model: str, amplitude: float | None) -> list[str]:
+    """Warnings about what the user asked for: a reference ``amplitude`` [m] outside the
+    recorded ones (an extrapolation of a nonlinear law), a ``model`` the evidence does not
+    prefer."""
+    warns = []
+    if amplitude is not None and out.chosen != "viscous" and out.extrapolated:
+        lo, hi = out.recorded_amplitudes
+        warns.append(
+            f"--amplitude {amplitude:.3g} m is outside the recorded displacement amplitudes "
+            f"{lo:.3g}–{hi:.3g} m: the {out.chosen} law's c_equivalent there is an extrapolation "
+            "of the law beyond the data")
+    preferred = out.verdict["preferred"]
+    if model != "auto" and model != preferred:
+        warns.append(
+            f"the {model} damping law was requested, but the evidence prefers "
+            f"{preferred} (P = {_weight(out.table, preferred):.2g})")
+    return warns
 
 
 def from_analysis(an, **kw) -> DampingAssessment:

@@ -283,6 +283,49 @@ def _usable_law(laws: dict | None, ranked: list[str]) -> tuple[str | None, dict]
     return next((m for m in ranked if not issues[m]), None), {m: w for m, w in issues.items() if w}
 
 
+def _law_evidence(laws: dict | None, best_nonlinear: str | None, p_viscous: float,
+                  slope: dict | None, reasons: list[str]):
+    """The damping laws' evidence against one viscous c: (the most probable usable
+    non-viscous law, why the others cannot carry a verdict, evidence decisive, the best law
+    usable, usable and shown by the windows too); its line is appended to ``reasons``."""
+    ranked = sorted((laws or {}), key=lambda m: -float(laws[m].get("weight") or 0.0)) \
+        if laws else ([best_nonlinear] if best_nonlinear else [])
+    if best_nonlinear and best_nonlinear in ranked:  # the caller's order for the best
+        ranked.remove(best_nonlinear)
+        ranked.insert(0, best_nonlinear)
+    usable, issues = _usable_law(laws, ranked)
+    law_ev = bool(best_nonlinear) and np.isfinite(p_viscous) and p_viscous < _p_decisive()
+    law_ok = law_ev and usable == best_nonlinear
+    agree = _windows_agree(slope, (laws or {}).get(best_nonlinear or "", {}).get("zeta_ratio"))
+    law_txt = (f"P(one viscous c) = {p_viscous:.2g}"
+               + (f", best other law {best_nonlinear}" if best_nonlinear else ""))
+    if law_ev and not law_ok:
+        law_txt += f" (cannot carry the verdict: {issues.get(best_nonlinear, 'not usable')})"
+    elif law_ok and not agree:
+        law_txt += " (the windowed slope does not show it: flat windows)"
+    reasons.append(law_txt)
+    return usable, issues, law_ev, law_ok, law_ok and agree
+
+
+def _misfits(viscous: dict | None, best: dict | None, best_model: str,
+             pipeline: dict | None, f_dec: bool, reasons: list[str]):
+    """The misfits of the viscous fit, the best law's and the constant-frequency viscous
+    least squares' (lists of reasons, empty when it fits), and whether the frequency drifts
+    in phase (the constant-frequency fit leaves ≫ the residual of the one with drift terms);
+    their lines are added to ``reasons``."""
+    v_mis = _fit_misfit("viscous", viscous)
+    b_mis = _fit_misfit(best_model, best) if best_model != "viscous" else v_mis
+    p_mis = _fit_misfit("constant-frequency viscous", pipeline)
+    phase = bool(p_mis and viscous and pipeline["resid_fraction"]
+                 > PHASE_RATIO * viscous["resid_fraction"])
+    if phase and not f_dec:
+        reasons.insert(0, "frequency drifts along the decay: the constant-frequency fit leaves "
+                          f"{pipeline['resid_fraction'] / viscous['resid_fraction']:.3g}x the "
+                          "residual of the fit with frequency-drift terms")
+    reasons += _fit_lines(viscous, best, best_model, pipeline)
+    return v_mis, b_mis, p_mis, phase
+
+
 def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
              freq: dict | None, p_viscous: float, best_nonlinear: str | None,
              viscous: dict | None, best: dict | None, best_model: str = "viscous",
@@ -311,34 +354,10 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
     span = float(amplitude_span) if np.isfinite(amplitude_span) and amplitude_span > 1 else 1.0
     sc = _slope_criteria(slope, span, power_slope)
     reasons: list[str] = list(sc["reasons"])
-    ranked = sorted((laws or {}), key=lambda m: -float(laws[m].get("weight") or 0.0)) \
-        if laws else ([best_nonlinear] if best_nonlinear else [])
-    if best_nonlinear and best_nonlinear in ranked:  # the caller's order for the best
-        ranked.remove(best_nonlinear)
-        ranked.insert(0, best_nonlinear)
-    usable, issues = _usable_law(laws, ranked)
-    law_ev = bool(best_nonlinear) and np.isfinite(p_viscous) and p_viscous < _p_decisive()
-    law_ok = law_ev and usable == best_nonlinear
-    agree = _windows_agree(slope, (laws or {}).get(best_nonlinear or "", {}).get("zeta_ratio"))
-    law_dec = law_ok and agree
-    law_txt = (f"P(one viscous c) = {p_viscous:.2g}"
-               + (f", best other law {best_nonlinear}" if best_nonlinear else ""))
-    if law_ev and not law_ok:
-        law_txt += f" (cannot carry the verdict: {issues.get(best_nonlinear, 'not usable')})"
-    elif law_ok and not agree:
-        law_txt += " (the windowed slope does not show it: flat windows)"
-    reasons.append(law_txt)
+    usable, issues, law_ev, law_ok, law_dec = _law_evidence(laws, best_nonlinear, p_viscous,
+                                                            slope, reasons)
     f_dec = _frequency_drift(freq, reasons)
-    v_mis = _fit_misfit("viscous", viscous)
-    b_mis = _fit_misfit(best_model, best) if best_model != "viscous" else v_mis
-    p_mis = _fit_misfit("constant-frequency viscous", pipeline)
-    phase = bool(p_mis and viscous and pipeline["resid_fraction"]
-                 > PHASE_RATIO * viscous["resid_fraction"])
-    if phase and not f_dec:
-        reasons.insert(0, "frequency drifts along the decay: the constant-frequency fit leaves "
-                          f"{pipeline['resid_fraction'] / viscous['resid_fraction']:.3g}x the "
-                          "residual of the fit with frequency-drift terms")
-    reasons += _fit_lines(viscous, best, best_model, pipeline)
+    v_mis, b_mis, p_mis, phase = _misfits(viscous, best, best_model, pipeline, f_dec, reasons)
     lb_v = (viscous or {}).get("ljung_box_p")
     white = lb_v is not None and np.isfinite(lb_v) and lb_v >= P_WHITE_ADEQUATE
     no_decay = bool(decay) and decay.get("resolved") is False

@@ -63,7 +63,9 @@ import numpy as np
 from scipy import integrate, signal
 
 from dampfit.errors import InputError
-from dampfit.signal.filters import bandpass, bandpass_sos
+from dampfit.estimators import features
+from dampfit.estimators.features import FILTER_ORDER
+from dampfit.signal.filters import bandpass
 from dampfit.physics import check_mass, quantities, zeta_from_log_decrement
 
 __all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
@@ -72,21 +74,6 @@ __all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
 UNIFORM_TOLERANCE = 1e-3
 #: Fewest samples a window may have.
 MIN_WINDOW_SAMPLES = 16
-#: Butterworth order of every band-pass used here (zero-phase, so the effective order doubles).
-FILTER_ORDER = 4
-#: Minimum peak distance as a fraction of the oscillation period (one positive peak per cycle).
-PEAK_DISTANCE_FRACTION = 0.7
-#: Fraction of the window dropped at each end of the envelope fit (filter / Hilbert end effects).
-ENVELOPE_TRIM_FRACTION = 0.10
-#: ... but at least this many periods at each end.
-ENVELOPE_TRIM_MIN_PERIODS = 2.0
-#: Envelope fit stops where the envelope first falls below this fraction of its maximum (40 dB).
-ENVELOPE_FLOOR = 1e-2
-#: Edge guard: samples closer to a window end than the time the band-pass impulse response needs
-#: to fall below this fraction of its peak are distorted by the filter's start/stop transient.
-EDGE_SETTLE_TOLERANCE = 5e-3
-#: ... but the guard never exceeds this fraction of the window at each end.
-EDGE_GUARD_MAX_FRACTION = 0.25
 #: A baseline resting on fewer cycles than this is not supported (not reliable).
 MIN_CYCLES = 5
 #: ... nor one resting on less than this fraction of the window's cycles.
@@ -218,26 +205,9 @@ def log_decrement(
     """
     t, a, fs, band = _validate(time, accel, fs, band, mass)
     y = bandpass(a, fs, band, FILTER_ORDER)
-    guard, settle = _edge_guard(fs, band, t[-1] - t[0])
-    idx, t_pk, a_pk = _positive_peaks(y, fs, band, t)
-    inner = (t_pk >= t[0] + guard) & (t_pk <= t[-1] - guard)
-    idx, t_pk, a_pk = idx[inner], t_pk[inner], a_pk[inner]
+    idx, t_pk, a_pk, guard, settle = _inner_peaks(y, fs, band, t)
     n_avail = len(t_pk) - 1
-    if n_avail < 2:
-        raise InputError(
-            f"only {len(t_pk)} positive peak(s) away from the filter's edge transients "
-            f"({guard:.3g} s at each end); the log decrement needs at least 3 (2 cycles) — "
-            "use a longer window or a wider pass band"
-        )
-    if n_cycles is None:
-        n = n_avail
-    else:
-        if isinstance(n_cycles, bool) or int(n_cycles) != n_cycles:
-            raise InputError(f"n_cycles must be an integer, got {n_cycles!r}")
-        n = int(n_cycles)
-        if not 1 <= n <= n_avail:
-            raise InputError(f"n_cycles={n} is out of range: this window has 1 to {n_avail} cycles")
-
+    n = _cycles_between(n_cycles, n_avail)
     delta = math.log(a_pk[0] / a_pk[n]) / n  # eq. 9
     f_d = n / (t_pk[n] - t_pk[0])
     zeta = float(zeta_from_log_decrement(delta))  # eq. 13
@@ -245,17 +215,8 @@ def log_decrement(
     phys = quantities(p, 2.0 * np.pi * f_d, mass)
 
     slope, intercept = np.polyfit(t_pk, np.log(a_pk), 1)
-    # expected spread: scatter σ_a of the smaller half of the peak heights about their
-    # exponential fit (additive noise shows there; proportional errors of the large peaks are
-    # what REL_SD_FLOOR covers), with the fit's two degrees of freedom allowed for
-    resid = a_pk - np.exp(intercept + slope * t_pk)
-    small = a_pk <= np.median(a_pk)
-    sigma_a = float(np.sqrt(np.mean(resid[small] ** 2) * len(a_pk) / max(len(a_pk) - 2, 1)))
-    sd_ln_ratio = math.hypot(sigma_a / a_pk[0], sigma_a / a_pk[n])
-    n_window = (t[-1] - t[0]) * f_d
-    low = ([f"the end peak a_n = {a_pk[n]:.3g} m/s^2 is within {MIN_PEAK_SNR:g}x the noise of "
-            f"the peak heights ({sigma_a:.2g} m/s^2)"] if a_pk[n] < MIN_PEAK_SNR * sigma_a else [])
-    support = _support(n, n_window, delta * n, sd_ln_ratio, "ln(a_0/a_n)", low)
+    sigma_a, support = _peak_support(t_pk, a_pk, n, (t[-1] - t[0]) * f_d, delta,
+                                     intercept + slope * t_pk)
     p_reg = -float(slope)
     f_reg = n_avail / (t_pk[-1] - t_pk[0])
     phys_reg = quantities(p_reg, 2.0 * np.pi * f_reg)
@@ -275,6 +236,52 @@ def log_decrement(
         "peak_sigma": sigma_a,
     }
     return _result("log_decrement", p, zeta, delta, f_d, phys, mass, n, details, **support)
+
+
+def _inner_peaks(y: np.ndarray, fs: float, band: tuple[float, float], t: np.ndarray):
+    """The positive peaks of the band-passed ``y`` away from the filter's edge transients:
+    (indices, times [s], heights, guard [s], settle [s]); fewer than 3 is an :class:`InputError`."""
+    guard, settle = features.edge_guard(fs, band, t[-1] - t[0])
+    idx, t_pk, a_pk = features.positive_peaks(y, fs, band, t)
+    inner = (t_pk >= t[0] + guard) & (t_pk <= t[-1] - guard)
+    idx, t_pk, a_pk = idx[inner], t_pk[inner], a_pk[inner]
+    n_avail = len(t_pk) - 1
+    if n_avail < 2:
+        raise InputError(
+            f"only {len(t_pk)} positive peak(s) away from the filter's edge transients "
+            f"({guard:.3g} s at each end); the log decrement needs at least 3 (2 cycles) — "
+            "use a longer window or a wider pass band"
+        )
+    return idx, t_pk, a_pk, guard, settle
+
+
+def _cycles_between(n_cycles: int | None, n_avail: int) -> int:
+    """Cycles n of eq. 9: ``n_cycles`` checked against the ``n_avail`` the window has, or all."""
+    if n_cycles is None:
+        return n_avail
+    if isinstance(n_cycles, bool) or int(n_cycles) != n_cycles:
+        raise InputError(f"n_cycles must be an integer, got {n_cycles!r}")
+    n = int(n_cycles)
+    if not 1 <= n <= n_avail:
+        raise InputError(f"n_cycles={n} is out of range: this window has 1 to {n_avail} cycles")
+    return n
+
+
+def _peak_support(t_pk: np.ndarray, a_pk: np.ndarray, n: int, n_window: float, delta: float,
+                  ln_fit: np.ndarray) -> tuple[float, dict[str, Any]]:
+    """The peak-height noise σ_a [m/s²] and whether the log decrement over peaks 0…n is
+    supported (:func:`_support`), ``ln_fit`` the exponential fit ln a(t_pk) of the peaks.
+
+    Expected spread: scatter σ_a of the smaller half of the peak heights about their
+    exponential fit (additive noise shows there; proportional errors of the large peaks are
+    what REL_SD_FLOOR covers), with the fit's two degrees of freedom allowed for."""
+    resid = a_pk - np.exp(ln_fit)
+    small = a_pk <= np.median(a_pk)
+    sigma_a = float(np.sqrt(np.mean(resid[small] ** 2) * len(a_pk) / max(len(a_pk) - 2, 1)))
+    sd_ln_ratio = math.hypot(sigma_a / a_pk[0], sigma_a / a_pk[n])
+    low = ([f"the end peak a_n = {a_pk[n]:.3g} m/s^2 is within {MIN_PEAK_SNR:g}x the noise of "
+            f"the peak heights ({sigma_a:.2g} m/s^2)"] if a_pk[n] < MIN_PEAK_SNR * sigma_a else [])
+    return sigma_a, _support(n, n_window, delta * n, sd_ln_ratio, "ln(a_0/a_n)", low)
 
 
 def envelope_pipeline(
@@ -303,7 +310,7 @@ def envelope_pipeline(
     BaselineResult
         ``p`` [1/s] from the fit ``ln|H(u)| = ln K − p·t`` over the fit region: the window
         without max(10 %, two periods, filter settling time) at each end, cut further where the
-        envelope first falls below :data:`ENVELOPE_FLOOR` of its maximum; ``f_d`` [Hz] from the
+        envelope first falls below :data:`~dampfit.estimators.features.ENVELOPE_FLOOR` of its maximum; ``f_d`` [Hz] from the
         displacement's upward zero crossings in the fit region; ``c = 2·m·p`` (eq. 3);
         ζ = p/ω_n. ``details`` holds ``accel_filtered`` [m/s²], ``velocity`` [m/s],
         ``displacement`` [m], ``envelope`` [m], ``fit_mask`` (samples used), ``envelope_fit``
@@ -312,15 +319,10 @@ def envelope_pipeline(
         ``weighted``, ``p_weighted`` and ``p_unweighted`` [1/s].
     """
     t, a, fs, band = _validate(time, accel, fs, band, mass)
-    dt = 1.0 / fs
-    # Band-pass after each integration: removes the integration constants and the drift.
-    a_f = bandpass(a, fs, band, FILTER_ORDER)
-    v = bandpass(integrate.cumulative_trapezoid(a_f, dx=dt, initial=0.0), fs, band, FILTER_ORDER)
-    u = bandpass(integrate.cumulative_trapezoid(v, dx=dt, initial=0.0), fs, band, FILTER_ORDER)
-    env = np.abs(signal.hilbert(u))
+    a_f, v, u, env = _displacement(a, fs, band)
 
-    mask, trim, settle = _envelope_fit_region(t, u, env, fs, band)
-    f_d = _zero_crossing_frequency(t[mask], u[mask])
+    mask, trim, settle = features.envelope_fit_region(t, u, env, fs, band)
+    f_d = features.zero_crossing_frequency(t[mask], u[mask])
     if f_d is None:
         raise InputError(
             "fewer than 2 oscillation cycles remain for the envelope fit; use a longer window"
@@ -334,22 +336,8 @@ def envelope_pipeline(
     slope, icpt = (float(slope_w), float(icpt_w)) if weighted else (float(slope_u), float(icpt_u))
     p = -slope
     K = float(np.exp(icpt + slope * (t[0] - t_ref)))
-    # expected spread of p: log-linear fit over `span` s with N ≈ span·bandwidth independent
-    # envelope samples (the envelope decorrelates over ≈ 1/bandwidth), scatter σ_ln about the fit
-    span = float(tm[-1] - tm[0])
-    w2 = env[mask] ** 2 if weighted else np.ones(tm.size)
-    fit_ln = (icpt + slope * (tm - t_ref))
-    sigma_ln = float(np.sqrt(np.sum(w2 * (ln_env - fit_ln) ** 2) / np.sum(w2)))
-    n_indep = max(span * (band[1] - band[0]), 3.0)
-    sd_p = sigma_ln * math.sqrt(12.0 / n_indep) / span if span > 0 else math.inf
-    # the fit must end above the noise: envelope scatter about the fit on its lower half
-    env_m, fit_env = env[mask], np.exp(fit_ln)
-    small = env_m <= np.median(env_m)
-    sigma_env = float(np.sqrt(np.mean((env_m[small] - fit_env[small]) ** 2)))
-    low = ([f"the fitted envelope ends at {fit_env[-1]:.3g} m, within {MIN_PEAK_SNR:g}x its "
-            f"scatter ({sigma_env:.2g} m): the fit reaches the noise floor"]
-           if fit_env[-1] < MIN_PEAK_SNR * sigma_env else [])
-    support = _support(span * f_d, (t[-1] - t[0]) * f_d, p * span, sd_p * span, "p·T", low)
+    support = _envelope_support(tm, env[mask], icpt + slope * (tm - t_ref), weighted, band, p,
+                                f_d, (t[-1] - t[0]) * f_d)
     phys = quantities(p, 2.0 * np.pi * f_d, mass)
     details = {
         "accel_filtered": a_f,
@@ -369,6 +357,41 @@ def envelope_pipeline(
         "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, mass, None,
         details, **support,
     )
+
+
+def _displacement(a: np.ndarray, fs: float, band: tuple[float, float]):
+    """Eq. 2: the band-passed acceleration [m/s²], velocity [m/s], displacement [m] and the
+    displacement's Hilbert envelope [m]; a band-pass after each integration removes the
+    integration constants and the drift."""
+    dt = 1.0 / fs
+    a_f = bandpass(a, fs, band, FILTER_ORDER)
+    v = bandpass(integrate.cumulative_trapezoid(a_f, dx=dt, initial=0.0), fs, band, FILTER_ORDER)
+    u = bandpass(integrate.cumulative_trapezoid(v, dx=dt, initial=0.0), fs, band, FILTER_ORDER)
+    return a_f, v, u, np.abs(signal.hilbert(u))
+
+
+def _envelope_support(tm: np.ndarray, env_m: np.ndarray, fit_ln: np.ndarray, weighted: bool,
+                      band: tuple[float, float], p: float, f_d: float,
+                      n_window: float) -> dict[str, Any]:
+    """Whether the envelope fit (envelope ``env_m`` [m] at the fitted times ``tm`` [s], the
+    fitted ln envelope ``fit_ln``) is supported (:func:`_support`).
+
+    Expected spread of p: log-linear fit over ``span`` s with N ≈ span·bandwidth independent
+    envelope samples (the envelope decorrelates over ≈ 1/bandwidth), scatter σ_ln about the
+    fit; and the fit must end above the noise: envelope scatter about the fit on its lower
+    half."""
+    span = float(tm[-1] - tm[0])
+    w2 = env_m ** 2 if weighted else np.ones(tm.size)
+    sigma_ln = float(np.sqrt(np.sum(w2 * (np.log(env_m) - fit_ln) ** 2) / np.sum(w2)))
+    n_indep = max(span * (band[1] - band[0]), 3.0)
+    sd_p = sigma_ln * math.sqrt(12.0 / n_indep) / span if span > 0 else math.inf
+    fit_env = np.exp(fit_ln)
+    small = env_m <= np.median(env_m)
+    sigma_env = float(np.sqrt(np.mean((env_m[small] - fit_env[small]) ** 2)))
+    low = ([f"the fitted envelope ends at {fit_env[-1]:.3g} m, within {MIN_PEAK_SNR:g}x its "
+            f"scatter ({sigma_env:.2g} m): the fit reaches the noise floor"]
+           if fit_env[-1] < MIN_PEAK_SNR * sigma_env else [])
+    return _support(span * f_d, n_window, p * span, sd_p * span, "p·T", low)
 
 
 def agreement(summary: dict[str, Any], p_median: float | None, p_sd: float | None) -> dict[str, Any]:
@@ -495,103 +518,3 @@ def _validate(
         raise InputError(f"band must be a pair (low, high) in Hz, got {band!r}") from None
     check_mass(mass)
     return t, a, fs, (lo, hi)
-
-
-def _settle_time(fs: float, band: tuple[float, float], n_filters: int = 1) -> float:
-    """Time [s] after which the impulse response of ``n_filters`` cascaded band-passes stays
-    below :data:`EDGE_SETTLE_TOLERANCE` of its peak (how long an edge transient lasts)."""
-    sos = np.vstack([bandpass_sos(band, fs, FILTER_ORDER)] * n_filters)
-    n = int(math.ceil(fs * 20.0 * (n_filters + 1) / (band[1] - band[0]))) + 1
-    impulse = np.zeros(n)
-    impulse[0] = 1.0
-    h = np.abs(signal.sosfilt(sos, impulse))
-    return float(np.flatnonzero(h > EDGE_SETTLE_TOLERANCE * h.max())[-1] / fs)
-
-
-def _edge_guard(
-    fs: float, band: tuple[float, float], duration: float, n_filters: int = 1
-) -> tuple[float, float]:
-    """(guard, settle) [s]: the time at each window end where the band-passed output is not yet
-    trustworthy — the settling time of the filter cascade, but at most
-    :data:`EDGE_GUARD_MAX_FRACTION` of the window — and the uncapped settling time."""
-    settle = _settle_time(fs, band, n_filters)
-    return min(settle, EDGE_GUARD_MAX_FRACTION * duration), settle
-
-
-def _parabolic(y: np.ndarray, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """3-point parabolic refinement at interior indices ``i``: (fractional offset [samples], height)."""
-    y0, y1, y2 = y[i - 1], y[i], y[i + 1]
-    denom = y0 - 2.0 * y1 + y2
-    safe = np.where(denom != 0.0, denom, 1.0)
-    d = np.where(denom != 0.0, 0.5 * (y0 - y2) / safe, 0.0)
-    return d, y1 - 0.25 * (y0 - y2) * d
-
-
-def _positive_peaks(
-    y: np.ndarray, fs: float, band: tuple[float, float], t: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One positive peak per cycle: (indices, refined times [s], refined heights)."""
-    # First pass: distance from the upper band edge (shortest possible period), so no true
-    # peak is skipped; then repeat with the median spacing of what was found.
-    dist = max(1, int(PEAK_DISTANCE_FRACTION * fs / band[1]))
-    idx, _ = signal.find_peaks(y, height=0.0, distance=dist)
-    if idx.size >= 3:
-        period = float(np.median(np.diff(idx)))
-        idx, _ = signal.find_peaks(y, height=0.0, distance=max(1, int(PEAK_DISTANCE_FRACTION * period)))
-    d, h = _parabolic(y, idx)
-    return idx, t[idx] + d / fs, h
-
-
-def _rough_frequency(u: np.ndarray, fs: float, band: tuple[float, float]) -> float:
-    """Dominant frequency [Hz]: FFT peak with parabolic refinement, falling back to the band centre."""
-    spec = np.abs(np.fft.rfft(u * np.hanning(u.size)))
-    freqs = np.fft.rfftfreq(u.size, 1.0 / fs)
-    inband = (freqs >= band[0]) & (freqs <= band[1])
-    if not np.any(inband):
-        return math.sqrt(band[0] * band[1])
-    i = int(np.flatnonzero(inband)[np.argmax(spec[inband])])
-    if 0 < i < spec.size - 1:
-        d, _ = _parabolic(spec, np.array([i]))
-        return float((i + d[0]) * fs / u.size)
-    return float(freqs[i])
-
-
-def _envelope_fit_region(
-    t: np.ndarray, u: np.ndarray, env: np.ndarray, fs: float, band: tuple[float, float]
-) -> tuple[np.ndarray, float, float]:
-    """Boolean mask of the samples the envelope fit may use, the end trim [s] and the filter
-    cascade's uncapped settling time [s].
-
-    Drops max(10 %, two periods, settling time of the three band-passes) at each end, then —
-    because the Hilbert envelope of a record that starts abruptly carries an algebraically
-    decaying leakage (≈1e-3 of the initial amplitude) while the true envelope decays
-    exponentially — keeps only the part before the envelope first drops below
-    :data:`ENVELOPE_FLOOR` of its maximum.
-    """
-    duration = t[-1] - t[0]
-    f_rough = _rough_frequency(u, fs, band)
-    guard, settle = _edge_guard(fs, band, duration, n_filters=3)
-    trim = max(ENVELOPE_TRIM_FRACTION * duration, ENVELOPE_TRIM_MIN_PERIODS / f_rough, guard)
-    if (duration - 2.0 * trim) * f_rough < 2.0:
-        raise InputError(
-            f"the window ({duration:.3g} s) is too short for the envelope pipeline: after trimming "
-            f"{trim:.3g} s at each end fewer than 2 cycles of {f_rough:.3g} Hz remain"
-        )
-    mask = (t >= t[0] + trim) & (t <= t[-1] - trim)
-    keep = np.flatnonzero(mask)
-    peak = env[keep].max()
-    if not peak > 0.0:
-        raise InputError("the displacement envelope is zero; check the pass band and the data")
-    below = np.flatnonzero(env[keep] < ENVELOPE_FLOOR * peak)
-    if below.size:
-        mask[keep[below[0]] :] = False
-    return mask, float(trim), float(settle)
-
-
-def _zero_crossing_frequency(t: np.ndarray, u: np.ndarray) -> float | None:
-    """Frequency [Hz] from linearly interpolated upward zero crossings; ``None`` if < 2 cycles."""
-    i = np.flatnonzero((u[:-1] < 0.0) & (u[1:] >= 0.0))
-    if i.size < 3:
-        return None
-    tc = t[i] - u[i] * (t[i + 1] - t[i]) / (u[i + 1] - u[i])
-    return float((tc.size - 1) / (tc[-1] - tc[0]))

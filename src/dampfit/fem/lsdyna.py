@@ -77,31 +77,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     y2 = (-ref - sdof.sag + sdof.u0) * L  # released position of the mass node
     offset = (sdof.sag - sdof.u0) * L     # spring elongation at t = 0 (positive = tension)
     end, step, out = duration * T, dt * T, output_dt * T
-    lab = units.label
-    period_err = central_difference_period_error(sdof.omega_n, dt)
-    src = sdof.source
-    lines = ["*KEYWORD"]
-    lines += _comment(f"Written by dampfit {ascii_line(src.get('dampfit_version') or '', 80)} from "
-                      f"{ascii_line(src.get('folder', '?'), 300)} (summary.json sha256 "
-                      f"{ascii_line(str(src.get('summary_sha256', '?'))[:16])}...), posterior "
-                      f"quantile q = {float(src.get('quantile', 0.5)):g}.")
-    lines += _comment(f"Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, "
-                      f"c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, "
-                      f"f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
-    lines += _comment(f"Units of this deck: length {lab('length')}, time {lab('time')}, mass "
-                      f"{lab('mass')}, force {lab('force')}; k in {lab('stiffness')}, c in "
-                      f"{lab('damping')}.")
-    lines += _comment("Node 1 is the fixed anchor; node 2 carries the mass and hangs below it "
-                      "(y up) on a *MAT_SPRING_ELASTIC spring and a *MAT_DAMPER_VISCOUS damper "
-                      "in parallel (two *ELEMENT_DISCRETE).")
-    lines += _comment("Initial displacement: node 2 sits at its released position, u0 above "
-                      "static equilibrium, at rest; the spring's OFFSET (initial elongation, "
-                      "positive = tension) = s - u0 carries the force of that displacement "
-                      f"(s = m*g/k = {sdof.sag * L:.6g} {lab('length')} static sag). "
-                      "nodout Y-displacement d(t) = u(t) - u0.")
-    lines += _comment(f"Time step capped at {step:.6g} {lab('time')} by curve {LC_DT} (LCTM): "
-                      f"{sdof.period / dt:.0f} steps per period, central-difference period error "
-                      f"{period_err:.2e}.")
+    lines = ["*KEYWORD"] + _comments(sdof, units, L, dt, step)
     lines += ["*TITLE", lsdyna_title(title)]
     lines += ["*CONTROL_TERMINATION", kw.header(["endtim", "endcyc", "dtmin", "endeng", "endmas"]),
               kw.card([end, 0, 0.0, 0.0, 0.0])]
@@ -142,6 +118,38 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
         lines += _constant_curve(LC_GRAVITY, "gravity (constant)", g, end)
     lines.append("*END")
     return "\n".join(lines) + "\n"
+
+
+def _comments(sdof: Sdof, units: UnitSystem, L: float, dt: float, step: float) -> list[str]:
+    """The deck's ``$`` comments: where it comes from, the identified system (SI), the units,
+    the model, the initial displacement and the time step (``dt`` [s], ``step`` in the deck's
+    time unit, ``L`` the deck's length per metre)."""
+    lab = units.label
+    period_err = central_difference_period_error(sdof.omega_n, dt)
+    src = sdof.source
+    lines: list[str] = []
+    lines += _comment(f"Written by dampfit {ascii_line(src.get('dampfit_version') or '', 80)} from "
+                      f"{ascii_line(src.get('folder', '?'), 300)} (summary.json sha256 "
+                      f"{ascii_line(str(src.get('summary_sha256', '?'))[:16])}...), posterior "
+                      f"quantile q = {float(src.get('quantile', 0.5)):g}.")
+    lines += _comment(f"Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, "
+                      f"c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, "
+                      f"f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
+    lines += _comment(f"Units of this deck: length {lab('length')}, time {lab('time')}, mass "
+                      f"{lab('mass')}, force {lab('force')}; k in {lab('stiffness')}, c in "
+                      f"{lab('damping')}.")
+    lines += _comment("Node 1 is the fixed anchor; node 2 carries the mass and hangs below it "
+                      "(y up) on a *MAT_SPRING_ELASTIC spring and a *MAT_DAMPER_VISCOUS damper "
+                      "in parallel (two *ELEMENT_DISCRETE).")
+    lines += _comment("Initial displacement: node 2 sits at its released position, u0 above "
+                      "static equilibrium, at rest; the spring's OFFSET (initial elongation, "
+                      "positive = tension) = s - u0 carries the force of that displacement "
+                      f"(s = m*g/k = {sdof.sag * L:.6g} {lab('length')} static sag). "
+                      "nodout Y-displacement d(t) = u(t) - u0.")
+    lines += _comment(f"Time step capped at {step:.6g} {lab('time')} by curve {LC_DT} (LCTM): "
+                      f"{sdof.period / dt:.0f} steps per period, central-difference period error "
+                      f"{period_err:.2e}.")
+    return lines
 
 
 def _constant_curve(lcid: int, title: str, value: float, end: float) -> list[str]:

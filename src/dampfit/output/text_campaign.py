@@ -1,7 +1,7 @@
 """The terminal table of a campaign summary (several recordings of one damper, issue 12).
 
 :func:`text` is what ``dampfit analyze FILE FILE…`` prints and
-:meth:`dampfit.campaign.analysis.CampaignAnalysis.report` returns: the population c, k, ζ,
+:meth:`dampfit.campaign.result.CampaignAnalysis.report` returns: the population c, k, ζ,
 f_n (and m₀ in added-mass mode) with 90 % intervals, the predictive interval for a new test,
 the between-test spread τ, one row per test (own and partially pooled c, amplitude, outlier
 flag) and the verdict sentence. Only the plain-data summary (``"kind": "campaign"``; schema in

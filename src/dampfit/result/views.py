@@ -1,7 +1,7 @@
 """What a live result and a result loaded from its folder share (no heavy imports).
 
 :class:`dampfit.analysis.Analysis` (one recording) and
-:class:`dampfit.campaign.analysis.CampaignAnalysis` (several) are live when ``analyze``
+:class:`dampfit.campaign.result.CampaignAnalysis` (several) are live when ``analyze``
 returned them and loaded when :func:`dampfit.load` did (``_loaded`` set): then the posterior
 comes from posterior.nc and the convergence from summary.json, never from a live sampler.
 """

@@ -24,10 +24,11 @@ Steps (each one reported in :class:`Prepared` so the user can see what was done)
    (> 8 robust σ above a running median) are masked, never fitted.
 6. **Spectrum and dominant frequency** — peak of the power summed over axes (Tukey-windowed
    periodogram, flat over 90 % of the record) refined by parabolic interpolation
-   (:mod:`dampfit.signal.spectrum`). Gross spikes (more than :data:`GROSS_SPIKE` times the
-   signal's own local scale on both sides, :func:`_gross_spikes`; they need no f₀ to be
-   found) are left out of this spectrum, so that a train of glitches cannot pose as the
-   oscillation, and are masked with the spikes of step 5 (which that test misses at the ends
+   (:mod:`dampfit.signal.spectrum`). Gross spikes (more than
+   :data:`~dampfit.signal.masks.GROSS_SPIKE` times the signal's own local scale on both
+   sides, :func:`~dampfit.signal.masks.gross_spikes`; they need no f₀ to be found) are left
+   out of this spectrum, so that a train of glitches cannot pose as the oscillation, and are
+   masked with the spikes of step 5 (which that test misses at the ends
    of the record and with fewer than 12 samples per period).
 7. **Band** — default ``[f₀/1.5, 1.5·f₀]`` [Hz] (capped below Nyquist), overridable.
 8. **Free-decay window** — from the Hilbert envelope of the band-passed signal: from just after
@@ -48,31 +49,19 @@ import functools
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import interpolate, ndimage, signal
+from scipy import interpolate, signal
 
-from dampfit.signal import clock, filters
+from dampfit.signal import clock, filters, masks
 from dampfit.model import viscous
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
 from dampfit.signal.spectrum import auto_band, dominant_frequency
 from dampfit.signal.window import (
     DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
-    running_median,
 )
 
 __all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_length"]
 
-#: Fraction of exactly repeated samples above which repeats are treated as stale reads.
-STALE_FRACTION = 0.10
-#: Robust z-score above which a sample deviating from its running median is a spike.
-SPIKE_SIGMA = 8.0
-#: A sample more than this many times the signal's robust local scale on both sides away from
-#: its running median is a gross spike, whatever the frequency (an oscillation's samples stay
-#: within ≈ 1 scale).
-GROSS_SPIKE = 20.0
-#: A gross spike is isolated: at most this many such samples among the 2·GROSS_RUN² + 1
-#: around it.
-GROSS_RUN = 3
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a
@@ -202,13 +191,6 @@ def padded_length(n: int) -> int:
 
 
 # ----------------------------------------------------------------------------- helpers
-def _stale_mask(accel: np.ndarray) -> np.ndarray:
-    """True for samples identical on every axis to the previous one."""
-    rep = np.zeros(len(accel), dtype=bool)
-    rep[1:] = np.all(accel[1:] == accel[:-1], axis=1)
-    return rep
-
-
 def _to_grid(
     t: np.ndarray, y: np.ndarray, fs: float, grid: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -273,65 +255,6 @@ def _continuous_part(
     return t[i:j], a[i:j], [note], [warning]
 
 
-def _clipped(a: np.ndarray) -> np.ndarray:
-    """True for samples stuck at the extreme value of their axis (saturation)."""
-    out = np.zeros(a.shape[0], dtype=bool)
-    for col in a.T:
-        for level in (col.max(), col.min()):
-            at = np.isclose(col, level, rtol=0, atol=1e-9 * max(1.0, abs(level)))
-            # saturation: the extreme value held on consecutive samples, in two or more runs
-            held = at[1:] & at[:-1]
-            n_runs = int(np.sum(held[1:] & ~held[:-1]) + held[0]) if held.size else 0
-            if n_runs >= 2:
-                out |= at
-    return out
-
-
-def _spikes(y: np.ndarray, fs: float, f0: float) -> np.ndarray:
-    """True for impact spikes: deviations > SPIKE_SIGMA local robust σ from a local cubic.
-
-    The local cubic (Savitzky–Golay over ~1/6 period) follows a well-sampled oscillation;
-    the robust scale (MAD of the deviations over two periods) follows its amplitude, so
-    only isolated outliers stand out. With fewer than 12 samples per period the test
-    would flag the oscillation itself and is skipped.
-    """
-    per = fs / f0
-    if per < 12 or len(y) < 4 * per:
-        return np.zeros(len(y), dtype=bool)
-    k = max(5, int(per / 6) | 1)
-    r = y - signal.savgol_filter(y, k, 3)
-    local = 1.4826 * ndimage.median_filter(np.abs(r), size=int(2 * per) | 1, mode="nearest")
-    scale = np.maximum(local, 1e-3 * np.max(local) + 1e-15)
-    hit = np.abs(r) > SPIKE_SIGMA * scale
-    return ndimage.binary_dilation(hit, iterations=2)
-
-
-def _gross_spikes(a: np.ndarray, span: int) -> np.ndarray:
-    """True for isolated samples of ``a`` (n, n_axes) [m/s²] that stand more than
-    :data:`GROSS_SPIKE` × the signal's robust scale away from its running median, the scale
-    taken over ``span`` samples on *both* sides (the larger): an isolated spike is an outlier
-    against both, the onset of an oscillation only against the quiet side before it, and a
-    short ring in a quiet record has many such samples (:data:`GROSS_RUN`). Needs no
-    frequency: ``span`` is at least a period of the lowest frequency searched."""
-    out = np.zeros(a.shape[0], dtype=bool)
-    h = max(1, span // 2)
-    if a.shape[0] < 4 * h:
-        return out
-    for col in np.asarray(a, float).T:
-        med = running_median(col, 2 * h + 1, "mirror")
-        dev = np.abs(col - med)
-        scale = 1.4826 * running_median(dev, 2 * h + 1, "mirror")  # centred: [i − h, i + h]
-        left = np.concatenate([np.full(h, scale[0]), scale[:-h]])  # ends at i
-        right = np.concatenate([scale[h:], np.full(h, scale[-1])])  # starts at i
-        both = np.maximum(np.maximum(left, right), 1e-12 * max(float(dev.max()), 1e-300))
-        far = dev > GROSS_SPIKE * both
-        # isolated: at most GROSS_RUN such samples among the 2·GROSS_RUN² + 1 around it (a
-        # short ring in a quiet record also stands far above both medians, but for many samples)
-        near = ndimage.uniform_filter1d(far.astype(float), 2 * GROSS_RUN**2 + 1, mode="constant")
-        out |= far & (near * (2 * GROSS_RUN**2 + 1) <= GROSS_RUN + 0.5)
-    return out
-
-
 def _inpaint_on_grid(grid: np.ndarray, t: np.ndarray, y: np.ndarray, usable: np.ndarray) -> np.ndarray:
     """``y`` on the grid from the usable samples only (cubic spline through them).
 
@@ -367,19 +290,7 @@ def prepare(
     ``axis`` is ``"auto"`` or an axis name of the recording; ``window`` = (start, end) [s] and
     ``band`` = (low, high) [Hz] override the automatic choices.
     """
-    t, a, notes, warnings = _continuous_part(rec, window)
-    clipped = _clipped(a)  # before dropping repeats: a saturated run repeats exactly
-    stale = _stale_mask(a)
-    n_stale = 0
-    if stale.mean() > STALE_FRACTION:
-        n_stale = int(stale.sum())
-        t, a, clipped = t[~stale], a[~stale], clipped[~stale]
-        notes.append(
-            f"dropped {n_stale} repeated samples ({100 * stale.mean():.0f} %): the sensor was "
-            "polled faster than its output rate"
-        )
-    if len(t) < 16:
-        raise InputError("the recording has too few distinct samples to analyse")
+    t, a, clipped, n_stale, notes, warnings = _distinct_samples(rec, window)
     fs = float(1.0 / np.median(np.diff(t)))
     jitter = float(np.std(np.diff(t)) / np.mean(np.diff(t)))
     a = a - np.median(a, axis=0)
@@ -387,69 +298,20 @@ def prepare(
         raise InputError(
             f"axis {axis!r} is not in this recording; it has {', '.join(rec.axes)} (or auto)"
         )
-
     grid, graw = _to_grid(t, a, fs)
-    fmin = max(0.1, 4.0 / max(t[-1] - t[0], 1e-9))
-    fmax = 0.45 * fs
-    if band is not None:
-        lo, hi = float(band[0]), float(band[1])
-        filters.bandpass_sos((lo, hi), fs)  # validates the band against Nyquist
-        fmin, fmax = lo, hi
-    if fmin >= fmax:
-        hint = rec.time_unit_verdict
-        if hint:  # not too short: the time unit is wrong
-            raise InputError(f"{hint}; as read, the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) "
-                             "cannot hold an oscillation")
-        raise InputError(
-            f"the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) is too short to hold an oscillation"
-        )
-
+    fmin, fmax = _search_range(rec, t, fs, band)
     # dominant frequency on the axis with the strongest peak, then the axis, then refine;
     # gross spikes (found without f0) stay out of this first spectrum
-    gross = _gross_spikes(a, int(np.ceil(fs / fmin)))
+    gross = masks.gross_spikes(a, int(np.ceil(fs / fmin)))
     if gross.any() and (~gross).sum() >= 16:
         graw_f = _to_grid(t[~gross], a[~gross], fs, grid=grid)[1]
     else:
         graw_f = graw
-    detr = signal.detrend(graw_f, axis=0)
-    try:
-        f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
-    except InputError as exc:
-        raise InputError(f"{exc}{_unit_hint(rec)}") from None
-    bnd = (float(band[0]), float(band[1])) if band is not None else auto_band(f0, fs)
-    if axis == "auto":
-        if graw.shape[1] == 1:
-            d = np.ones(1)
-        else:
-            d = _principal_direction(filters.bandpass(detr, fs, bnd))
-    else:
-        d = np.zeros(len(rec.axes))
-        d[rec.axes.index(axis)] = 1.0
-    direction = {name: float(w) for name, w in zip(rec.axes, d)}
-    if axis == "auto" and len(d) > 1:
-        notes.append(
-            "axis auto: projected on the oscillation direction "
-            + ", ".join(f"{k}={v:+.3f}" for k, v in direction.items())
-        )
+    d, direction, f0, freqs, amp, bnd = _axis_and_frequency(rec, graw_f, fs, fmin, fmax, axis,
+                                                             band, notes)
     y = a @ d
-    yg = graw @ d
-
-    # refine f0 on the selected signal, then fix the band
-    f0, freqs, amp = dominant_frequency(signal.detrend(graw_f @ d), fs, *bnd)
-    if band is None:
-        bnd = auto_band(f0, fs)
-
-    spikes = _spikes(y, fs, f0) | gross
-    usable = ~(clipped | spikes)
-    n_clipped, n_spikes = int(clipped.sum()), int((spikes & ~clipped).sum())
-    if n_clipped:
-        warnings.append(f"{n_clipped} samples are clipped (sensor saturation); they are not fitted")
-    if n_spikes:
-        notes.append(f"{n_spikes} samples in impact spikes are masked and not fitted")
-    if usable.sum() < 16:
-        raise InputError("almost every sample is clipped or a spike; nothing left to analyse")
-    if not usable.all():
-        yg = _inpaint_on_grid(grid, t, y, usable)
+    usable, n_clipped, n_spikes = _usable(y, fs, f0, clipped, gross, notes, warnings)
+    yg = graw @ d if usable.all() else _inpaint_on_grid(grid, t, y, usable)
     bp = filters.bandpass(yg, fs, bnd)
     env = np.abs(signal.hilbert(bp))
 
@@ -461,31 +323,12 @@ def prepare(
             "no free-decay oscillation found: the strongest component "
             f"({f0:.3g} Hz) is not clearly above the noise; check the axis, band or file"
         )
-
     if window is None:
-        w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor,
-                                                   impacts(t, y, usable, spikes & ~clipped, f0))
-        notes.extend(wnotes)
-        guard = max(0.5 / f0, 3.0 / bnd[1])
-        if (w1 - min(w0 + guard, w1)) * f0 < MIN_CYCLES:
-            raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
-        w0 = min(w0 + guard, w1)
-        window_auto = True
+        w0, w1, end_reason = _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor,
+                                              bnd, notes)
     else:
-        w0, w1 = float(window[0]), float(window[1])
-        if not (w1 > w0):
-            raise InputError(f"window end {w1:g} s must be after its start {w0:g} s")
-        if w0 < t[0] - 1e-9 or w1 > t[-1] + 1e-9:
-            raise InputError(
-                f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
-            )
-        window_auto, end_reason = False, "given"
-        i0, i1 = np.searchsorted(grid, [w0, w1])
-        for tc, factor in envelope_drops(grid, env, f0, floor, int(i0), int(i1)):
-            warnings.append(f"the window {w0:g}–{w1:g} s contains an abrupt envelope drop at "
-                            f"{tc:.2f} s ({factor:.1f}x more loss than the decay trend within "
-                            f"{DROP_PERIODS:g} cycles: a catch, rattle or contact); the damping "
-                            "estimate mixes two regimes")
+        w0, w1 = _given_window(window, t, grid, env, f0, floor, warnings)
+        end_reason = "given"
     if (w1 - w0) * f0 < MIN_CYCLES:
         raise InputError(
             f"the free-decay window {w0:.3f}–{w1:.3f} s holds only {(w1 - w0) * f0:.1f} cycles "
@@ -504,11 +347,136 @@ def prepare(
         time=t, signal=y, usable=usable, axis=axis, direction=direction, fs=fs, jitter=jitter,
         grid=grid, grid_signal=yg, grid_raw=graw, bandpassed=bp, envelope=env, freqs=freqs,
         amplitude=amp, f0=f0, band=bnd, band_auto=band is None, window=(w0, w1),
-        window_auto=window_auto, noise_density=nd, noise_floor=floor, n_stale=n_stale,
+        window_auto=window is None, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
         window_end_reason=end_reason,
         timing=timing.summary(),
     )
+
+
+def _distinct_samples(rec: Recording, window: tuple[float, float] | None):
+    """Steps 1 and 3's split: time [s], acceleration [m/s²], the clipped mask, the number of
+    stale repeats dropped, notes and warnings of the continuous part to analyse."""
+    t, a, notes, warnings = _continuous_part(rec, window)
+    clipped = masks.clipped(a)  # before dropping repeats: a saturated run repeats exactly
+    stale = masks.stale_mask(a)
+    n_stale = 0
+    if stale.mean() > masks.STALE_FRACTION:
+        n_stale = int(stale.sum())
+        t, a, clipped = t[~stale], a[~stale], clipped[~stale]
+        notes.append(
+            f"dropped {n_stale} repeated samples ({100 * stale.mean():.0f} %): the sensor was "
+            "polled faster than its output rate"
+        )
+    if len(t) < 16:
+        raise InputError("the recording has too few distinct samples to analyse")
+    return t, a, clipped, n_stale, notes, warnings
+
+
+def _search_range(rec: Recording, t: np.ndarray, fs: float,
+                  band: tuple[float, float] | None) -> tuple[float, float]:
+    """The frequencies [Hz] the dominant frequency is searched in: the given ``band``, else
+    from 4 cycles in the record (at least 0.1 Hz) to 0.45·fs; a record too short for any
+    is an :class:`InputError` (naming a likely time-unit mix-up)."""
+    fmin = max(0.1, 4.0 / max(t[-1] - t[0], 1e-9))
+    fmax = 0.45 * fs
+    if band is not None:
+        lo, hi = float(band[0]), float(band[1])
+        filters.bandpass_sos((lo, hi), fs)  # validates the band against Nyquist
+        fmin, fmax = lo, hi
+    if fmin >= fmax:
+        hint = rec.time_unit_verdict
+        if hint:  # not too short: the time unit is wrong
+            raise InputError(f"{hint}; as read, the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) "
+                             "cannot hold an oscillation")
+        raise InputError(
+            f"the recording ({t[-1] - t[0]:.3g} s at {fs:.3g} Hz) is too short to hold an oscillation"
+        )
+    return fmin, fmax
+
+
+def _axis_and_frequency(rec: Recording, graw_f: np.ndarray, fs: float, fmin: float,
+                        fmax: float, axis: str, band: tuple[float, float] | None,
+                        notes: list[str]):
+    """Steps 4, 6 and 7 on the grid signal ``graw_f`` (gross spikes left out): f₀ on the
+    power summed over the axes, the axis (or the principal direction of the band-passed
+    axes), f₀ refined on that signal, and the band. Returns the projection ``d``, the
+    direction by axis name, f₀ [Hz], the spectrum's frequencies [Hz] and amplitudes, and the
+    band (low, high) [Hz]."""
+    detr = signal.detrend(graw_f, axis=0)
+    try:
+        f0 = dominant_frequency(detr, fs, fmin, fmax)[0]  # power summed over axes
+    except InputError as exc:
+        raise InputError(f"{exc}{_unit_hint(rec)}") from None
+    bnd = (float(band[0]), float(band[1])) if band is not None else auto_band(f0, fs)
+    if axis == "auto":
+        if graw_f.shape[1] == 1:
+            d = np.ones(1)
+        else:
+            d = _principal_direction(filters.bandpass(detr, fs, bnd))
+    else:
+        d = np.zeros(len(rec.axes))
+        d[rec.axes.index(axis)] = 1.0
+    direction = {name: float(w) for name, w in zip(rec.axes, d)}
+    if axis == "auto" and len(d) > 1:
+        notes.append(
+            "axis auto: projected on the oscillation direction "
+            + ", ".join(f"{k}={v:+.3f}" for k, v in direction.items())
+        )
+    # refine f0 on the selected signal, then fix the band
+    f0, freqs, amp = dominant_frequency(signal.detrend(graw_f @ d), fs, *bnd)
+    if band is None:
+        bnd = auto_band(f0, fs)
+    return d, direction, f0, freqs, amp, bnd
+
+
+def _usable(y: np.ndarray, fs: float, f0: float, clipped: np.ndarray, gross: np.ndarray,
+            notes: list[str], warnings: list[str]) -> tuple[np.ndarray, int, int]:
+    """Step 5: the samples to fit (neither clipped nor in a spike), and the numbers of
+    clipped and spike samples (reported in ``warnings`` and ``notes``)."""
+    spikes = masks.spikes(y, fs, f0) | gross
+    usable = ~(clipped | spikes)
+    n_clipped, n_spikes = int(clipped.sum()), int((spikes & ~clipped).sum())
+    if n_clipped:
+        warnings.append(f"{n_clipped} samples are clipped (sensor saturation); they are not fitted")
+    if n_spikes:
+        notes.append(f"{n_spikes} samples in impact spikes are masked and not fitted")
+    if usable.sum() < 16:
+        raise InputError("almost every sample is clipped or a spike; nothing left to analyse")
+    return usable, n_clipped, n_spikes
+
+
+def _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor, bnd, notes):
+    """Step 8, automatic: the free-decay window (start, end) [s] of the envelope ``env``
+    (:func:`~dampfit.signal.window.detect_window`), its start moved past the band-pass
+    filter's settling, and why it ends; too few cycles left is an :class:`InputError`."""
+    spikes = ~usable & ~clipped
+    w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor,
+                                               impacts(t, y, usable, spikes, f0))
+    notes.extend(wnotes)
+    guard = max(0.5 / f0, 3.0 / bnd[1])
+    if (w1 - min(w0 + guard, w1)) * f0 < MIN_CYCLES:
+        raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
+    return min(w0 + guard, w1), w1, end_reason
+
+
+def _given_window(window, t, grid, env, f0, floor, warnings) -> tuple[float, float]:
+    """Step 8, given: the user's window (start, end) [s], checked against the recording, with
+    a warning for every abrupt envelope drop inside it."""
+    w0, w1 = float(window[0]), float(window[1])
+    if not (w1 > w0):
+        raise InputError(f"window end {w1:g} s must be after its start {w0:g} s")
+    if w0 < t[0] - 1e-9 or w1 > t[-1] + 1e-9:
+        raise InputError(
+            f"window {w0:g}–{w1:g} s is outside the recording ({t[0]:g}–{t[-1]:g} s)"
+        )
+    i0, i1 = np.searchsorted(grid, [w0, w1])
+    for tc, factor in envelope_drops(grid, env, f0, floor, int(i0), int(i1)):
+        warnings.append(f"the window {w0:g}–{w1:g} s contains an abrupt envelope drop at "
+                        f"{tc:.2f} s ({factor:.1f}x more loss than the decay trend within "
+                        f"{DROP_PERIODS:g} cycles: a catch, rattle or contact); the damping "
+                        "estimate mixes two regimes")
+    return w0, w1
 
 
 def _no_decay(rec: Recording, t: np.ndarray, f0: float, start: float, end: float,

@@ -268,6 +268,24 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
                          f"{MAX_MASS:g}), got {mass!r}")
     max_rep = _max_replicates(study.get("max_replicates", {}), estimators)
 
+    norm_grid = _grid(grid)
+    norm_fixed = _fixed(fixed, norm_grid)
+    for key in ("f_n", "zeta"):
+        if key not in norm_grid and key not in norm_fixed:
+            raise InputError(f"{key} is missing; give it in [grid] (a list) or [fixed]")
+
+    mass = None if mass is None else float(mass)
+    norm_campaign = campaign_table(campaign, norm_grid, norm_fixed, mass) if is_campaign else None
+    cfg = StudyConfig(name.strip(), replicates, seed, estimators, mass, max_rep, norm_grid,
+                      norm_fixed, source, norm_campaign)
+    _check_size(cfg)
+    _check_scenarios(cfg)
+    return cfg
+
+
+def _grid(grid: dict) -> dict[str, list]:
+    """The [grid] table checked and normalised: every key a simulation field or a campaign
+    axis, every value a non-empty list of distinct valid values."""
     if not grid:
         raise InputError("[grid] is empty; give at least one field as a list, e.g. zeta = [0.01]")
     norm_grid: dict[str, list] = {}
@@ -288,6 +306,11 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
         if len({_canonical(v) for v in norm}) != len(norm):
             raise InputError(f"[grid] {key} lists a value twice")
         norm_grid[key] = norm
+    return norm_grid
+
+
+def _fixed(fixed: dict, norm_grid: dict[str, list]) -> dict[str, Any]:
+    """The [fixed] table checked and normalised: simulation fields only, none also in [grid]."""
     norm_fixed = {}
     for key, value in fixed.items():
         if key in CAMPAIGN_KEYS:
@@ -296,17 +319,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
         if key in norm_grid:
             raise InputError(f"{key} is in both [grid] and [fixed]; keep one")
         norm_fixed[key] = field_value(key, value, "fixed")
-    for key in ("f_n", "zeta"):
-        if key not in norm_grid and key not in norm_fixed:
-            raise InputError(f"{key} is missing; give it in [grid] (a list) or [fixed]")
-
-    mass = None if mass is None else float(mass)
-    norm_campaign = campaign_table(campaign, norm_grid, norm_fixed, mass) if is_campaign else None
-    cfg = StudyConfig(name.strip(), replicates, seed, estimators, mass, max_rep, norm_grid,
-                      norm_fixed, source, norm_campaign)
-    _check_size(cfg)
-    _check_scenarios(cfg)
-    return cfg
+    return norm_fixed
 
 
 def _table(data: dict, name: str, required: bool) -> dict:
