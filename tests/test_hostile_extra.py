@@ -24,9 +24,9 @@ import pytest
 import dampfit
 from dampfit.fem import opensees
 
-from .hostile import assert_one_line_error, assert_unchanged, run, snapshot
-from .test_fem_export import write_summary
-from .test_fem_verify import write_result
+from tests._support.hostile import assert_one_line_error, assert_unchanged, run, snapshot
+from tests._support.fem import write_summary
+from tests._support.fem import write_result
 
 FAST = ["--no-figures", "--quiet", "--model", "viscous", "--mass", "5.3"]
 EVIL = '<script>alert(1)</script><img src=x onerror=alert(2)>'
