@@ -23,12 +23,16 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from dampfit.cli import main
 
 __all__ = ["run", "run_subprocess", "snapshot", "assert_unchanged", "assert_one_line_error",
-           "one_error_line", "no_compile_cache"]
+           "one_error_line", "no_compile_cache", "fails", "decay", "decay_csv", "F_TRUE", "LONG"]
+
+F_TRUE = 5.0  # [Hz] natural frequency of the simulated decay (ζ ≈ 0.01: f_d ≈ f_n)
+LONG = "x" * 300  # longer than NAME_MAX (255 bytes) of every common file system
 
 
 def run(argv, capsys) -> tuple[int, str, str]:
@@ -107,3 +111,27 @@ def one_error_line(capsys) -> str:
 def no_compile_cache(monkeypatch):
     """In-process runs leave the user's JAX cache alone (the cache test sets its own)."""
     monkeypatch.setenv("DAMPFIT_JAX_CACHE", "off")
+
+
+def fails(tmp_path, capsys, argv, match, exclude=()):
+    """``dampfit ARGV``: exit 2, one line containing ``match``, nothing under tmp_path changed."""
+    before = snapshot(tmp_path, exclude=exclude)
+    code, out, err = run(argv, capsys)
+    line = assert_one_line_error(code, err, 2, match)
+    assert_unchanged(before, snapshot(tmp_path, exclude=exclude))
+    return line
+
+
+def decay(n_sec: float = 10.0, fs: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
+    """Time [s] and a 5 Hz free decay [m/s²] with a little noise (a 10 s, 100 Hz
+    recording by default)."""
+    t = np.arange(int(n_sec * fs)) / fs
+    a = 3.0 * np.exp(-0.3 * t) * np.cos(2 * np.pi * F_TRUE * t)
+    return t, a + 0.01 * np.random.default_rng(0).standard_normal(t.size)
+
+
+def decay_csv(path: Path, t: np.ndarray, a: np.ndarray) -> Path:
+    """``t`` [s], ``a`` [m/s²] as a two-column CSV, every number in full (``repr``)."""
+    rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t, a))
+    path.write_text('"Time (s)","acc z (m/s^2)"\n' + rows)
+    return path

@@ -1,4 +1,4 @@
-"""Hostile inputs to the FEM hand-off and the study grid: nothing injected, nothing written,
+"""Hostile inputs to the FEM hand-off (``export``, ``verify``): nothing injected, nothing written,
 one error line.
 
 * Injection: a result folder, a ``dampfit_version`` or an output file name holding Python,
@@ -9,7 +9,13 @@ one error line.
   truncated, huge, a device, a FIFO, a directory): ``dampfit export`` exits 2 with one line
   naming the field and the file, and writes nothing.
 * ``dampfit verify`` without a usable OpenSeesPy: exit 2, one line, before any work.
-* A study grid of 10¹⁰ scenarios: exit 2, one line, at once.
+* ``export``/``verify`` with hostile options and files: bad ``--quantile``/``--duration``/
+  ``--dt``, junk ``posterior.nc``/``signals.npz`` (including a zip bomb and an ``.npy`` header
+  declaring more than the file holds), an ``--out`` that exists, is a link, is too long or lies
+  below a regular file; ``--force`` replaces a link, never its target.
+
+Cases that would need OpenSeesPy only to get past ``verify``'s availability check pretend it
+is there (``opensees.unavailable`` → None): they must fail before OpenSees would run.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ import shlex
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -30,6 +37,7 @@ from dampfit.fem import calculix, keyword, lsdyna, opensees, sanitize, sdof, uni
 from dampfit.errors import shown
 from dampfit.fem.export import build
 from tests._support.hostile import assert_one_line_error, assert_unchanged, run, run_subprocess, snapshot
+from tests._support.hostile import LONG, fails
 from tests._support.fem import write_summary
 from tests._support.fem import write_result
 
@@ -359,31 +367,209 @@ def test_verify_refuses_a_bad_summary_value(tmp_path, capsys, monkeypatch):
     assert_unchanged(before, snapshot(tmp_path))
 
 
-# -- study grid ---------------------------------------------------------------------------------
+# -- export / verify: hostile values, --out, junk or oversized signals, names too long ------
 
 
-def test_study_grid_of_1e10_scenarios_is_refused_at_once(tmp_path, capsys):
-    axes = ["zeta", "u0", "duration", "sample_rate", "jitter", "noise_density", "drift",
-            "quantization", "tilt_deg", "azimuth_deg"]
-    grid = "\n".join(f"{a} = [{', '.join(str(0.01 * (i + 1)) for i in range(10))}]" for a in axes)
-    cfg = tmp_path / "huge.toml"
-    cfg.write_text('[study]\nreplicates = 3\nestimators = ["hilbert"]\nmass = 1.0\n'
-                   f"[grid]\n{grid}\n[fixed]\nf_n = 2.0\n")
+def test_export_out_link_to_a_foreign_file(tmp_path, capsys):
+    """Without --force a link to an existing file is refused; with --force the link is
+    replaced by the deck and the file it pointed to is untouched."""
+    folder = write_summary(tmp_path / "r")
+    (tmp_path / "mine.txt").write_text("precious")
+    (tmp_path / "deck.k").symlink_to(tmp_path / "mine.txt")
     before = snapshot(tmp_path)
-    t0 = time.perf_counter()
-    code, _, err = run(["study", cfg, "--out", tmp_path / "huge.study"], capsys)
-    assert time.perf_counter() - t0 < 10
-    line = assert_one_line_error(code, err, 2, "30,000,000,000 runs")
-    assert "10,000,000,000 scenarios × 3 replicates" in line and "100,000" in line
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--out", tmp_path / "deck.k"], capsys)
+    assert_one_line_error(code, err, 2, "exists; use --force")
+    assert_unchanged(before, snapshot(tmp_path))
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--out", tmp_path / "deck.k",
+                        "--force"], capsys)
+    assert code == 0, err
+    assert (tmp_path / "mine.txt").read_text() == "precious"
+    assert not (tmp_path / "deck.k").is_symlink()
+    assert "*KEYWORD" in (tmp_path / "deck.k").read_text()
+
+@pytest.mark.parametrize("extra,match", [
+    (["--quantile", "0"], "strictly between 0 and 1"),
+    (["--quantile", "2"], "strictly between 0 and 1"),
+    (["--duration", "-1"], "positive number of seconds"),
+    (["--duration", "1e300"], "over 5e7 steps"),
+    (["--quantile", "0.3"], "needs the posterior draws"),
+], ids=["q0", "q2", "dur-neg", "dur-huge", "q-no-posterior"])
+def test_export_bad_options(tmp_path, capsys, extra, match):
+    folder = write_summary(tmp_path / "r")
+    before = snapshot(tmp_path)
+    code, _, err = run(["export", folder, "--format", "lsdyna", *extra], capsys)
+    assert_one_line_error(code, err, 2, match)
+    assert_unchanged(before, snapshot(tmp_path))
+
+def test_export_junk_posterior_is_one_line(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    (folder / "posterior.nc").write_bytes(b"CDF\x01junk" * 10)
+    before = snapshot(tmp_path)
+    code, _, err = run(["export", folder, "--format", "calculix", "--quantile", "0.3"], capsys)
+    assert_one_line_error(code, err, 2, "not a readable posterior")
+    assert_unchanged(before, snapshot(tmp_path))
+
+def test_export_out_below_a_regular_file(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    (tmp_path / "rec.csv").write_text("precious")
+    before = snapshot(tmp_path)
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--out", tmp_path / "rec.csv" / "x.k"],
+                       capsys)
+    assert_one_line_error(code, err, 2, "does not exist")
+    assert_unchanged(before, snapshot(tmp_path))
+
+@pytest.mark.parametrize("setup,extra,match", [
+    ("junk", [], "is not a readable .npz"),
+    ("devzero", [], "signals.npz not found"),
+    ("dir", [], "signals.npz not found"),
+    (None, ["--dt", "1e300"], "Newmark period error"),
+    (None, ["--dt", "1e-12"], "too many"),
+], ids=["npz-junk", "npz-devzero", "npz-dir", "dt-huge", "dt-tiny"])
+def test_verify_hostile_signals_and_steps(tmp_path, capsys, monkeypatch, setup, extra, match):
+    monkeypatch.setattr(opensees, "unavailable", lambda: None)  # checks come before OpenSees runs
+    folder = write_result(tmp_path / "r")
+    sig = folder / "signals.npz"
+    if setup == "junk":
+        sig.write_bytes(b"PK\x03\x04junk")
+    elif setup == "devzero":
+        sig.unlink()
+        sig.symlink_to("/dev/zero")
+    elif setup == "dir":
+        sig.unlink()
+        sig.mkdir()
+    before = snapshot(tmp_path)
+    code, _, err = run(["verify", folder, *extra], capsys)
+    assert_one_line_error(code, err, 2, match)
     assert_unchanged(before, snapshot(tmp_path))
 
 
-def test_a_huge_study_config_built_in_python_is_refused_too():
-    from dampfit.errors import InputError
-    from dampfit.study.config import StudyConfig
+@pytest.fixture
+def no_opensees_needed(monkeypatch):
+    """verify's availability check passes; OpenSees itself must not be reached."""
+    monkeypatch.setattr(opensees, "unavailable", lambda: None)
 
-    cfg = StudyConfig("big", 1, 0, ("hilbert",), 1.0, {},
-                      {f"a{i}": list(range(100)) for i in range(5)}, {"f_n": 2.0, "zeta": 0.01})
-    assert cfg.n_runs == 10**10
-    with pytest.raises(InputError, match="10,000,000,000 runs"):
-        cfg.tasks()
+    def boom(*a, **k):
+        raise AssertionError("OpenSees ran although the case must fail before it")
+
+    monkeypatch.setattr(opensees, "free_decay", boom)
+
+def test_verify_refuses_an_existing_out_file_without_force(tmp_path, capsys, no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    (tmp_path / "thesis.png").write_bytes(b"my figure")
+    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "thesis.png"],
+          "exists; use --force")
+
+def test_verify_refuses_a_symlinked_out_without_force(tmp_path, capsys, no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    (tmp_path / "precious.png").write_bytes(b"keep")
+    (tmp_path / "fig.png").symlink_to(tmp_path / "precious.png")
+    (tmp_path / "dangling.png").symlink_to(tmp_path / "nowhere" / "x.png")
+    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "fig.png"], "symbolic link")
+    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "dangling.png"], "symbolic link")
+
+@pytest.mark.parametrize("name", ["fig.txt", "fig.docx", "fig.exe"])
+def test_verify_refuses_an_unknown_figure_format_before_any_work(tmp_path, capsys,
+                                                                  no_opensees_needed, name):
+    folder = write_result(tmp_path / "r")
+    line = fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / name], "unknown format")
+    assert ".png" in line and ".pdf" in line
+
+def test_verify_refuses_a_name_too_long(tmp_path, capsys, no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / f"{LONG}.png"], "too long")
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_force_replaces_a_link_not_its_target(tmp_path, capsys):
+    folder = write_result(tmp_path / "r")
+    (tmp_path / "precious.png").write_bytes(b"keep")
+    link = tmp_path / "fig.png"
+    link.symlink_to(tmp_path / "precious.png")
+    code, _, err = run(["verify", folder, "--out", link, "--force"], capsys)
+    assert code == 0 and err == "", err
+    assert (tmp_path / "precious.png").read_bytes() == b"keep"
+    assert not link.is_symlink() and link.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+def test_verify_bad_out_with_a_foreign_report_writes_nothing(tmp_path, capsys, no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    (folder / "report.html").write_text("<p>my own report</p>")
+    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "f.txt"], "unknown format")
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_leaves_a_foreign_report_alone_and_says_so(tmp_path, capsys):
+    folder = write_result(tmp_path / "r")
+    (folder / "report.html").write_text("<p>my own report</p>")
+    (folder / "report.md").write_text("# mine\n")
+    before = snapshot(tmp_path, exclude=[folder / "verification.json", folder / "verify.png"])
+    code, out, err = run(["verify", folder], capsys)
+    assert code == 0 and err == "", err
+    assert_unchanged(before, snapshot(tmp_path, exclude=[folder / "verification.json",
+                                                         folder / "verify.png"]))
+    assert "report not updated" in out and "not written by dampfit" in out
+    assert (folder / "verification.json").is_file()
+
+def test_verify_on_a_bad_folder_prints_exactly_one_line_in_a_real_process(tmp_path):
+    before = snapshot(tmp_path)
+    code, out, err = run_subprocess(["verify", tmp_path / "missing"], timeout=300)
+    assert_one_line_error(code, err, 2)
+    assert "Terminating" not in err and out == ""
+    assert_unchanged(before, snapshot(tmp_path))
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_a_successful_verify_prints_nothing_on_stderr_in_a_real_process(tmp_path):
+    folder = write_result(tmp_path / "r")
+    code, out, err = run_subprocess(["verify", folder], timeout=300)
+    assert code == 0, err
+    assert err == "", err  # not even OpenSees' "Process 0 Terminating"
+    assert "decay rate p" in out
+
+def _npz_with_member(path: Path, name: str, header_shape: tuple, n_bytes: int,
+                     compress: bool) -> None:
+    """An .npz whose member ``name`` has a float64 header of ``header_shape`` followed by
+    ``n_bytes`` zero bytes, streamed (never held in memory)."""
+    import io
+
+    from numpy.lib import format as npformat
+
+    head = io.BytesIO()
+    npformat.write_array_header_1_0(head, {"descr": "<f8", "fortran_order": False,
+                                           "shape": header_shape})
+    chunk = bytes(2**20)
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED) as zf:
+        with zf.open(name, "w", force_zip64=True) as fp:
+            fp.write(head.getvalue())
+            for start in range(0, n_bytes, len(chunk)):
+                fp.write(chunk[:n_bytes - start])
+
+def test_verify_refuses_a_zip_bomb_signals_npz_before_loading(tmp_path, capsys, no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    path = folder / "signals.npz"
+    # 160 MB of zeros in a < 1 MB file: np.load would allocate all of it
+    _npz_with_member(path, "t.npy", (20_000_000,), 160_000_000, compress=True)
+    assert path.stat().st_size < 2**20
+    t0 = time.perf_counter()
+    line = fails(tmp_path, capsys, ["verify", folder], "zip bomb")
+    assert "signals.npz" in line and time.perf_counter() - t0 < 10
+
+def test_verify_refuses_an_npy_header_declaring_more_than_the_file_holds(tmp_path, capsys,
+                                                                          no_opensees_needed):
+    folder = write_result(tmp_path / "r")
+    _npz_with_member(folder / "signals.npz", "t.npy", (10**8,), 800, compress=False)
+    line = fails(tmp_path, capsys, ["verify", folder], "declares shape (100000000,)")
+    assert "signals.npz" in line
+
+def test_export_refuses_a_file_name_too_long(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    fails(tmp_path, capsys, ["export", folder, "--format", "lsdyna", "--out", tmp_path / f"{LONG}.k"],
+          "File name too long")
+
+def test_export_onto_a_dangling_link_needs_force_and_replaces_the_link(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    link = tmp_path / "deck.k"
+    target = tmp_path / "elsewhere" / "deck.k"
+    link.symlink_to(target)
+    fails(tmp_path, capsys, ["export", folder, "--format", "lsdyna", "--out", link],
+          "exists; use --force to replace it (it is a symbolic link")
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--out", link, "--force"], capsys)
+    assert code == 0, err
+    assert not link.is_symlink() and link.read_text().startswith("*KEYWORD")
+    assert not (tmp_path / "elsewhere").exists()

@@ -5,7 +5,10 @@ Every case is generated in ``tmp_path`` (no data files are committed) and run th
 nothing outside the output folder changed. Covers special files (FIFO, device links,
 directories), size limits (zip / npz / xlsx bombs, absurd .npy headers, giant lines), encodings
 and line endings, corrupt time stamps (gaps → the continuous part is analysed, with a warning;
-memory bounded by the samples, not the time span) and unit mix-ups.
+memory bounded by the samples, not the time span) and unit mix-ups, and odd recordings
+(reversed time, a million identical time stamps, a constant or zero signal, a pure Nyquist-rate
+alternation, .xlsx formulas without cached values or with 1000 sheets, a ZIP whose member names
+climb out of the folder).
 """
 
 from __future__ import annotations
@@ -30,21 +33,15 @@ from dampfit.errors import InputError
 from dampfit.io.recording import time_segments
 
 from tests._support.requirements import REAL
-from tests._support.hostile import assert_one_line_error, assert_unchanged, run, snapshot
+from tests._support.hostile import F_TRUE, assert_one_line_error, assert_unchanged, run, snapshot
+from tests._support.hostile import decay as _decay
+from tests._support.hostile import decay_csv as _decay_csv
 
-F_TRUE = 5.0  # [Hz] natural frequency of the simulated decay (ζ ≈ 0.01: f_d ≈ f_n)
 MASS = 5.3  # [kg]; k = m (2π f)² ≈ 5231 N/m
 FAST = ["--no-figures", "--quiet", "--model", "viscous"]
 
 
 # -- helpers --------------------------------------------------------------------------------
-
-
-def _decay(n_sec: float = 10.0, fs: float = 100.0) -> tuple[np.ndarray, np.ndarray]:
-    """Time [s] and a 5 Hz free decay [m/s²] with a little noise."""
-    t = np.arange(int(n_sec * fs)) / fs
-    a = 3.0 * np.exp(-0.3 * t) * np.cos(2 * np.pi * F_TRUE * t)
-    return t, a + 0.01 * np.random.default_rng(0).standard_normal(t.size)
 
 
 def _csv_text(t, a, header: str = "Time (s)", newline: str = "\n") -> str:
@@ -426,12 +423,6 @@ def test_real_recordings_are_continuous_and_plausible():
 
 
 # ----------------------------------------------------------- found by a second hostile probe
-def _decay_csv(path: Path, t: np.ndarray, a: np.ndarray) -> Path:
-    rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t, a))
-    path.write_text('"Time (s)","acc z (m/s^2)"\n' + rows)
-    return path
-
-
 @pytest.mark.parametrize("case, scale, offset, match", [
     ("noise-free decay", 1.0, 0.0, "free of noise"),       # an FEM output: exact to rounding
     ("time step 1e-302 s", 1e-302, 0.0, "time looks wrong"),
@@ -548,3 +539,91 @@ def test_empty_cells_outside_the_window_and_a_shorter_run_are_analysed(tmp_path,
     assert s["input"]["format"] == "capstone-csv" and s["input"]["n_samples"] == 600
     assert s["provenance"]["options"]["run"] == "Run #2"
     assert s["parameters"]["f_n"]["q50"] == pytest.approx(F_TRUE, rel=2e-3)
+
+
+# -- odd recordings (from the hostile review) -----------------------------------------------
+
+
+def _analyze_fails(tmp_path, capsys, path, match, *extra):
+    """``analyze PATH``: exit 2, one line containing ``match``, nothing in tmp_path changed."""
+    before = snapshot(tmp_path)
+    code, _, err = run(["analyze", path, *FAST, "--mass", "5.3", "--out", tmp_path / "out", *extra],
+                       capsys)
+    line = assert_one_line_error(code, err, 2, match)
+    assert_unchanged(before, snapshot(tmp_path))
+    return line
+
+def test_time_column_in_descending_order(tmp_path, capsys):
+    t, a = _decay()
+    path = _decay_csv(tmp_path / "desc.csv", t[::-1], a[::-1])
+    _analyze_fails(tmp_path, capsys, path, "time goes backwards at sample 1")
+
+def test_a_million_identical_time_stamps(tmp_path, capsys):
+    path = tmp_path / "same_t.csv"
+    path.write_text('"Time (s)","acc z (m/s^2)"\n' + "1.0,0.5\n" * 1_000_000)
+    _analyze_fails(tmp_path, capsys, path, "time is duplicated at sample 1")
+
+@pytest.mark.parametrize("value", [9.81, 0.0], ids=["constant", "zero"])
+def test_constant_signal(tmp_path, capsys, value):
+    t, _ = _decay()
+    path = _decay_csv(tmp_path / "flat.csv", t, np.full(t.size, value))
+    _analyze_fails(tmp_path, capsys, path, "too few distinct samples")
+
+def test_alternating_values_at_the_nyquist_frequency(tmp_path, capsys):
+    t, _ = _decay()
+    path = _decay_csv(tmp_path / "nyquist.csv", t, np.where(np.arange(t.size) % 2 == 0, 1e6, -1e6))
+    _analyze_fails(tmp_path, capsys, path, "no resolvable oscillation")
+
+def test_alternating_huge_and_tiny_values(tmp_path, capsys):
+    t, _ = _decay()
+    path = _decay_csv(tmp_path / "alt.csv", t, np.where(np.arange(t.size) % 2 == 0, 1e300, 1e-300))
+    _analyze_fails(tmp_path, capsys, path, "is not physical")
+
+@pytest.mark.parametrize("n", [2, 3])
+def test_two_or_three_samples(tmp_path, capsys, n):
+    t, a = _decay()
+    path = _decay_csv(tmp_path / "short.csv", t[:n], a[:n])
+    _analyze_fails(tmp_path, capsys, path, f"only {n} samples")
+
+def _xlsx_header():
+    return ["Time (s)", "Acceleration x (m/s^2)", "Acceleration y (m/s^2)", "Acceleration z (m/s^2)"]
+
+def test_xlsx_with_formulas_and_no_cached_values(tmp_path, capsys):
+    openpyxl = pytest.importorskip("openpyxl")
+    t, _ = _decay()
+    wb = openpyxl.Workbook()
+    ws = wb.active
+    ws.title = "Accelerometer"
+    ws.append(_xlsx_header())
+    for i, x in enumerate(t):
+        ws.append([float(x), 0.0, 0.0, f"=3*EXP(-0.3*A{i + 2})*COS(2*PI()*5*A{i + 2})"])
+    wb.save(tmp_path / "formula.xlsx")
+    _analyze_fails(tmp_path, capsys, tmp_path / "formula.xlsx", "missing or non-finite values")
+
+def test_xlsx_with_a_thousand_sheets_and_a_bad_sheet_name(tmp_path, capsys):
+    openpyxl = pytest.importorskip("openpyxl")
+    wb = openpyxl.Workbook()
+    wb.active.title = "S0"
+    wb.active.append(_xlsx_header())
+    for k in range(1, 1000):
+        wb.create_sheet(f"S{k}").append(_xlsx_header())
+    wb.save(tmp_path / "many.xlsx")
+    _analyze_fails(tmp_path, capsys, tmp_path / "many.xlsx", "has no single acceleration sheet")
+    _analyze_fails(tmp_path, capsys, tmp_path / "many.xlsx", "has no sheet '../S5'", "--sheet", "../S5")
+
+def test_zip_member_names_that_climb_out_are_only_read(tmp_path):
+    """A phyphox ZIP whose members are named ``../../Accelerometer.csv`` and
+    ``/tmp/…``: read from inside the archive, nothing is extracted anywhere."""
+    t, a = _decay()
+    body = ('"Time (s)","Acceleration x (m/s^2)","Acceleration y (m/s^2)","Acceleration z (m/s^2)"\n'
+            + "".join(f"{float(x)!r},0,0,{float(y)!r}\n" for x, y in zip(t, a)))
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    with zipfile.ZipFile(work / "trav.zip", "w") as z:
+        z.writestr("../../Accelerometer.csv", body)
+        z.writestr("meta/../../../etc/device.csv", "x\n")
+    before = snapshot(tmp_path)
+    rec = dampfit.read(work / "trav.zip")
+    assert rec.n_samples == t.size
+    assert np.allclose(rec.time, t)
+    assert_unchanged(before, snapshot(tmp_path))

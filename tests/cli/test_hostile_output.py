@@ -1,6 +1,9 @@
 """Hostile output paths and options: ``--force`` deletes nothing dampfit did not write, two runs
 never write the same folder, a failed write leaves the old result and no debris, every bad
-number is one line and exit 2, and an unsafe JAX compilation cache is not used.
+number is one line and exit 2, and an unsafe JAX compilation cache is not used. Odd output
+names: too long for the lock file or the file system, a link as ``simulate --out`` (``--force``
+replaces the link, not its target), a preset name that is a path; ``simulate`` writes both its
+files or neither.
 
 Cases that must write a result share one analysis (the session's ``analysed`` fixture):
 ``dampfit.pipeline.analyze`` is replaced by a function returning it, so reading, the output
@@ -25,9 +28,12 @@ from dampfit import cli
 from dampfit import simulate as sim
 from dampfit.cli import messages
 from dampfit.cli import staging as cli_staging
+from dampfit.errors import InputError
+from dampfit.files.atomic import WriteError, atomic_write_text
 from dampfit.files.folder import MARKER
 
 from tests._support.hostile import assert_one_line_error, assert_unchanged, run, snapshot
+from tests._support.hostile import LONG, decay, decay_csv, fails
 from tests._support.hostile import no_compile_cache as _no_compile_cache  # noqa: F401 (autouse)
 
 
@@ -576,3 +582,61 @@ def test_a_sigterm_swallowed_by_a_callback_is_delivered_again(tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                           text=True, timeout=60)
     assert proc.returncode == 143, proc.stderr
+
+
+# -- odd output names: lock file, links, a preset path, names too long, full disk -----------
+
+
+FAST = ["--no-figures", "--quiet", "--model", "viscous", "--mass", "5.3"]
+
+def test_out_name_too_long_for_the_lock_file_is_one_line(tmp_path, capsys, monkeypatch):
+    t, a = decay()
+    decay_csv(tmp_path / "rec.csv", t, a)
+    monkeypatch.chdir(tmp_path)
+    before = snapshot(tmp_path)
+    code, _, err = run(["analyze", "rec.csv", *FAST, "--out", "y" * 250], capsys)
+    assert_one_line_error(code, err, 2, "lock file")
+    assert_unchanged(before, snapshot(tmp_path))
+
+def test_simulate_force_over_links_keeps_their_targets(tmp_path, capsys):
+    (tmp_path / "mine.txt").write_text("precious")
+    (tmp_path / "sim.csv").symlink_to(tmp_path / "mine.txt")
+    (tmp_path / "sim.truth.json").symlink_to(tmp_path / "mine.txt")
+    code, _, err = run(["simulate", "--duration", "2", "--handheld", "0",
+                        "--out", tmp_path / "sim.csv", "--force"], capsys)
+    assert code == 0, err
+    assert (tmp_path / "mine.txt").read_text() == "precious"
+    assert not (tmp_path / "sim.csv").is_symlink() and not (tmp_path / "sim.truth.json").is_symlink()
+
+def test_simulate_unknown_preset_path_is_one_line(tmp_path, capsys):
+    before = snapshot(tmp_path)
+    code, _, err = run(["simulate", "--preset", "../../etc/passwd", "--out", tmp_path / "x.csv"], capsys)
+    assert_one_line_error(code, err, 2, "unknown preset")
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_simulate_refuses_a_file_name_too_long_before_simulating(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(sim, "recording", lambda *a, **k: pytest.fail("simulated anyway"))
+    fails(tmp_path, capsys, ["simulate", "--out", tmp_path / f"{LONG}.csv"], "File name too long")
+    # the CSV name fits, the truth file's (longer) name does not: refused before either is written
+    fails(tmp_path, capsys, ["simulate", "--out", tmp_path / ("y" * 245 + ".csv")],
+          "File name too long")
+
+def test_simulate_writes_both_files_or_neither(tmp_path, capsys, monkeypatch):
+    def full_disk(truth, path):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(sim, "write_truth", full_disk)
+    line = fails(tmp_path, capsys, ["simulate", "--out", tmp_path / "rec.csv", "--duration", "5"],
+                 "No space left on device")
+    assert "nothing was written" in line
+    assert not list(tmp_path.iterdir())  # no staging debris either
+
+def test_atomic_write_text_fits_long_names_and_turns_os_errors_into_one_line(tmp_path):
+    name = "z" * 250  # fits, but ".NAME.XXXXXXXX.tmp" would not
+    atomic_write_text(tmp_path / name, "ok")
+    assert (tmp_path / name).read_text() == "ok"
+    with pytest.raises(WriteError, match="File name too long"):
+        atomic_write_text(tmp_path / LONG, "no")
+    assert isinstance(WriteError("x"), InputError)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]

@@ -7,6 +7,10 @@ millions of warnings, any edited field — the command ends promptly with exit 0
 file is reported as unusable) or exit 2 and one line, and embeds nothing from outside the
 folder. Cases that would hang or exhaust memory if they regressed run in a child process with
 a timeout and an address-space limit, so a regression fails the test instead of the machine.
+
+``dampfit report`` of a hostile summary.json: markup in every kind of field, a folder name with
+blank lines and HTML, 100,000 nested lists, a 5000-digit integer, broken Unicode, a summary that
+is not an object, a linked report: escaped, rendered, or one line.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import re
 import struct
 import subprocess
 import sys
@@ -297,3 +302,103 @@ def test_an_xlsx_entity_bomb_is_one_line_exit_2(tmp_path, capsys):
                         "--no-figures"], capsys)
     assert_one_line_error(code, err, 2, "entity bomb")
     assert_unchanged(before, snapshot(tmp_path))
+
+
+# -- report: hostile strings and structures in summary.json are inert -----------------------
+
+
+EVIL = '<script>alert(1)</script><img src=x onerror=alert(2)>'
+
+def test_markup_in_every_kind_of_summary_field_is_escaped(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    s = json.loads((folder / "summary.json").read_text())
+    s["dampfit_version"] = EVIL
+    s["input"].update({"path": f"/data/{EVIL}.csv", "format": EVIL, "notes": [EVIL]})
+    s["diagnostics"] = {"converged": False, "warnings": [EVIL]}
+    s["model_checks"] = {"warning": EVIL, "verdict": EVIL, "preferred_model": EVIL, EVIL: EVIL}
+    s["provenance"] = {"options": {"axis": EVIL, "model": EVIL}, "python": EVIL,
+                       "versions": {EVIL: EVIL}, "date": EVIL}
+    s["noise_model"] = {EVIL: EVIL, "kind": [EVIL, {EVIL: EVIL}]}
+    s["parameters"]["c"]["unit"] = EVIL
+    s["baselines"] = {EVIL: {"c": EVIL, "note": EVIL, "agrees_with_posterior": False}}
+    s["missing"] = {"c": EVIL}
+    (folder / "summary.json").write_text(json.dumps(s))
+    before = snapshot(tmp_path, exclude=[folder / "report.html", folder / "report.md"])
+    code, _, err = run(["report", folder], capsys)
+    assert code == 0, err
+    assert_unchanged(before, snapshot(tmp_path, exclude=[folder / "report.html", folder / "report.md"]))
+    html = (folder / "report.html").read_text()
+    assert not re.search(r"<(script|img src=x)", html, re.I)
+    assert "&lt;script&gt;" in html
+    md = (folder / "report.md").read_text()
+    fenced = re.sub(r"```bash\n.*?\n```", "", md, flags=re.S)  # shell commands are code blocks
+    assert "<script" not in fenced.replace("\\<script", "")
+
+def test_report_force_replaces_a_linked_report_not_its_target(tmp_path, capsys):
+    folder = write_summary(tmp_path / "r")
+    (tmp_path / "page.html").write_text("<html>my page</html>")
+    (folder / "report.html").symlink_to(tmp_path / "page.html")
+    before = snapshot(tmp_path)
+    code, _, err = run(["report", folder], capsys)
+    assert_one_line_error(code, err, 2, "was not written by dampfit")
+    assert_unchanged(before, snapshot(tmp_path))
+    code, _, err = run(["report", folder, "--force"], capsys)
+    assert code == 0, err
+    assert (tmp_path / "page.html").read_text() == "<html>my page</html>"
+    assert not (folder / "report.html").is_symlink()
+
+@pytest.mark.parametrize("content,match", [
+    (b"\xff\xfe{}", "cannot read"),
+    (b"[1]", "not a dampfit summary"),
+    (b'"just a string"', "not a dampfit summary"),
+], ids=["not-utf8", "array", "string"])
+def test_report_refuses_a_summary_that_is_not_an_object(tmp_path, capsys, content, match):
+    folder = tmp_path / "r"
+    folder.mkdir()
+    (folder / "summary.json").write_bytes(content)
+    before = snapshot(tmp_path)
+    code, _, err = run(["report", folder], capsys)
+    assert_one_line_error(code, err, 2, match)
+    assert_unchanged(before, snapshot(tmp_path))
+
+# ----------------------------------------------------- report: what the probe broke, now held
+def _minimal_result(folder: Path, text: str) -> Path:
+    folder.mkdir(parents=True)
+    (folder / "summary.json").write_text(text, encoding="utf-8", errors="surrogatepass")
+    return folder
+
+@pytest.mark.parametrize("case, text", [
+    ("100,000 nested lists", '{"mass":{"value":5.3},"x":' + "[" * 100_000 + "]" * 100_000 + "}"),
+    ("900 nested objects", '{"mass":{"value":5.3},"x":' + '{"a":' * 900 + "1" + "}" * 900 + "}"),
+    ("an integer of 5000 digits", '{"parameters":{"c":{"q50":' + "9" * 5000 + "}}}"),
+])
+def test_report_of_a_hostile_summary_is_one_line(tmp_path, capsys, case, text):
+    folder = _minimal_result(tmp_path / "r", text)
+    before = snapshot(tmp_path)
+    code, _, err = run(["report", folder], capsys)
+    assert_one_line_error(code, err, match="cannot read")
+    assert_unchanged(before, snapshot(tmp_path))
+
+def test_report_renders_huge_numbers_and_broken_unicode(tmp_path, capsys):
+    big = "1" + "0" * 400
+    text = ('{"mass":{"value":' + big + '},"parameters":{"c":{"q05":' + big + ',"q50":' + big
+            + ',"q95":' + big + '1,"sd":' + big + ',"r_hat":' + big + '}},'
+            '"diagnostics":{"warnings":["\\udcff broken"]}}')
+    folder = _minimal_result(tmp_path / "r", text)
+    code, _, err = run(["report", folder], capsys)
+    assert code == 0, err
+    assert (folder / "report.html").read_text(encoding="utf-8")
+
+def test_a_folder_name_with_blank_lines_cannot_inject_markdown_html(tmp_path, capsys):
+    folder = _minimal_result(tmp_path / "r\n\n<img src=x onerror=alert(1)>\n\nz",
+                             '{"mass":{"value":5.3},"parameters":{}}')
+    code, _, err = run(["report", folder], capsys)
+    assert code == 0, err
+    fenced, raw = False, []
+    for line in (folder / "report.md").read_text().splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+        elif not fenced and line.lstrip().startswith("<img"):
+            raw.append(line)  # outside a code block: rendered as HTML by Markdown viewers
+    assert raw == []
+    assert "<img src=x" not in (folder / "report.html").read_text()

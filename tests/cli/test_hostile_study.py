@@ -1,11 +1,8 @@
-"""More hostile cases for ``verify``, ``export``, ``simulate`` and ``study``: exit 2 with one
-stderr line, no traceback, nothing outside the output changed, nothing written on a refusal,
-``--force`` replacing only what dampfit wrote, memory bounded by the data, and Markdown that
-carries no raw markup from a user's string.
-
-Cases that would need OpenSeesPy only to get past ``verify``'s availability check pretend it
-is there (``opensees.unavailable`` → None): they must fail before OpenSees would run.
-"""
+"""Hostile study files and study folders (``dampfit study``): exit 2 with one stderr line, no
+traceback, nothing outside the output changed, nothing written on a refusal, ``--force`` replacing
+only a dampfit study, no ``.lock`` left behind, what ``dampfit simulate`` refuses refused up front,
+absurd or malformed values in the TOML, and a study name or source that carries no raw markup
+into ``summary.md`` or the figures."""
 
 from __future__ import annotations
 
@@ -13,225 +10,19 @@ import json
 import re
 import time
 import warnings
-import zipfile
-from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from dampfit import simulate as sim
-from dampfit.files.atomic import WriteError, atomic_write_text
 from dampfit.errors import InputError
-from dampfit.fem import opensees
 from dampfit.study import config as sconfig
 from dampfit.study import runner
 from dampfit.study.store import Store
-from tests._support.hostile import assert_one_line_error, assert_unchanged, run, run_subprocess, snapshot
-from tests._support.fem import write_summary
-from tests._support.fem import write_result
+from tests._support.hostile import assert_one_line_error, assert_unchanged, run, snapshot
+from tests._support.hostile import fails
 from tests._support.study import AVAILABLE, SMALL, base
 from tests._support.hostile import no_compile_cache as _no_compile_cache  # noqa: F401 (autouse)
-
-LONG = "x" * 300  # longer than NAME_MAX (255 bytes) of every common file system
-
-
-@pytest.fixture
-def no_opensees_needed(monkeypatch):
-    """verify's availability check passes; OpenSees itself must not be reached."""
-    monkeypatch.setattr(opensees, "unavailable", lambda: None)
-
-    def boom(*a, **k):
-        raise AssertionError("OpenSees ran although the case must fail before it")
-
-    monkeypatch.setattr(opensees, "free_decay", boom)
-
-
-def fails(tmp_path, capsys, argv, match, exclude=()):
-    """``dampfit ARGV``: exit 2, one line containing ``match``, nothing under tmp_path changed."""
-    before = snapshot(tmp_path, exclude=exclude)
-    code, out, err = run(argv, capsys)
-    line = assert_one_line_error(code, err, 2, match)
-    assert_unchanged(before, snapshot(tmp_path, exclude=exclude))
-    return line
-
-
-# -- B4/B7: verify --out ------------------------------------------------------------------------
-
-
-def test_verify_refuses_an_existing_out_file_without_force(tmp_path, capsys, no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    (tmp_path / "thesis.png").write_bytes(b"my figure")
-    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "thesis.png"],
-          "exists; use --force")
-
-
-def test_verify_refuses_a_symlinked_out_without_force(tmp_path, capsys, no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    (tmp_path / "precious.png").write_bytes(b"keep")
-    (tmp_path / "fig.png").symlink_to(tmp_path / "precious.png")
-    (tmp_path / "dangling.png").symlink_to(tmp_path / "nowhere" / "x.png")
-    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "fig.png"], "symbolic link")
-    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "dangling.png"], "symbolic link")
-
-
-@pytest.mark.parametrize("name", ["fig.txt", "fig.docx", "fig.exe"])
-def test_verify_refuses_an_unknown_figure_format_before_any_work(tmp_path, capsys,
-                                                                  no_opensees_needed, name):
-    folder = write_result(tmp_path / "r")
-    line = fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / name], "unknown format")
-    assert ".png" in line and ".pdf" in line
-
-
-def test_verify_refuses_a_name_too_long(tmp_path, capsys, no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / f"{LONG}.png"], "too long")
-
-
-@pytest.mark.usefixtures("requires_opensees")
-def test_verify_force_replaces_a_link_not_its_target(tmp_path, capsys):
-    folder = write_result(tmp_path / "r")
-    (tmp_path / "precious.png").write_bytes(b"keep")
-    link = tmp_path / "fig.png"
-    link.symlink_to(tmp_path / "precious.png")
-    code, _, err = run(["verify", folder, "--out", link, "--force"], capsys)
-    assert code == 0 and err == "", err
-    assert (tmp_path / "precious.png").read_bytes() == b"keep"
-    assert not link.is_symlink() and link.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-
-
-# -- B5: a foreign report is never touched, and nothing is written on exit 2 -------------------
-
-
-def test_verify_bad_out_with_a_foreign_report_writes_nothing(tmp_path, capsys, no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    (folder / "report.html").write_text("<p>my own report</p>")
-    fails(tmp_path, capsys, ["verify", folder, "--out", tmp_path / "f.txt"], "unknown format")
-
-
-@pytest.mark.usefixtures("requires_opensees")
-def test_verify_leaves_a_foreign_report_alone_and_says_so(tmp_path, capsys):
-    folder = write_result(tmp_path / "r")
-    (folder / "report.html").write_text("<p>my own report</p>")
-    (folder / "report.md").write_text("# mine\n")
-    before = snapshot(tmp_path, exclude=[folder / "verification.json", folder / "verify.png"])
-    code, out, err = run(["verify", folder], capsys)
-    assert code == 0 and err == "", err
-    assert_unchanged(before, snapshot(tmp_path, exclude=[folder / "verification.json",
-                                                         folder / "verify.png"]))
-    assert "report not updated" in out and "not written by dampfit" in out
-    assert (folder / "verification.json").is_file()
-
-
-# -- B6: no stray 'Process 0 Terminating' from OpenSees' native exit code ----------------------
-
-
-def test_verify_on_a_bad_folder_prints_exactly_one_line_in_a_real_process(tmp_path):
-    before = snapshot(tmp_path)
-    code, out, err = run_subprocess(["verify", tmp_path / "missing"], timeout=300)
-    assert_one_line_error(code, err, 2)
-    assert "Terminating" not in err and out == ""
-    assert_unchanged(before, snapshot(tmp_path))
-
-
-@pytest.mark.usefixtures("requires_opensees")
-def test_a_successful_verify_prints_nothing_on_stderr_in_a_real_process(tmp_path):
-    folder = write_result(tmp_path / "r")
-    code, out, err = run_subprocess(["verify", folder], timeout=300)
-    assert code == 0, err
-    assert err == "", err  # not even OpenSees' "Process 0 Terminating"
-    assert "decay rate p" in out
-
-
-# -- B14 (verify): signals.npz cannot make verify allocate more than the file holds -----------
-
-
-def _npz_with_member(path: Path, name: str, header_shape: tuple, n_bytes: int,
-                     compress: bool) -> None:
-    """An .npz whose member ``name`` has a float64 header of ``header_shape`` followed by
-    ``n_bytes`` zero bytes, streamed (never held in memory)."""
-    import io
-
-    from numpy.lib import format as npformat
-
-    head = io.BytesIO()
-    npformat.write_array_header_1_0(head, {"descr": "<f8", "fortran_order": False,
-                                           "shape": header_shape})
-    chunk = bytes(2**20)
-    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED) as zf:
-        with zf.open(name, "w", force_zip64=True) as fp:
-            fp.write(head.getvalue())
-            for start in range(0, n_bytes, len(chunk)):
-                fp.write(chunk[:n_bytes - start])
-
-
-def test_verify_refuses_a_zip_bomb_signals_npz_before_loading(tmp_path, capsys, no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    path = folder / "signals.npz"
-    # 160 MB of zeros in a < 1 MB file: np.load would allocate all of it
-    _npz_with_member(path, "t.npy", (20_000_000,), 160_000_000, compress=True)
-    assert path.stat().st_size < 2**20
-    t0 = time.perf_counter()
-    line = fails(tmp_path, capsys, ["verify", folder], "zip bomb")
-    assert "signals.npz" in line and time.perf_counter() - t0 < 10
-
-
-def test_verify_refuses_an_npy_header_declaring_more_than_the_file_holds(tmp_path, capsys,
-                                                                          no_opensees_needed):
-    folder = write_result(tmp_path / "r")
-    _npz_with_member(folder / "signals.npz", "t.npy", (10**8,), 800, compress=False)
-    line = fails(tmp_path, capsys, ["verify", folder], "declares shape (100000000,)")
-    assert "signals.npz" in line
-
-
-# -- B11: names too long, dangling links ------------------------------------------------------
-
-
-def test_export_refuses_a_file_name_too_long(tmp_path, capsys):
-    folder = write_summary(tmp_path / "r")
-    fails(tmp_path, capsys, ["export", folder, "--format", "lsdyna", "--out", tmp_path / f"{LONG}.k"],
-          "File name too long")
-
-
-def test_simulate_refuses_a_file_name_too_long_before_simulating(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(sim, "recording", lambda *a, **k: pytest.fail("simulated anyway"))
-    fails(tmp_path, capsys, ["simulate", "--out", tmp_path / f"{LONG}.csv"], "File name too long")
-    # the CSV name fits, the truth file's (longer) name does not: refused before either is written
-    fails(tmp_path, capsys, ["simulate", "--out", tmp_path / ("y" * 245 + ".csv")],
-          "File name too long")
-
-
-def test_simulate_writes_both_files_or_neither(tmp_path, capsys, monkeypatch):
-    def full_disk(truth, path):
-        raise OSError(28, "No space left on device", str(path))
-
-    monkeypatch.setattr(sim, "write_truth", full_disk)
-    line = fails(tmp_path, capsys, ["simulate", "--out", tmp_path / "rec.csv", "--duration", "5"],
-                 "No space left on device")
-    assert "nothing was written" in line
-    assert not list(tmp_path.iterdir())  # no staging debris either
-
-
-def test_atomic_write_text_fits_long_names_and_turns_os_errors_into_one_line(tmp_path):
-    name = "z" * 250  # fits, but ".NAME.XXXXXXXX.tmp" would not
-    atomic_write_text(tmp_path / name, "ok")
-    assert (tmp_path / name).read_text() == "ok"
-    with pytest.raises(WriteError, match="File name too long"):
-        atomic_write_text(tmp_path / LONG, "no")
-    assert isinstance(WriteError("x"), InputError)
-    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
-
-
-def test_export_onto_a_dangling_link_needs_force_and_replaces_the_link(tmp_path, capsys):
-    folder = write_summary(tmp_path / "r")
-    link = tmp_path / "deck.k"
-    target = tmp_path / "elsewhere" / "deck.k"
-    link.symlink_to(target)
-    fails(tmp_path, capsys, ["export", folder, "--format", "lsdyna", "--out", link],
-          "exists; use --force to replace it (it is a symbolic link")
-    code, _, err = run(["export", folder, "--format", "lsdyna", "--out", link, "--force"], capsys)
-    assert code == 0, err
-    assert not link.is_symlink() and link.read_text().startswith("*KEYWORD")
-    assert not (tmp_path / "elsewhere").exists()
 
 
 # -- B3: the study name and source carry no markup into summary.md ----------------------------
@@ -427,3 +218,62 @@ def test_study_file_too_large_is_refused_without_reading_it(tmp_path, capsys):
     with open(cfg, "wb") as fh:
         fh.truncate(50 * 2**20)
     fails(tmp_path, capsys, ["study", cfg, "--out", tmp_path / "o"], "more than the limit")
+
+
+# -- study files with absurd or malformed values --------------------------------------------
+
+
+_STUDY = ('[study]\nreplicates = {rep}\nestimators = ["hilbert"]\nmass = 1.0\n{study}\n'
+          "[grid]\n{grid}\n[fixed]\nf_n = 2.0\n{fixed}\n")
+
+@pytest.mark.parametrize("fields,match", [
+    ({"rep": "1000000000000000000000"}, "more than the limit of 100,000"),
+    ({"rep": "-1"}, "replicates must be an integer ≥ 1"),
+    ({"rep": '"3"'}, "replicates must be an integer ≥ 1"),
+    ({"grid": "zeta = [nan]"}, "must be a finite number"),
+    ({"grid": "zeta = [[0.01]]"}, "must be a finite number"),
+    ({"grid": "zeta = [1.0]"}, "damping ratio zeta must be in [0, 1)"),
+    ({"fixed": 'main_axis = "../../etc"'}, "main_axis must be one of x, y, z"),
+    ({"fixed": "gaps = -5"}, "gaps must be a non-negative integer"),
+    ({"study": "replicates = 2"}, "is not valid TOML"),
+    ({"study": "seed = -1"}, "seed must be an integer ≥ 0"),
+], ids=["replicates-huge", "replicates-negative", "replicates-string", "zeta-nan", "zeta-nested",
+        "zeta-1", "main-axis-path", "gaps-negative", "duplicate-key", "seed-negative"])
+def test_study_file_with_absurd_values(tmp_path, capsys, fields, match):
+    values = {"rep": "2", "study": "", "grid": "zeta = [0.01]", "fixed": "", **fields}
+    cfg = tmp_path / "bad.toml"
+    cfg.write_text(_STUDY.format(**values))
+    before = snapshot(tmp_path)
+    code, _, err = run(["study", cfg, "--out", tmp_path / "bad.study"], capsys)
+    assert_one_line_error(code, err, 2, match)
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+# -- study grid ---------------------------------------------------------------------------------
+
+
+def test_study_grid_of_1e10_scenarios_is_refused_at_once(tmp_path, capsys):
+    axes = ["zeta", "u0", "duration", "sample_rate", "jitter", "noise_density", "drift",
+            "quantization", "tilt_deg", "azimuth_deg"]
+    grid = "\n".join(f"{a} = [{', '.join(str(0.01 * (i + 1)) for i in range(10))}]" for a in axes)
+    cfg = tmp_path / "huge.toml"
+    cfg.write_text('[study]\nreplicates = 3\nestimators = ["hilbert"]\nmass = 1.0\n'
+                   f"[grid]\n{grid}\n[fixed]\nf_n = 2.0\n")
+    before = snapshot(tmp_path)
+    t0 = time.perf_counter()
+    code, _, err = run(["study", cfg, "--out", tmp_path / "huge.study"], capsys)
+    assert time.perf_counter() - t0 < 10
+    line = assert_one_line_error(code, err, 2, "30,000,000,000 runs")
+    assert "10,000,000,000 scenarios × 3 replicates" in line and "100,000" in line
+    assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_a_huge_study_config_built_in_python_is_refused_too():
+    from dampfit.errors import InputError
+    from dampfit.study.config import StudyConfig
+
+    cfg = StudyConfig("big", 1, 0, ("hilbert",), 1.0, {},
+                      {f"a{i}": list(range(100)) for i in range(5)}, {"f_n": 2.0, "zeta": 0.01})
+    assert cfg.n_runs == 10**10
+    with pytest.raises(InputError, match="10,000,000,000 runs"):
+        cfg.tasks()
