@@ -6,7 +6,6 @@ import dataclasses
 import json
 import math
 import re
-import time
 
 import numpy as np
 import pandas as pd
@@ -302,11 +301,10 @@ def test_csv_round_trip_with_pandas(tmp_path, dialect):
     np.testing.assert_allclose(df.iloc[:, 4].to_numpy(), np.linalg.norm(rec.accel, axis=1), rtol=1e-9)
 
 
-def test_csv_writer_is_fast(tmp_path):
+def test_csv_writer_writes_every_row_of_a_long_recording(tmp_path):
+    """30k rows: one line each plus the header (its speed: paper/bench_csv.py)."""
     rec, _ = simulate_recording(preset("paper"))
-    start = time.perf_counter()
     path = write_phyphox_csv(rec, tmp_path / "paper.csv")
-    assert time.perf_counter() - start < 1.5  # typically ~0.2 s for 30k rows
     assert path.read_text().count("\n") == rec.n_samples + 1
 
 
