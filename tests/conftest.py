@@ -1,51 +1,18 @@
-"""Shared fixtures: short simulated recordings and one analysed result per session.
+"""Shared fixtures: short simulated recordings and one analysed result per session, the
+OpenSees requirement, and the ``DAMPFIT_REQUIRE_ALL`` hook.
 
-Optional dependencies (``DAMPFIT_REQUIRE_ALL``)
------------------------------------------------
-A test that needs something the machine may lack (OpenSeesPy and its BLAS/LAPACK, Chromium,
-the real recordings in ../shared) calls :func:`require` (or uses a fixture built on it such as
-``requires_opensees``): it skips with the one-line reason, or — when the environment variable
-``DAMPFIT_REQUIRE_ALL=1`` is set, as CI does — fails with it, so CI cannot silently lose
-coverage. Under ``DAMPFIT_REQUIRE_ALL=1`` every other skip (``pytest.skip``,
-``@pytest.mark.skipif``) becomes a failure as well (hook below), except skips whose reason
-starts with :data:`OPTIONAL` (use :func:`skip_optional`) for what CI deliberately does not
-install (e.g. pyarrow).
+The helpers behind them (``require``, ``skip_optional``, ``REAL``) live in
+:mod:`tests._support.requirements`; test modules import them from there.
 """
 
 from __future__ import annotations
 
-import os
 import warnings
-from pathlib import Path
 
 import pytest
 
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
-
-#: Environment variable that turns skips for a missing dependency into failures (set by CI).
-REQUIRE_ALL_ENV = "DAMPFIT_REQUIRE_ALL"
-#: Reason prefix of a skip that stays a skip under DAMPFIT_REQUIRE_ALL=1.
-OPTIONAL = "optional: "
-
-
-def require_all() -> bool:
-    """Whether missing dependencies must fail the run (``DAMPFIT_REQUIRE_ALL=1``)."""
-    return os.environ.get(REQUIRE_ALL_ENV, "").strip() not in ("", "0")
-
-
-def require(condition: object, reason: str) -> None:
-    """Continue if ``condition`` is true; else skip the test with ``reason`` (one line: what
-    is missing and how to install it), or fail with it under ``DAMPFIT_REQUIRE_ALL=1``."""
-    if condition:
-        return
-    if require_all():
-        pytest.fail(f"{REQUIRE_ALL_ENV}=1 and a dependency is missing: {reason}", pytrace=False)
-    pytest.skip(reason)
-
-
-def skip_optional(reason: str) -> None:
-    """Skip for a dependency CI does not install either (stays a skip under REQUIRE_ALL)."""
-    pytest.skip(OPTIONAL + reason)
+from tests._support.requirements import (  # noqa: F401 (re-exported for `-p tests.conftest`)
+    OPTIONAL, REAL, REQUIRE_ALL_ENV, require, require_all, skip_optional)
 
 
 @pytest.fixture

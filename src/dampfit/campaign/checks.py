@@ -34,7 +34,7 @@ Verdicts (on the tests' own estimates y_i = ln p̂_i with sds s_i, or ln ĉ_i in
   freedom) and the two-sided P of b = 0; "explains" when P < :data:`ALPHA` (the level of the
   other claims: with the 90 % interval's 10 %, 3.3 % of simulated campaigns of tests that
   merely scatter, their amplitudes differing by chance — windows starting at different
-  times — were called amplitude-dependent; now 0.5 %, tests/test_campaign.py) and the
+  times — were called amplitude-dependent; now 0.5 %, tests/recovery/test_campaign.py) and the
   residuals are consistent with no
   spread (Cochran's Q of the residuals with n − 2 degrees of freedom, P ≥ 0.01) or their
   spread τ_r is at most :data:`EXPLAINED_SPREAD` = ⅓ of the spread about the mean (the

@@ -80,8 +80,8 @@ The verdict, first match wins:
 
 So "adequate" is never returned while any single criterion is decisive against it or while
 the data could not have told, and a law is never named as the explanation of a misfit.
-Thresholds were calibrated by simulation (``tests/test_adequacy.py -m slow``, 100 replicates
-per class, Laplace posteriors): "amplitude-dependent" or "misfit" on 1 % of viscous phone-like
+Thresholds were calibrated by simulation (``tests/recovery/test_adequacy.py -m slow``, 100
+replicates per class, Laplace posteriors): "amplitude-dependent" or "misfit" on 1 % of viscous phone-like
 and 1 % of lab-like decays; "inconclusive" on 20 % of the phone-like ones (short decays of
 20–100 cycles, small amplitude spans) and 7 % of the lab-like ones (4 % of them for a
 Ljung–Box p below 0.01); detection 100 % when ζ changes ≥ 1.5× across the window

@@ -16,7 +16,7 @@ nothing and LOO reduces to AIC with a too-small standard error. The evidence wit
 proper priors on the shape parameter (friction or drag fraction f ∈ [0, 1], exponent α ∈ [0, 3])
 charges the Occam factor that an extra nonlinear parameter deserves, is exact for a Gaussian
 posterior in the other parameters, and costs a few dozen least-squares fits, so many
-replicates can check its false-alarm rate (``tests/test_damping_checks.py``: 0 of 60
+replicates can check its false-alarm rate (``tests/recovery/test_damping_checks.py``: 0 of 60
 realistic viscous phone recordings flagged).
 
 **Standard error.** ``dse`` is the LOO-style standard error of a law's difference in tempered

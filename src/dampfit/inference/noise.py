@@ -54,7 +54,7 @@ variance to the estimates), 0.88/0.93 (1/f), 0.92/0.89 (3 s record), against 0.9
 
 Without a Jacobian (the damping-law fits of :mod:`dampfit.damping`) r is the plain ratio
 floored at r_white, ``max(R_FLOOR, r_white, r_raw)``: their evidence and the misfit rule were
-calibrated that way (``tests/test_adequacy.py``). ``psd_ratio_raw`` is always the plain ratio.
+calibrated that way (``tests/recovery/test_adequacy.py``). ``psd_ratio_raw`` is always the plain ratio.
 
 **Misfit on an absolute scale** (:func:`misfit_check`): r_raw/r_white > ``R_WARN`` (= 3), or
 residual rms above ``RESID_FRACTION`` (5 %) of the fitted signal rms while the sensor noise

@@ -53,7 +53,7 @@ nonlinear term (f = 0 or α = 1 is the viscous model). These are the closed-form
 function and R' = dR/de. The two columns Re, Im of h·e^{iωτ} span the acceleration with the
 linear quadratures (A, B); |(A, B)| = ω²·a₀. For viscous damping this is *exactly* the model
 (M1) of :mod:`dampfit.model.viscous` with ω = ω_d (h = s²/(−ω_d²), s = −p + iω_d), so the models nest.
-Accuracy against a DOP853 solution of the equation of motion (``tests/test_damping_models.py``),
+Accuracy against a DOP853 solution of the equation of motion (``tests/analytic/test_damping_models.py``),
 ζ_eq from 10⁻³ to 0.1, decay to 30 % of the initial amplitude, quadratures and ω fitted: the
 in-band (0.5–1.5 f) acceleration error is ≈ 0.05–0.08·ζ_eq of the amplitude for coulomb,
 0.003–0.013·ζ_eq for quadratic and 0.02–0.035·ζ_eq for power (α = 0.5); the fitted ω is

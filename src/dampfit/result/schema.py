@@ -34,7 +34,7 @@ Plain JSON: non-finite numbers become ``null``; every physical quantity is in SI
 in a ``unit`` field or in the key (``_s`` [s], ``_hz`` [Hz], ``_m`` [m], ``_kg`` [kg]). A
 new field may be added within a version; an incompatible change bumps
 :data:`SCHEMA_VERSION`. Keys scripts can rely on, top level exactly as listed (tested:
-``tests/test_schema_doc.py``), sections abridged with ``…``.
+``tests/invariants/test_schema_doc.py``), sections abridged with ``…``.
 
 Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summary`)::
 
