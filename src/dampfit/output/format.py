@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["decimals", "fixed", "interval", "own_spread", "point", "quantiles"]
+__all__ = ["decimals", "fixed", "interval", "lookup", "own_spread", "point", "quantiles"]
 
 #: z-value of the two-sided 90 % interval of a normal distribution: a spread ± 1.645·sd.
 Z90 = 1.645
@@ -99,6 +99,16 @@ def own_spread(x: Any, rel_sd: Any) -> str:
     if not (_real(x) and _real(rel_sd)):
         return fixed(x, None)
     return fixed(x, decimals(0.0, 2 * Z90 * rel_sd * abs(float(x))))
+
+
+def lookup(d: Any, *keys: str) -> Any:
+    """``d[k1][k2]…`` of a summary's nested dicts, or None where a level is missing or not a
+    dict (an edited summary may hold anything)."""
+    for key in keys:
+        if not isinstance(d, dict):
+            return None
+        d = d.get(key)
+    return d
 
 
 def quantiles(q: Any) -> tuple[float, float, float] | None:

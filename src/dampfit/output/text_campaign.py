@@ -20,7 +20,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from dampfit.output.format import interval, quantiles
+from dampfit.output.format import interval, lookup, quantiles
 from dampfit.physics import UNITS
 from dampfit.result.schema import unique_warnings
 
@@ -34,14 +34,6 @@ _UNITS = {**UNITS, "m0": "kg"}
 # ----------------------------------------------------------------------------- helpers
 def _real(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-
-
-def _get(d: Any, *keys: str) -> Any:
-    for key in keys:
-        if not isinstance(d, dict):
-            return None
-        d = d.get(key)
-    return d
 
 
 def _iv(q: Any) -> str:
@@ -63,7 +55,7 @@ def labels(tests: list[dict]) -> list[str]:
     ``run1/data.npy``, ``run2/data.npy``)."""
     parts = []
     for i, t in enumerate(tests):
-        path = _get(t, "input", "path")
+        path = lookup(t, "input", "path")
         parts.append(Path(path).parts if isinstance(path, str) and path
                      else (f"test {i + 1}",))
     depth = 1
@@ -94,7 +86,7 @@ def tests(s: dict) -> list[dict]:
 def shown_quantity(s: dict) -> str:
     """The per-test quantity shown: c when the tests carry it (a mass is known), else ζ."""
     entries = tests(s)
-    if entries and all(quantiles(_get(t, "own", "c")) or quantiles(_get(t, "pooled", "c"))
+    if entries and all(quantiles(lookup(t, "own", "c")) or quantiles(lookup(t, "pooled", "c"))
                        for t in entries):
         return "c"
     return "zeta"
@@ -192,8 +184,8 @@ def _test_lines(s: dict) -> list[str]:
     for i, (t, name) in enumerate(zip(entries, labels(entries))):
         dm = t.get("added_mass_kg")
         rows.append([f"{i + 1:>2d} {name}", _g(dm, 4) if _real(dm) else "—",
-                     _g(t.get("amplitude_m"), 3), _iv(_get(t, "own", what)),
-                     _iv(_get(t, "pooled", what)),
+                     _g(t.get("amplitude_m"), 3), _iv(lookup(t, "own", what)),
+                     _iv(lookup(t, "pooled", what)),
                      "OUTLIER" if t.get("outlier") is True else "no"])
     widths = [max(len(r[j]) for r in [head, *rows]) for j in range(len(head))]
 

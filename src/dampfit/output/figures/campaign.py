@@ -20,10 +20,11 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dampfit.output.text_campaign import labels
+from dampfit.output.text_campaign import labels, shown_quantity
+from dampfit.output.text_campaign import tests as campaign_tests
 from dampfit.output.figures import layout as L
 from dampfit.output.figures.png import save_png
-from dampfit.output.format import interval
+from dampfit.output.format import interval, lookup, quantiles
 from dampfit.physics import UNITS
 from dampfit.result.folder import real
 
@@ -33,48 +34,20 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = ["DRAW", "added_mass_figure", "forest_figure", "save_figures"]
 
 
-def _get(d: Any, *keys: str) -> Any:
-    for key in keys:
-        if not isinstance(d, dict):
-            return None
-        d = d.get(key)
-    return d
-
-
-def _q(q: Any) -> tuple[Any, Any, Any] | None:
-    """(q50, q05, q95) of a quantile dict, or None if any is missing."""
-    if not isinstance(q, dict) or not all(real(q.get(k)) for k in ("q50", "q05", "q95")):
-        return None
-    return q["q50"], q["q05"], q["q95"]
-
-
-def _tests(s: dict) -> list[dict]:
-    tests = s.get("tests")
-    return [t for t in tests if isinstance(t, dict)] if isinstance(tests, list) else []
-
-
-def _shown_quantity(s: dict) -> str:
-    """The per-test quantity shown: c when the tests carry it (a mass is known), else ζ."""
-    tests = _tests(s)
-    if tests and all(_q(_get(t, "own", "c")) or _q(_get(t, "pooled", "c")) for t in tests):
-        return "c"
-    return "zeta"
-
-
 def forest_figure(s: dict[str, Any]) -> "Figure | None":
     """Forest plot of per-test c (ζ without a mass): own and pooled 90 % intervals, the
     population band and the predictive band for a new test (see :data:`FIGURES`). None when
     the summary has no tests."""
-    tests = _tests(s)
+    tests = campaign_tests(s)
     if not tests:
         return None
-    what = _shown_quantity(s)
+    what = shown_quantity(s)
     sym = {"c": "c", "zeta": "ζ"}[what]
     unit = UNITS[what].replace(" ", "·")
     fig = L.new_figure(8.0, 1.8 + 0.45 * len(tests))
     ax = fig.add_subplot()
-    pred = _q(_get(s, "population", "predictive", what))
-    pop = _q(_get(s, "parameters", what))
+    pred = quantiles(lookup(s, "population", "predictive", what))
+    pop = quantiles(lookup(s, "parameters", what))
     if pred is not None:
         ax.axvspan(pred[1], pred[2], color="tab:blue", alpha=0.12,
                    label="new test, 90 % predictive")
@@ -85,7 +58,7 @@ def forest_figure(s: dict[str, Any]) -> "Figure | None":
     for i, t in enumerate(tests):
         y = len(tests) - 1 - i
         colour = "tab:red" if t.get("outlier") is True else "black"
-        own, pooled = _q(_get(t, "own", what)), _q(_get(t, "pooled", what))
+        own, pooled = quantiles(lookup(t, "own", what)), quantiles(lookup(t, "pooled", what))
         if own is not None:
             ax.plot([own[1], own[2]], [y + 0.15] * 2, color=colour, lw=1.0, alpha=0.7)
             ax.plot(own[0], y + 0.15, "o", mfc="white", mec=colour, ms=5,
@@ -127,7 +100,7 @@ def added_mass_figure(s: dict[str, Any]) -> "Figure | None":
     err = [p["omega_n2_sd"] / p["omega_n2"] ** 2 if real(p.get("omega_n2_sd")) else 0.0
            for p in pts]
     ax.errorbar(x, y, yerr=err, fmt="o", color="black", ms=5, capsize=3, label="tests (± 1 sd)")
-    m0 = _q(am.get("m0")) or _q(_get(s, "parameters", "m0"))
+    m0 = quantiles(am.get("m0")) or quantiles(lookup(s, "parameters", "m0"))
     line = am.get("line") if isinstance(am.get("line"), dict) else {}
     lo = min(x + ([-m0[2]] if m0 else []))
     hi = max(x)
