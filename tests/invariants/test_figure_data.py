@@ -45,6 +45,16 @@ def folder(staged, tmp_path_factory):
     return out
 
 
+def test_save_then_load_round_trips(staged, folder):
+    """``Analysis.save(dir)`` then ``dampfit.load(dir)``: the same summary, the same signals
+    and the same posterior draws as the live analysis."""
+    live, loaded = staged[0], dampfit.load(folder)
+    assert loaded.summary() == live.summary()
+    for key, value in live.signals().items():
+        np.testing.assert_array_equal(loaded.signals()[key], value)
+    np.testing.assert_array_equal(loaded.draws("c"), live.draws("c"))
+
+
 def test_live_and_loaded_figures_are_the_same_bytes(staged, folder, tmp_path):
     an, _ = staged
     assert {p.stem for p in folder.glob("*.png")} == ALL
