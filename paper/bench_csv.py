@@ -3,7 +3,7 @@
 The seed paper's set-up simulated (:func:`dampfit.simulate.preset` ``"paper"``: 60 s at
 500 Hz, 30,000 rows of time [s], three acceleration axes and the absolute value [m/s²]) is
 
-1. **written** by :func:`dampfit.io.writers.write_phyphox_csv` (phyphox's comma dialect,
+1. **written** by :func:`dampfit.files.writers.write_phyphox_csv` (phyphox's comma dialect,
    ten significant digits) and, as the reference, by ``pandas.DataFrame.to_csv`` with the same
    columns and ``float_format="%.9E"`` (the same digits);
 2. **read** back by :func:`dampfit.read` (dialect sniffing, header parsing and every check of the
@@ -44,7 +44,7 @@ def run(repeat: int) -> dict:
     import pandas as pd
 
     import dampfit
-    from dampfit.io.writers import write_phyphox_csv
+    from dampfit.files.writers import write_phyphox_csv
     from dampfit.simulate import preset, recording
 
     rec, _ = recording(preset("paper"))

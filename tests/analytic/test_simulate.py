@@ -315,7 +315,7 @@ def test_writers_leave_no_half_written_file(tmp_path, monkeypatch):
     def fail(*_args):
         raise OSError("disk full")
 
-    monkeypatch.setattr("dampfit.io.writers.os.replace", fail)
+    monkeypatch.setattr("dampfit.files.writers.os.replace", fail)
     with pytest.raises(InputError, match="disk full") as info:
         write_phyphox_csv(_known_recording(True), target)
     assert isinstance(info.value.__cause__, OSError)

@@ -7,7 +7,7 @@ sampler's diagnostics. :meth:`dampfit.campaign.result.CampaignAnalysis.summary` 
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -15,8 +15,9 @@ from dampfit import physics
 from dampfit._json import jsonable
 from dampfit._meta import __version__
 
-if TYPE_CHECKING:
-    from dampfit.campaign.result import CampaignAnalysis
+#: What every section reads: a :class:`dampfit.campaign.result.CampaignAnalysis`. Not imported,
+#: not even for type checkers: result.py imports this module, and the two stay one-way.
+Campaign = Any
 
 __all__ = ["summarise", "quantiles", "OWN_DRAWS", "POPULATION_UNITS"]
 
@@ -49,7 +50,7 @@ def _interval(x, unit: str) -> dict[str, Any]:
     return {k: v for k, v in quantiles(x, unit).items() if k != "sd"}
 
 
-def _parameters(a: CampaignAnalysis) -> dict[str, Any]:
+def _parameters(a: Campaign) -> dict[str, Any]:
     """The population quantities (:data:`POPULATION_UNITS`; m0 of the added-mass design only)
     with their diagnostics."""
     from dampfit.damping.quantities import summarise as summarise_draws
@@ -60,7 +61,7 @@ def _parameters(a: CampaignAnalysis) -> dict[str, Any]:
             for n, u in POPULATION_UNITS.items() if n != "m0" or added}
 
 
-def _mass(a: CampaignAnalysis) -> dict[str, Any]:
+def _mass(a: Campaign) -> dict[str, Any]:
     """The mass: given (hierarchical) or the posterior m₀ (added-mass design) [kg]."""
     if a.added_mass is not None:
         m0 = np.asarray(a.posterior.posterior["m0"]).ravel()
@@ -68,7 +69,7 @@ def _mass(a: CampaignAnalysis) -> dict[str, Any]:
     return {"value": a.mass, "sd": a.mass_sd if a.mass is not None else None, "unit": "kg"}
 
 
-def _population(a: CampaignAnalysis) -> dict[str, Any]:
+def _population(a: Campaign) -> dict[str, Any]:
     """The between-test spreads (τ_p, τ_ω with P(τ_ω = 0), eq. C7), the predictive damper of
     a new test and whether the tests agree (:mod:`dampfit.campaign.verdict`)."""
     post = a.posterior.posterior
@@ -84,7 +85,7 @@ def _population(a: CampaignAnalysis) -> dict[str, Any]:
             "spread_consistent_with_zero": a.checks.spread_consistent_with_zero}
 
 
-def _tests(a: CampaignAnalysis, m0_draws: np.ndarray | None) -> list[dict[str, Any]]:
+def _tests(a: Campaign, m0_draws: np.ndarray | None) -> list[dict[str, Any]]:
     """Each test: its input, window, band, frequency, added mass, amplitude, noise ratio,
     damping-law verdict, its **own** values (:data:`OWN_DRAWS` draws of its Laplace
     expansion; mass the given one, or the posterior m₀ + Δm_i), its **pooled** values from
@@ -125,7 +126,7 @@ def _tests(a: CampaignAnalysis, m0_draws: np.ndarray | None) -> list[dict[str, A
     return out
 
 
-def _added_mass(a: CampaignAnalysis, params: dict[str, Any]) -> dict[str, Any] | None:
+def _added_mass(a: Campaign, params: dict[str, Any]) -> dict[str, Any] | None:
     """The added-mass design's m₀, k, each test's ω_n² [rad²/s²] with its sd against its
     added mass [kg], and the line 1/ω_n² = (m₀ + Δm)/k (intercept [s²], slope [s²/kg])."""
     if a.added_mass is None:
@@ -143,7 +144,7 @@ def _added_mass(a: CampaignAnalysis, params: dict[str, Any]) -> dict[str, Any] |
                      "unit_intercept": "s^2", "unit_slope": "s^2/kg"}}
 
 
-def _diagnostics(a: CampaignAnalysis) -> dict[str, Any]:
+def _diagnostics(a: Campaign) -> dict[str, Any]:
     """Convergence (worst R-hat, least bulk ESS of the reported quantities) and the
     sampler's facts."""
     s = a.sampling
@@ -161,7 +162,7 @@ def _diagnostics(a: CampaignAnalysis) -> dict[str, Any]:
             "seconds": s.seconds, "warnings": list(s.warnings)}
 
 
-def _design(a: CampaignAnalysis) -> dict[str, Any]:
+def _design(a: Campaign) -> dict[str, Any]:
     """The design: number of tests, model, mass or added masses [kg], and the priors."""
     from dampfit.campaign import model
 
@@ -178,7 +179,7 @@ def _design(a: CampaignAnalysis) -> dict[str, Any]:
                                     "least-squares values (log scale)"}}
 
 
-def summarise(a: CampaignAnalysis) -> dict[str, Any]:
+def summarise(a: Campaign) -> dict[str, Any]:
     """The JSON-safe summary of the live campaign ``a`` (its checks already made)."""
     from dampfit.result.schema import SCHEMA_VERSION
 

@@ -13,7 +13,7 @@ Three keys, all JSON-safe (non-finite numbers become ``None``):
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -23,8 +23,9 @@ from dampfit.damping import evidence as compare
 from dampfit.physics import damping_coefficient
 from dampfit.model import laws as models
 
-if TYPE_CHECKING:  # pragma: no cover
-    from dampfit.damping.assessment import DampingAssessment
+#: What every section reads: a :class:`dampfit.damping.assessment.DampingAssessment`. Not
+#: imported, not even for type checkers: assessment.py imports this module, one way only.
+Assessment = Any
 
 __all__ = ["summary"]
 
@@ -34,7 +35,7 @@ N_GRID = 60
 N_BAND = 800
 
 
-def _model_checks(a: "DampingAssessment") -> dict[str, Any]:
+def _model_checks(a: Assessment) -> dict[str, Any]:
     q = a.quantities.get("power", {})
     s = None
     if "alpha" in q and len(q["alpha"]):
@@ -73,7 +74,7 @@ def _model_checks(a: "DampingAssessment") -> dict[str, Any]:
     }
 
 
-def _model_entry(a: "DampingAssessment", name: str) -> dict[str, Any]:
+def _model_entry(a: Assessment, name: str) -> dict[str, Any]:
     mf, post = a.fits[name], a.posteriors[name]
     q = a.quantities.get(name, {})
     names = [f"theta:{n}" for n in models.get(name, mf.theta).names]
@@ -92,7 +93,7 @@ def _model_entry(a: "DampingAssessment", name: str) -> dict[str, Any]:
     }
 
 
-def _curve(a: "DampingAssessment") -> dict[str, Any]:
+def _curve(a: Assessment) -> dict[str, Any]:
     amps = [w.amplitude for w in a.windows if w.amplitude > 0]
     lo = min(amps + [a.amplitudes["end"]])
     hi = max(amps + [a.amplitudes["start"]])
@@ -143,7 +144,7 @@ def _curve(a: "DampingAssessment") -> dict[str, Any]:
     }
 
 
-def _c_report(a: "DampingAssessment") -> dict[str, Any]:
+def _c_report(a: Assessment) -> dict[str, Any]:
     """:meth:`~dampfit.damping.assessment.DampingAssessment.c_report`, its numbers null with
     the reason (``"missing"``) where the equivalent c means nothing (``c_missing``)."""
     rep = a.c_report()
@@ -153,7 +154,7 @@ def _c_report(a: "DampingAssessment") -> dict[str, Any]:
     return rep
 
 
-def summary(a: "DampingAssessment") -> dict[str, Any]:
+def summary(a: Assessment) -> dict[str, Any]:
     """The plain-data view of ``a`` (module docstring)."""
     return jsonable({
         "model_checks": _model_checks(a),

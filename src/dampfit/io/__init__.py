@@ -11,7 +11,6 @@
 * :mod:`~dampfit.io.columns` — column roles and the phyphox/Sensor Logger/generic layouts;
 * :mod:`~dampfit.io.units` — time [s] and acceleration [m/s²] units: from the header, the
   format or inferred from the values, and the conversion;
-* :mod:`~dampfit.io.writers` — the phyphox-style CSV writer and the truth JSON writer;
 * :mod:`~dampfit.io.matlab` — MATLAB .mat files (v4/v5 via SciPy, v7.3 via h5py);
 * :mod:`~dampfit.io.recording` — the :class:`Recording` type (time [s], acceleration [m/s²])
   and its validation: monotone time, gap splitting, unit notes.

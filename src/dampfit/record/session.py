@@ -347,7 +347,7 @@ def write_recording(rec: Recorded, folder: str | Path) -> list[Path]:
     atomically; a recording :class:`~dampfit.io.recording.Recording` refuses (too few samples,
     …) is one :class:`InputError` and nothing is written."""
     from dampfit.io.recording import Recording
-    from dampfit.io.writers import write_phyphox_csv
+    from dampfit.files.writers import write_phyphox_csv
 
     folder = Path(folder)
     try:

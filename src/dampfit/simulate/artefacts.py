@@ -1,7 +1,7 @@
 """What a simulation leaves behind besides the samples: the truth of a recording
 (:func:`recording_truth`, JSON-safe), the envelope it implies (:func:`envelope_at`), and the
 writers of the CSV and truth files (:func:`write_phyphox_csv`, :func:`write_truth`, from
-:mod:`dampfit.io.writers`, re-exported here).
+:mod:`dampfit.files.writers`, re-exported here).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from dampfit._meta import __version__
-from dampfit.io.writers import DIALECTS, write_phyphox_csv, write_truth  # re-exported
+from dampfit.files.writers import DIALECTS, write_phyphox_csv, write_truth  # re-exported
 from dampfit.physics import quantities, to_decay
 from dampfit.simulate.config import SimulationConfig, noise_sigma
 
