@@ -46,10 +46,14 @@ SCRIPT = textwrap.dedent("""
 """)
 
 
-def _run(tmp_path: Path, cache: Path | None) -> dict:
+def _run(tmp_path: Path, cache: Path | None, **settings: str) -> dict:
+    """Run the kernel script in a fresh process with ``cache`` as the checked folder
+    (``DAMPFIT_EXECUTABLE_CACHE``; None: unset, so ``settings`` — the user's switch
+    ``DAMPFIT_JAX_CACHE``, ``XDG_CACHE_HOME`` — decide, as in a script)."""
     env = dict(os.environ)
-    env.pop("JAX_COMPILATION_CACHE_DIR", None)
-    env.pop("DAMPFIT_EXECUTABLE_CACHE", None)
+    for name in ("JAX_COMPILATION_CACHE_DIR", "DAMPFIT_EXECUTABLE_CACHE", "DAMPFIT_JAX_CACHE"):
+        env.pop(name, None)
+    env.update(settings)
     if cache is not None:
         env["DAMPFIT_EXECUTABLE_CACHE"] = str(cache)
     script = tmp_path / "kernel_script.py"
@@ -109,10 +113,36 @@ def test_damaged_or_foreign_entry_is_recompiled(tmp_path):
     assert (fourth["compiled"], fourth["loaded"]) == (0, 1)
 
 
-def test_without_the_store_nothing_is_written(tmp_path):
-    out = _run(tmp_path, None)
+def test_switched_off_nothing_is_written(tmp_path):
+    out = _run(tmp_path, None, DAMPFIT_JAX_CACHE="off", XDG_CACHE_HOME=str(tmp_path / "xdg"))
     assert (out["compiled"], out["loaded"]) == (0, 0)  # plain jax.jit
     assert not list(tmp_path.rglob("*.exe")) and not list(tmp_path.rglob("*.bin"))
+    assert not (tmp_path / "xdg").exists()
+
+
+def test_a_script_gets_the_store_by_default(tmp_path):
+    """Issue 23: a script (no CLI, nothing set) stores its kernels in the default private
+    folder ``$XDG_CACHE_HOME/dampfit/jax`` and the next script loads them instead of compiling;
+    ``DAMPFIT_JAX_CACHE=FOLDER`` moves it, and an unsafe folder is one warning, no store."""
+    import stat
+
+    xdg = tmp_path / "xdg"
+    first = _run(tmp_path, None, XDG_CACHE_HOME=str(xdg))
+    second = _run(tmp_path, None, XDG_CACHE_HOME=str(xdg))
+    assert (first["compiled"], first["loaded"]) == (1, 0)
+    assert (second["compiled"], second["loaded"]) == (0, 1)
+    assert second["x"] == first["x"]
+    folder = xdg / "dampfit" / "jax"
+    assert len(_entries(folder)) == 1 and stat.S_IMODE(folder.stat().st_mode) == 0o700
+    moved = _run(tmp_path, None, DAMPFIT_JAX_CACHE=str(tmp_path / "mine"),
+                 XDG_CACHE_HOME=str(xdg))
+    assert (moved["compiled"], moved["loaded"]) == (1, 0) and _entries(tmp_path / "mine")
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(0o777)  # anyone could plant an executable here
+    unsafe = _run(tmp_path, None, DAMPFIT_JAX_CACHE=str(shared))
+    assert (unsafe["compiled"], unsafe["loaded"]) == (0, 0) and not any(shared.iterdir())
+    assert unsafe["stderr"].count("not used") == 1
 
 
 def test_source_edit_changes_the_key(monkeypatch):

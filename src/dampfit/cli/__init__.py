@@ -94,7 +94,7 @@ def get_parser() -> argparse.ArgumentParser:
     return p
 
 
-#: Where compiled JAX kernels are kept between CLI runs (see :func:`_compile_cache`).
+#: The user's switch of the compiled-kernel store (:data:`dampfit.inference.executables.SWITCH`).
 CACHE_ENV = "DAMPFIT_JAX_CACHE"
 
 
@@ -145,21 +145,21 @@ def _compile_cache() -> Path | None:
     processor or an edited source are never read again, so deleting the folder is safe.
     """
     from dampfit.files.private import UnsafeFolder
-    from dampfit.inference.executables import ENV, open_checked
+    from dampfit.inference.executables import ENV, chosen_folder, open_checked
 
     os.environ.pop(ENV, None)  # only a folder checked here is passed on
-    choice = os.environ.get(CACHE_ENV, "")
-    if choice.lower() in ("off", "0", "no", "false") or os.environ.get("JAX_COMPILATION_CACHE_DIR"):
+    path = chosen_folder()
+    if path is None:
         return None
-    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    path = Path(os.path.abspath(Path(choice) if choice else base / "dampfit" / "jax"))
     try:
         opened = open_checked(str(path))
     except UnsafeFolder as problem:
         messages.defer(f"dampfit: warning: JAX compilation cache {path} not used: {problem}; "
                        "cache off")
+        os.environ[ENV] = ""  # and not re-checked (and warned about) by the library
         return None
     except OSError:
+        os.environ[ENV] = ""
         return None  # read-only home etc.: run without the cache, only slower
     os.environ[ENV] = str(path)
     return opened.path

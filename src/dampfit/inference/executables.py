@@ -12,12 +12,18 @@ and later processes load it in a few milliseconds, with no tracing or lowering a
 
 When it is used
 ---------------
-Only where the environment variable :data:`ENV` names a folder (the CLI sets it to its
-private cache folder, :mod:`dampfit.cli`; Dask workers of ``dampfit study`` inherit it) *and*
-that folder passes the checks of :mod:`dampfit.files.private` in this process: every folder
+In every process — the CLI, a script, a notebook, a Dask worker of ``dampfit study`` or
+``dampfit batch`` — unless switched off: the folder is :data:`ENV` when set (the CLI sets it
+to the folder it checked, and child processes inherit it), else the user's choice in
+:data:`SWITCH` (``DAMPFIT_JAX_CACHE=/some/folder``), else ``$XDG_CACHE_HOME/dampfit/jax``
+(``~/.cache/dampfit/jax``): :func:`chosen_folder`. ``DAMPFIT_JAX_CACHE=off`` (or ``0``,
+``no``, ``false``) switches it off, and so does a ``JAX_COMPILATION_CACHE_DIR`` the user set
+(JAX's own cache then serves; see below). The folder is used only if it passes the checks of
+:mod:`dampfit.files.private` in this process: every folder
 from ``/`` down owned by the user or root and writable by nobody else (or sticky), the folder
 itself the user's own. Otherwise a :class:`Kernel` is exactly ``jax.jit`` (one warning, once
-per process, when the folder was named but is unsafe: :func:`store`).
+per process, when the folder is unsafe: :func:`store`; a folder that cannot be created, as in
+a read-only home, silently means no store).
 
 An entry is one file: its metadata (JSON) and the serialised executable, authenticated with
 an HMAC-SHA256 under a random key kept in the folder. It is read only if it is a regular file
@@ -68,10 +74,15 @@ from typing import Any, Callable
 
 from dampfit.files.private import PrivateStore, UnsafeFolder, open_store
 
-__all__ = ["Kernel", "kernel", "open_checked", "source_digest", "store", "store_dir"]
+__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "kernel", "open_checked", "source_digest",
+           "store", "store_dir"]
 
-#: Environment variable naming the folder of stored executables (set by the CLI; unset: off).
+#: Environment variable naming the checked folder of stored executables (set by the CLI for
+#: itself and its child processes; unset: :data:`SWITCH` or the default folder decides).
 ENV = "DAMPFIT_EXECUTABLE_CACHE"
+#: The user's switch: a folder to use, or ``off`` (``0``, ``no``, ``false``); unset: the default.
+SWITCH = "DAMPFIT_JAX_CACHE"
+_OFF = ("off", "0", "no", "false")
 #: First bytes of an entry (format version 2: one authenticated file).
 _MAGIC = b"dampfit-executable\x02"
 _LENGTH = struct.Struct(">Q")
@@ -107,22 +118,51 @@ def open_checked(folder: str) -> PrivateStore:
         return opened
 
 
-def store() -> PrivateStore | None:
-    """The checked store named by :data:`ENV`, or None: unset, or unsafe or unusable (then
-    one :class:`RuntimeWarning`, once per process and folder)."""
-    base = os.environ.get(ENV)
-    if not base:
+def chosen_folder() -> Path | None:
+    """The folder the user's settings choose for stored executables (not yet checked), or
+    None when switched off: :data:`SWITCH` is ``off`` (``0``, ``no``, ``false``), or the user
+    set ``JAX_COMPILATION_CACHE_DIR`` (module docstring); else :data:`SWITCH`'s folder, else
+    ``$XDG_CACHE_HOME/dampfit/jax`` (``~/.cache/dampfit/jax``). :data:`ENV` is not read here."""
+    env = os.environ
+    return _chosen(env.get(SWITCH, ""), env.get("JAX_COMPILATION_CACHE_DIR", ""),
+                   env.get("XDG_CACHE_HOME", ""), env.get("HOME", ""))
+
+
+@functools.lru_cache(maxsize=8)
+def _chosen(choice: str, jax_cache: str, xdg: str, home: str) -> Path | None:
+    """:func:`chosen_folder` of these settings (cached: the kernels ask on every call)."""
+    choice = choice.strip()
+    if choice.lower() in _OFF or jax_cache:
         return None
+    if choice:
+        return Path(os.path.abspath(choice))
+    base = xdg or os.path.join(home or os.path.expanduser("~"), ".cache")
+    return Path(os.path.abspath(os.path.join(base, "dampfit", "jax")))
+
+
+def store() -> PrivateStore | None:
+    """The checked store of this process (:data:`ENV`, else :func:`chosen_folder`; an empty
+    :data:`ENV` means off), or None:
+    switched off, unusable (a read-only home: silently), or unsafe (then one
+    :class:`RuntimeWarning`, once per process and folder)."""
+    base = os.environ.get(ENV)
+    if base == "":  # a parent process (the CLI) found its folder unusable and said so
+        return None
+    if base is None:
+        chosen = chosen_folder()
+        if chosen is None:
+            return None
+        base = str(chosen)
     if base in _STORES:
         return _STORES[base]
     try:
         return open_checked(base)
     except (UnsafeFolder, OSError) as exc:
-        reason = str(exc) if isinstance(exc, UnsafeFolder) else (exc.strerror or str(exc))
         with _STORES_LOCK:
             _STORES[base] = None
-        warnings.warn(f"dampfit: compiled-kernel cache {base} not used: {reason}",
-                      RuntimeWarning, stacklevel=3)
+        if isinstance(exc, UnsafeFolder):
+            warnings.warn(f"dampfit: compiled-kernel cache {base} not used: {exc}",
+                          RuntimeWarning, stacklevel=3)
         return None
 
 
