@@ -3,7 +3,7 @@
 dampfit starts Python children of its own: the figure process of ``dampfit analyze``
 (:mod:`dampfit.output.figure_process`), the OpenSees probe and run of ``dampfit verify``
 (:mod:`dampfit.fem.opensees`) and the Dask workers of ``dampfit study``
-(:mod:`dampfit.study.cluster`). A plain ``python -c CODE`` puts the working folder first on
+(:mod:`dampfit.cluster`). A plain ``python -c CODE`` puts the working folder first on
 its import path (and honours ``PYTHONPATH``, ``PYTHONSTARTUP``, the user's site folder), so a
 ``json.py`` in the folder a user stands in would run inside the child. Every child is
 therefore started by :func:`command`:

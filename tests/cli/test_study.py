@@ -455,9 +455,9 @@ def test_a_silent_server_is_one_line_within_the_wait(tiny, tmp_path, capsys, mon
     them): refused once the scheduler has not answered within the wait, not a hang."""
     import socket
 
-    from dampfit.study import runner
+    from dampfit import cluster
 
-    monkeypatch.setattr(runner, "SCHEDULER_WAIT_S", 1.0)
+    monkeypatch.setattr(cluster, "SCHEDULER_WAIT_S", 1.0)
     out = tmp_path / "s"
     with socket.create_server(("127.0.0.1", 0)) as srv:
         port = srv.getsockname()[1]
@@ -521,7 +521,7 @@ def test_a_runs_jsonl_that_is_a_fifo_or_link_is_refused_before_anything(tiny, tm
 
 def test_local_workers_are_capped_at_the_runs_to_do(tiny, tmp_path, capsys, monkeypatch):
     """--workers 4 for a study of 2 runs starts 2 worker processes, not 4."""
-    from dampfit.study import cluster as local
+    from dampfit import cluster as local
 
     started = []
 

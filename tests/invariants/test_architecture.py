@@ -210,7 +210,7 @@ LAYERS = (
     ("dampfit.errors", 0), ("dampfit._meta", 0), ("dampfit._json", 0), ("dampfit._progress", 0),
     ("dampfit._child", 0), ("dampfit._arviz", 0),
     ("dampfit.physics", 1), ("dampfit.physics_modal", 1), ("dampfit.model", 1),
-    ("dampfit.io", 2), ("dampfit.files", 2),
+    ("dampfit.io", 2), ("dampfit.files", 2), ("dampfit.cluster", 2),
     ("dampfit.signal", 3), ("dampfit.simulate", 3),
     ("dampfit.inference", 4),
     ("dampfit.estimators", 5), ("dampfit.damping", 5),
@@ -219,7 +219,7 @@ LAYERS = (
     ("dampfit.output", 8),
     ("dampfit.analysis", 9), ("dampfit.pipeline", 9), ("dampfit.campaign", 9),
     ("dampfit.fem", 10), ("dampfit.record", 10),
-    ("dampfit.study", 11),
+    ("dampfit.study", 11), ("dampfit.batch", 11),
     ("dampfit.api", 12),
     ("dampfit", 13), ("dampfit.cli", 13), ("dampfit.__main__", 13),
 )

@@ -43,7 +43,7 @@ def pid_alive(pid: int) -> bool:
 
 class FileLock:
     """An exclusive lock held through the lock file ``path`` (``flock``), the one lock of
-    dampfit: result folders (:class:`ResultFolder`) and studies (:mod:`dampfit.study.store`).
+    dampfit: result folders (:class:`ResultFolder`) and studies (:mod:`dampfit.files.runlog`).
 
     The lock file is opened without following a link and without blocking, refused if it is
     not a regular file (:func:`check_lock_file`), locked without waiting, and re-checked to be

@@ -7,7 +7,7 @@ flight and the same command resumes it. Runs whose record is already stored are 
 submitted again. The tables are written once every run of the configuration is stored.
 
 By default the client starts a local cluster of N worker processes with one thread each
-(:func:`dampfit.study.cluster.local_cluster`: like ``LocalCluster``, but its workers import
+(:func:`dampfit.cluster.local_cluster`: like ``LocalCluster``, but its workers import
 nothing from the working folder), N capped at the number of runs still to do; with a scheduler
 address (``tcp://``, or ``tls://`` with Dask's TLS settings) it connects to an existing cluster,
 after the scheduler has answered a first request within :data:`SCHEDULER_WAIT_S`. Workers must
@@ -17,7 +17,6 @@ node); this is checked before anything is submitted.
 
 from __future__ import annotations
 
-import contextlib
 import html
 import importlib.util
 import sys
@@ -29,146 +28,14 @@ from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.study import tables
 from dampfit.study.config import StudyConfig, Task
+from dampfit.cluster import check_workers, client as dask_client
 from dampfit.study.store import Store
-from dampfit.study.task import run_task, worker_info
+from dampfit.study.task import run_task
 
 __all__ = ["StudyIncomplete", "run_study"]
 
-#: How long to wait for a worker to connect to an external scheduler [s].
-WORKER_WAIT_S = 120.0
-
-
 class StudyIncomplete(Exception):
     """Some runs did not finish (a worker died); the finished ones are stored."""
-
-
-#: How long the scheduler has to answer a first request before it is called unreachable [s].
-SCHEDULER_WAIT_S = 15.0
-#: Address schemes ``--scheduler`` accepts: plain TCP, and TLS when Dask's configuration
-#: holds the certificates (``distributed.comm.tls.*``).
-SCHEMES = ("tcp", "tls")
-
-
-def _unreachable(scheduler: str, why: str) -> InputError:
-    return InputError(f"cannot reach the Dask scheduler at {scheduler} ({why}); start it with "
-                      "'dask scheduler' or drop --scheduler")
-
-
-def check_scheduler(scheduler: str, wait_s: float | None = None) -> dict:
-    """Refuse an unusable ``--scheduler`` address before a ``Client`` exists (a failed Client
-    lingers, and one connected to a server that accepts but never answers waits forever):
-    the scheme must be one of :data:`SCHEMES` (``tls://`` only with Dask's TLS settings), and
-    a Dask scheduler must answer an identity request within ``wait_s`` [s] (default
-    :data:`SCHEDULER_WAIT_S`). Returns the connection arguments; one-line InputError else."""
-    from distributed.comm.addressing import parse_address
-    from distributed.security import Security
-
-    wait_s = SCHEDULER_WAIT_S if wait_s is None else wait_s
-    try:
-        scheme = parse_address(scheduler)[0]
-    except ValueError as exc:
-        raise _unreachable(scheduler, str(exc)) from None
-    if scheme not in SCHEMES:
-        raise _unreachable(scheduler, f"the {scheme}:// transport is not supported by dampfit "
-                                      "study: give a tcp:// address, or tls:// with Dask's TLS "
-                                      "settings")
-    try:
-        args = Security().get_connection_args("client")
-    except Exception as exc:  # noqa: BLE001 - a broken TLS configuration (missing files)
-        raise _unreachable(scheduler, f"Dask's TLS settings are unusable: {exc}") from None
-    if scheme == "tls" and args.get("ssl_context") is None:
-        raise _unreachable(scheduler, "tls:// needs Dask's TLS settings "
-                                      "(distributed.comm.tls.ca-file and a client certificate); "
-                                      "none are set")
-    identity = _ask_identity(scheduler, args, wait_s)
-    if not (isinstance(identity, dict) and identity.get("type") == "Scheduler"):
-        raise _unreachable(scheduler, "the server there is not a Dask scheduler")
-    return args
-
-
-def _ask_identity(address: str, args: dict, wait_s: float):
-    """The scheduler's answer to ``identity``, within ``wait_s`` [s] in all (connection,
-    handshake and answer), asked from a thread of its own (an event loop may be running in
-    this one); InputError when nothing usable arrives in time."""
-    import asyncio
-    import concurrent.futures
-
-    from distributed.comm import connect
-
-    async def ask():
-        comm = await connect(address, timeout=wait_s, **args)
-        try:
-            await comm.write({"op": "identity", "reply": True})
-            return await comm.read()
-        finally:
-            comm.abort()
-
-    def run():
-        return asyncio.run(asyncio.wait_for(ask(), wait_s))
-
-    pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="dampfit-probe")
-    try:
-        return pool.submit(run).result(timeout=wait_s + 5)
-    except (TimeoutError, asyncio.TimeoutError, concurrent.futures.TimeoutError):
-        raise _unreachable(address, f"no answer within {wait_s:g} s") from None
-    except Exception as exc:  # noqa: BLE001 - refused, reset, a handshake that is not Dask's
-        raise _unreachable(address, f"{type(exc).__name__}: {exc}") from None
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
-
-
-@contextlib.contextmanager
-def _client(workers: int, scheduler: str | None):
-    import dask
-    from distributed import Client
-
-    if scheduler:
-        check_scheduler(scheduler)
-        try:
-            client = Client(scheduler, timeout=f"{SCHEDULER_WAIT_S:g}s")
-        except (OSError, TimeoutError, ValueError, TypeError) as exc:
-            # a failed Client has already made itself dask's global scheduler: undo that, or
-            # every later dask computation in this process (xarray/arviz loads) tries to reach it
-            dask.config.config.pop("scheduler", None)
-            dask.config.config.pop("shuffle", None)
-            raise _unreachable(scheduler, str(exc)) from None
-        cluster = None
-    else:
-        from dampfit.study.cluster import local_cluster
-
-        cluster = local_cluster(workers)  # workers import nothing from the working folder
-        try:
-            client = Client(cluster)
-        except BaseException:
-            cluster.close()
-            raise
-    try:
-        yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def _check_workers(client, scheduler: str | None, version: str, err: TextIO) -> None:
-    """Refuse workers that cannot import dampfit or run another version; wait for one to join."""
-    if scheduler and not client.scheduler_info().get("workers"):
-        print(f"dampfit: waiting for a Dask worker to connect to {scheduler} …", file=err)
-        try:
-            client.wait_for_workers(1, timeout=WORKER_WAIT_S)
-        except TimeoutError:
-            raise InputError(f"no Dask worker connected to {scheduler} within {WORKER_WAIT_S:g} s; "
-                             "start one with 'dask worker ADDRESS'") from None
-    try:
-        infos = client.run(worker_info)
-    except Exception as exc:  # noqa: BLE001 - any failure here means the workers are unusable
-        raise InputError(f"the Dask workers cannot run dampfit ({type(exc).__name__}: {exc}); "
-                         "install dampfit in the workers' environment") from None
-    other = {a: i["dampfit"] for a, i in infos.items() if i["dampfit"] != version}
-    if other:
-        addr, v = next(iter(other.items()))
-        raise InputError(f"worker {addr} runs dampfit {v}, this client {version}; install the "
-                         "same version everywhere so that runs are reproducible")
 
 
 def _execute(client, todo: list[Task], store: Store, total: int, done: int, cfg: StudyConfig,
@@ -238,8 +105,8 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
                   f"{store.root}; {len(todo)} to run on {where}", file=stderr)
         failures: list[str] = []
         if todo:
-            with _client(workers, scheduler) as client:
-                _check_workers(client, scheduler, __version__, stderr)
+            with dask_client(workers, scheduler) as client:
+                check_workers(client, scheduler, __version__, stderr)
                 store.start()  # the first write: study.json (and --force's clean-up)
                 failures = _execute(client, todo, store, len(tasks), len(done), cfg, quiet, stderr)
         if failures:

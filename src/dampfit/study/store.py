@@ -1,48 +1,20 @@
-"""The study folder: resumable, append-only storage of finished runs.
-
-Layout of ``DIR``:
-
-* ``study.json`` — the configuration, its fingerprint and the dampfit version (written
-  atomically before any run starts);
-* ``runs.jsonl`` — one line per finished run (the record of
-  :func:`dampfit.study.task.run_task`), appended by the client as each run completes with a
-  single ``write`` followed by ``flush`` and ``fsync``. A kill can only tear the last line;
-  :meth:`Store.open` cuts such a partial line off, and the reader skips lines that do not
-  parse, so at most the runs in flight are lost;
-* the tables and figures (written at the end, each atomically);
-* ``.lock`` — held (``flock``) while a study runs, so two processes never append to the
-  same folder; removed at the end by the process that created it.
-
-Only a new or empty folder, or one holding a study dampfit wrote (its ``study.json``), is
-written to; ``--force`` discards the files in :data:`OUTPUTS` of a study of another
-configuration and nothing else. Every check comes before anything is created.
+"""The study folder: :class:`Store`, the resumable store of finished runs
+(:class:`dampfit.files.runlog.RunStore`) whose runs are (scenario, replicate) records of
+:func:`dampfit.study.task.run_task`, configured by a
+:class:`~dampfit.study.config.StudyConfig`; ``study.json`` and ``runs.jsonl`` in ``DIR``.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import stat
-from pathlib import Path
 from typing import Any
 
-from dampfit.files.atomic import atomic_write_text, error_text, publish
-from dampfit.files.folder import read_marker
-from dampfit.files.lock import FileLock
-from dampfit.errors import InputError
-from dampfit.study.config import StudyConfig
+from dampfit.files.runlog import MAX_RECORD_BYTES, RunStore
 
 __all__ = ["MAX_RECORD_BYTES", "OUTPUTS", "Store", "check_record"]
 
 #: Files the study writes (and ``--force`` removes); nothing else in DIR is touched.
 OUTPUTS = ("study.json", "runs.jsonl", "runs.csv", "runs.parquet", "aggregate.csv",
            "ranking.csv", "summary.md", "ranking.png", "coverage.png")
-#: Largest study.json [bytes] read (the configuration and its TOML source: a few KiB).
-MAX_META_BYTES = 16 * 2**20
-
-
-#: Longest line of runs.jsonl [bytes]: one run's record is a few KiB.
-MAX_RECORD_BYTES = 4 * 2**20
 
 
 def check_record(rec: Any) -> str | None:
@@ -73,227 +45,16 @@ def check_record(rec: Any) -> str | None:
     return None
 
 
-class Store:
-    """Finished runs of one study in folder ``root`` (see the module docstring)."""
+class Store(RunStore):
+    """Finished runs of one study in folder ``root`` (:class:`~dampfit.files.runlog.RunStore`)."""
 
-    def __init__(self, root: str | os.PathLike):
-        self.root = Path(root)
-        self.runs_path = self.root / "runs.jsonl"
-        self.meta_path = self.root / "study.json"
-        self.lock_path = self.root / ".lock"
-        self._lock_file = FileLock(self.lock_path, keep_foreign=True, busy=lambda pid: (
-            f"another dampfit study is running in {self.root} (pid {pid}); wait for it or "
-            "choose another --out"))
-        self._created_root = False
-        self._started = False
-        self._discard = False
-        self._cfg: StudyConfig | None = None
-        self._version = ""
+    KIND = "study"
+    META = "study.json"
+    LOG = "runs.jsonl"
+    OUTPUTS = OUTPUTS
 
-    # -- opening ------------------------------------------------------------------------
-    def open(self, cfg: StudyConfig, *, force: bool, version: str, start: bool = True) -> None:
-        """Check, then create and lock the folder for ``cfg``; with ``start`` also :meth:`start`.
+    def check(self, rec: Any) -> str | None:
+        return check_record(rec)
 
-        Refused (:class:`InputError`, nothing created or changed): ``root`` is not a
-        directory; it holds a ``study.json`` that is not a study dampfit wrote; it holds other
-        files but no study (``--force`` does not change that: it never writes into a folder
-        that is not a dampfit study); it holds a study with another fingerprint and ``force``
-        is not set; another process holds its lock. With ``start=False`` nothing is written
-        until :meth:`start` (the runner calls it once the workers are ready), so a refusal
-        later (an unreachable scheduler) leaves no trace: :meth:`close` removes the lock file
-        and the folder this store created.
-        """
-        self._check(cfg, force)  # read-only, before anything is created
-        if not os.path.lexists(self.root):
-            try:
-                self.root.mkdir()
-                publish(self.root)
-            except OSError as exc:
-                raise InputError(f"cannot create {self.root}: {error_text(exc)}") from None
-            self._created_root = True
-        try:
-            self._lock()
-            self._check(cfg, force)  # again under the lock: nobody changed it meanwhile
-            self._cfg, self._version, self._discard = cfg, version, force
-            if start:
-                self.start()
-        except BaseException:
-            self.close()
-            raise
-
-    def start(self) -> None:
-        """Write the study: with ``force`` remove the study's own files of a previous
-        configuration, else cut a torn last line; then write ``study.json``. Idempotent."""
-        if self._started or self._cfg is None:
-            return
-        try:
-            if self._discard:
-                for name in OUTPUTS:
-                    (self.root / name).unlink(missing_ok=True)
-            else:
-                self._repair_tail()
-        except OSError as exc:
-            raise InputError(f"cannot write into {self.root}: {error_text(exc)}") from None
-        self.write_meta(self._cfg, self._version)
-        self._started = True
-        self._discard = False
-
-    def _check(self, cfg: StudyConfig, force: bool) -> None:
-        """Refuse a folder this study must not write to (read-only; see :meth:`open`)."""
-        try:
-            st = os.stat(self.root)
-        except FileNotFoundError:
-            if os.path.islink(self.root):
-                raise InputError(f"{self.root} is a dangling symbolic link; choose another --out") from None
-            try:
-                parent_ok = self.root.parent.is_dir()
-            except OSError as exc:
-                raise InputError(f"cannot use {self.root}: {error_text(exc)}") from None
-            if not parent_ok:
-                raise InputError(f"output folder {self.root.parent} does not exist")
-            return
-        except OSError as exc:  # a name too long, no permission, a link loop
-            raise InputError(f"cannot use {self.root}: {error_text(exc)}") from None
-        if not stat.S_ISDIR(st.st_mode):
-            raise InputError(f"{self.root} exists and is not a directory")
-        meta = self._read_meta()
-        try:
-            runs = os.lstat(self.runs_path)
-        except FileNotFoundError:
-            runs = None
-        except OSError as exc:
-            raise InputError(f"cannot read {self.runs_path}: {error_text(exc)}") from None
-        if runs is not None and not stat.S_ISREG(runs.st_mode) and not (force and meta is not None):
-            raise InputError(f"{self.runs_path} is not a regular file (a link, FIFO, socket or "
-                             "device); a study stores its runs only in a file it wrote: remove "
-                             "it, or choose another --out")
-        if meta is None:
-            try:
-                other = [p.name for p in self.root.iterdir() if p.name != ".lock"]
-            except OSError as exc:
-                raise InputError(f"cannot read {self.root}: {error_text(exc)}") from None
-            marked = (read_marker(self.root) or {}).get("kind") == "study"
-            if other and not marked:
-                raise InputError(f"{self.root} exists and holds no dampfit study (no study.json); "
-                                 "dampfit writes a study only into a new or empty folder or one "
-                                 "of its own studies (even with --force): choose another --out")
-            return
-        if meta.get("fingerprint") != cfg.fingerprint():
-            if not force:
-                raise InputError(f"{self.root} holds a study with a different configuration "
-                                 f"({meta.get('name', '?')!r}); use --force to discard it and "
-                                 "restart, or choose another --out")
-            for name in OUTPUTS:  # --force removes these: only files or links, never a folder
-                path = self.root / name
-                if os.path.lexists(path) and not (path.is_symlink() or path.is_file()):
-                    raise InputError(f"refusing to replace {path}: it is not a regular file")
-
-    def _lock(self) -> None:
-        self._lock_file.acquire()
-
-    def close(self) -> None:
-        """Release the lock; remove the lock file and an unused folder this store created."""
-        self._lock_file.release()
-        if self._created_root and not self._started:
-            try:
-                os.rmdir(self.root)  # only if still empty
-            except OSError:
-                pass
-            self._created_root = False
-
-    def _read_meta(self) -> dict | None:
-        """study.json as dampfit wrote it; None if there is none; refused if it is not ours."""
-        from dampfit.io.bounded import read_regular
-
-        class Absent(Exception):
-            pass
-
-        why = "it is not a study file dampfit wrote"
-        try:  # the one bounded guard: a regular file (no link, FIFO, device), at most the limit
-            meta = json.loads(read_regular(self.meta_path, MAX_META_BYTES, missing=Absent(),
-                                           describe=lambda mode: None if stat.S_ISREG(mode)
-                                           else "not a regular file").decode("utf-8"))
-        except Absent:
-            return None
-        except InputError as exc:
-            why, meta = str(exc).replace(f"{self.meta_path} is ", "it is "), None
-        except (ValueError, RecursionError):
-            meta = None
-        if isinstance(meta, dict) and isinstance(meta.get("fingerprint"), str) \
-                and isinstance(meta.get("config"), dict):
-            return meta
-        raise InputError(f"{self.meta_path} is unusable ({why}); choose another --out or "
-                         "remove it yourself")
-
-    def write_meta(self, cfg: StudyConfig, version: str) -> None:
-        meta = {"name": cfg.name, "fingerprint": cfg.fingerprint(), "dampfit_version": version,
-                "config": cfg.as_dict(), "source": cfg.source}
-        atomic_write_text(self.meta_path, json.dumps(meta, indent=2) + "\n")
-
-    def _repair_tail(self) -> None:
-        """Cut a torn last line (a kill during a write) so the next append starts a fresh line."""
-        if not self.runs_path.is_file():
-            return
-        with open(self.runs_path, "r+b") as fh:  # only the tail is read: memory stays small
-            end = fh.seek(0, os.SEEK_END)
-            pos = end
-            while pos > 0:
-                step = min(pos, 1 << 16)
-                fh.seek(pos - step)
-                chunk = fh.read(step)
-                if pos == end and chunk.endswith(b"\n"):
-                    return  # not torn
-                cut = chunk.rfind(b"\n")
-                if cut >= 0:
-                    fh.truncate(pos - step + cut + 1)
-                    return
-                pos -= step
-            if end:
-                fh.truncate(0)  # a single torn line
-
-    # -- runs ---------------------------------------------------------------------------
-    def records(self) -> list[dict[str, Any]]:
-        """Every complete record in ``runs.jsonl`` (a later record of the same run wins).
-
-        A line that does not parse is a write torn by a kill and is skipped (its run is done
-        again); a line that parses but is not a record dampfit writes (:func:`check_record`)
-        or is longer than :data:`MAX_RECORD_BYTES` means the file was edited: refused, one
-        line naming it, before anything is run or written."""
-        if self._discard or not self.runs_path.is_file():  # --force: not yet removed, not used
-            return []
-        out: dict[tuple[str, int], dict] = {}
-        with open(self.runs_path, "rb") as fh:
-            for number, line in enumerate(iter(lambda: fh.readline(MAX_RECORD_BYTES + 1), b""), 1):
-                if len(line) > MAX_RECORD_BYTES:
-                    raise self._tampered(number, f"longer than {MAX_RECORD_BYTES // 2**20} MiB")
-                try:
-                    rec = json.loads(line.decode("utf-8", "replace"))
-                except (ValueError, RecursionError):
-                    continue  # a torn line
-                why = check_record(rec)
-                if why is not None:
-                    raise self._tampered(number, why)
-                out[(rec["scenario"], rec["replicate"])] = rec
-        return list(out.values())
-
-    def _tampered(self, number: int, why: str) -> InputError:
-        return InputError(f"{self.runs_path} line {number} is not a run record dampfit wrote "
-                          f"({why}); remove that line (its run is then repeated) or restart "
-                          "the study with --force")
-
-    def append(self, record: dict[str, Any]) -> None:
-        """Append one record durably (one write, flush, fsync)."""
-        line = (json.dumps(record, separators=(",", ":"), allow_nan=False) + "\n").encode()
-        try:
-            fd = os.open(self.runs_path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW,
-                         0o666)
-            try:
-                view = memoryview(line)
-                while view:
-                    view = view[os.write(fd, view):]
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        except OSError as exc:  # a full disk: the runs stored so far are kept
-            raise InputError(f"cannot append to {self.runs_path}: {error_text(exc)}; the runs stored "
-                             "so far are kept: run the same command again to resume") from None
+    def key(self, rec: dict[str, Any]) -> tuple[str, int]:
+        return (rec["scenario"], rec["replicate"])

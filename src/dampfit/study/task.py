@@ -36,17 +36,10 @@ import numpy as np
 from dampfit._json import finite
 from dampfit.study.config import Task, sim_config
 
-__all__ = ["QUANTITIES", "crlb_design", "run_campaign_task", "run_task", "worker_info"]
+__all__ = ["QUANTITIES", "crlb_design", "run_campaign_task", "run_task"]
 
 #: Quantities compared with the truth, with the bound's key for each.
 QUANTITIES = ("p", "f_n", "zeta", "c")
-
-
-def worker_info() -> dict[str, Any]:
-    """Identity of the process this runs in (checked by the client before submitting)."""
-    from dampfit._meta import __version__
-
-    return {"dampfit": __version__, "pid": os.getpid(), "host": socket.gethostname()}
 
 
 def crlb_design(recording, truth: dict[str, Any]) -> dict[str, Any]:
