@@ -11,6 +11,7 @@ Typical use::
     print(result.report())                   # the table the CLI prints
     result.save("decay.dampfit")             # the folder `dampfit analyze` writes
     again = dampfit.load("decay.dampfit")    # read back: the same class
+    table = dampfit.analyze_many(["a.csv", "b.csv"], mass=5.3)  # one row per recording
 
     rec, truth = dampfit.simulate.recording(dampfit.simulate.preset("paper"))
 
@@ -31,6 +32,7 @@ _LAZY = {
     "CampaignAnalysis": ("dampfit.api", "CampaignAnalysis"),
     "analyze": ("dampfit.api", "analyze"),
     "analyze_campaign": ("dampfit.api", "analyze_campaign"),
+    "analyze_many": ("dampfit.api", "analyze_many"),
     "load": ("dampfit.api", "load"),
     "read": ("dampfit.api", "read"),
     "Recording": ("dampfit.io.recording", "Recording"),

@@ -5,6 +5,9 @@
   of one damper → :class:`~dampfit.campaign.CampaignAnalysis` (every campaign option passed
   through; options that only apply to one recording are refused, never dropped);
 * :func:`analyze_campaign` — several recordings, explicitly;
+* :func:`analyze_many` — many independent recordings → one results table (a
+  ``pandas.DataFrame``; in this process or on a Dask client; with ``out`` the resumable
+  folder ``dampfit batch`` writes): :func:`dampfit.batch.analyze_many`;
 * :func:`load` — a result folder → the :class:`~dampfit.analysis.Analysis` or
   :class:`~dampfit.campaign.CampaignAnalysis` it was written from.
 
@@ -17,6 +20,7 @@ import os
 from typing import Sequence
 
 from dampfit.analysis import Analysis
+from dampfit.batch import analyze_many
 from dampfit.campaign import CampaignAnalysis, analyze_campaign
 from dampfit.errors import InputError
 from dampfit.io.readers import read
@@ -24,7 +28,8 @@ from dampfit.io.recording import Recording
 from dampfit.pipeline import analyze as analyze_one
 from dampfit.result.folder import open_result
 
-__all__ = ["Analysis", "CampaignAnalysis", "analyze", "analyze_campaign", "load", "read"]
+__all__ = ["Analysis", "CampaignAnalysis", "analyze", "analyze_campaign", "analyze_many", "load",
+           "read"]
 
 #: Options of :func:`analyze` that only apply to one recording.
 SINGLE_ONLY = ("model", "amplitude", "on_stage")

@@ -1,7 +1,8 @@
-"""Command-line interface: ``dampfit analyze | record | simulate | demo | report | export | verify | study``.
+"""Command-line interface: ``dampfit analyze | batch | record | simulate | demo | report | export | verify | study``.
 
 This package is a thin layer over the library: one module per command (:mod:`.analyze` with
-``demo``, :mod:`.record`, :mod:`.simulate`, :mod:`.report`, :mod:`.export`, :mod:`.verify`, :mod:`.study`),
+``demo``, :mod:`.batch`, :mod:`.record`, :mod:`.simulate`, :mod:`.report`, :mod:`.export`,
+:mod:`.verify`, :mod:`.study`),
 each with ``add_arguments(parser)`` and ``command(args) -> exit code``; option converters in
 :mod:`.options`, result-folder staging in :mod:`.staging`. This module builds the parser,
 dispatches, and owns exit codes, the one-line error contract and signal handling. No library
@@ -46,6 +47,7 @@ from pathlib import Path
 from collections.abc import Sequence
 
 from dampfit.cli import analyze as _analyze
+from dampfit.cli import batch as _batch
 from dampfit.cli import export as _export
 from dampfit.cli import record as _record
 from dampfit.cli import report as _report
@@ -74,6 +76,8 @@ COMMANDS = (
      _export.add_arguments, _export.command),
     ("verify", "run the identified system in OpenSeesPy and compare with the measurement",
      _verify.add_arguments, _verify.command),
+    ("batch", "analyse many recordings into one results table (Dask, resumable)",
+     _batch.add_arguments, _batch.command),
     ("study", "simulation study comparing damping estimators (Dask, resumable)",
      _study.add_arguments, _study.command),
 )
@@ -218,8 +222,8 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         _compile_cache()
         args = get_parser().parse_args(argv)
         if args.command is None:
-            raise InputError("no command given; use analyze, record, simulate, demo, report, export, "
-                             "verify or study (see 'dampfit --help')")
+            raise InputError("no command given; use analyze, batch, record, simulate, demo, report, "
+                             "export, verify or study (see 'dampfit --help')")
         return {name: command for name, _, _, command in COMMANDS}[args.command](args)
     except DampfitError as exc:
         print(f"dampfit: error: {_one_line(exc)}", file=sys.stderr)

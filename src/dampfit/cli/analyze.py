@@ -30,14 +30,14 @@ import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import integer_arg, real_arg, seed_arg
+from dampfit.cli.options import real_arg, seed_arg
 from dampfit.physics import MAX_MASS
-from dampfit.cli.options import add_analysis_options, check_analysis_options
+from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
 __all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into", "campaign_command",
-           "command", "demo"]
+           "command", "demo", "read_options"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
 
@@ -66,19 +66,7 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                    metavar="KG", default=None,
                    help="standard deviation of each added mass [kg] (default 0; a 0 "
                    "for the bare system is exact)")
-    g = a.add_argument_group("reading (generic CSV/NPY, lab exports, Excel, MATLAB)")
-    g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
-    g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
-    g.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column")
-    g.add_argument("--accel-unit", choices=["m/s2", "g", "mg"], help="unit of the acceleration")
-    g.add_argument("--sheet", help="Excel sheet name")
-    g.add_argument("--run", metavar="RUN",
-                   help="lab export with several runs (Logger Pro, Graphical Analysis, "
-                        "Capstone): the run to read, e.g. 'Run #2' or 2 (default: the first)")
-    g.add_argument("--variable", metavar="PATH",
-                   help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
-    g.add_argument("--row", type=integer_arg(0, 1023), metavar="N",
-                   help="MATLAB .mat: 0-based row of that array holding the acceleration")
+    add_reading_options(a)
 
 
 def add_demo_arguments(d: argparse.ArgumentParser) -> None:
@@ -113,7 +101,7 @@ def print_result(an, out: Path, as_json: bool) -> None:
               "summary.json before using these numbers", file=sys.stderr)
 
 
-def _read_options(args) -> dict:
+def read_options(args) -> dict:
     """Options of :func:`dampfit.io.readers.read` given on the command line (the reading
     options, and the analysis window: rows with empty cells outside it are dropped)."""
     from dampfit.io.readers import READ_OPTIONS
@@ -182,7 +170,7 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
     # that every full garbage collection would walk again: move them out of its reach
     gc.freeze()
     figs.target(folder.stage)
-    rec = read(path, **_read_options(args))
+    rec = read(path, **read_options(args))
     if shown_path is not None or notes:
         rec = dataclasses.replace(rec, path=str(shown_path) if shown_path else rec.path,
                                   notes=(*rec.notes, *notes))
@@ -261,7 +249,7 @@ def campaign_command(args, files: list[str]) -> int:
 
     _check_campaign_options(args, files)
     out = Path(args.out) if args.out else Path(Path(files[0]).name + ".campaign.dampfit")
-    opts = _read_options(args)
+    opts = read_options(args)
     with result_folder(out, "campaign", args.force, inputs=files) as folder:
         recs = [_read_named(read, f, opts) for f in files]
         kw = {"added_mass": list(args.added_mass), "added_mass_sd": args.added_mass_sd or 0.0} \

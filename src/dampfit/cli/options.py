@@ -109,3 +109,21 @@ def check_analysis_options(args) -> None:
     if args.band is not None and not args.band[0] < args.band[1]:
         raise InputError(f"argument --band: the pass band needs LO < HI, got "
                          f"{args.band[0]:g} {args.band[1]:g}")
+
+
+def add_reading_options(a: argparse.ArgumentParser) -> None:
+    """The reading options of ``dampfit analyze`` and ``dampfit batch``
+    (:data:`dampfit.io.readers.READ_OPTIONS`)."""
+    g = a.add_argument_group("reading (generic CSV/NPY, lab exports, Excel, MATLAB)")
+    g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
+    g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
+    g.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column")
+    g.add_argument("--accel-unit", choices=["m/s2", "g", "mg"], help="unit of the acceleration")
+    g.add_argument("--sheet", help="Excel sheet name")
+    g.add_argument("--run", metavar="RUN",
+                   help="lab export with several runs (Logger Pro, Graphical Analysis, "
+                        "Capstone): the run to read, e.g. 'Run #2' or 2 (default: the first)")
+    g.add_argument("--variable", metavar="PATH",
+                   help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
+    g.add_argument("--row", type=integer_arg(0, 1023), metavar="N",
+                   help="MATLAB .mat: 0-based row of that array holding the acceleration")

@@ -7,13 +7,14 @@ import argparse
 import os
 from pathlib import Path
 
-__all__ = ["MAX_WORKERS", "add_arguments", "command"]
+__all__ = ["MAX_WORKERS", "add_arguments", "command", "positive_int"]
 
 #: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
 MAX_WORKERS = 256
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """A worker count: an integer from 1 to :data:`MAX_WORKERS` (argparse type)."""
     try:
         v = int(text)
     except ValueError:
@@ -39,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
     parser.add_argument("--out", metavar="DIR",
                         help="study folder (default: CONFIG's name + '.study'); reused to resume")
-    parser.add_argument("--workers", type=_positive_int, metavar="N", default=None,
+    parser.add_argument("--workers", type=positive_int, metavar="N", default=None,
                         help=f"local worker processes, 1 to {MAX_WORKERS} (default: the number "
                              "of CPUs; never more than the runs still to do)")
     parser.add_argument("--scheduler", metavar="ADDRESS",

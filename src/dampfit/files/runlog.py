@@ -109,6 +109,11 @@ class RunStore:
             self.close()
             raise
 
+    @property
+    def started(self) -> bool:
+        """Whether :meth:`start` has written the folder (runs may be appended)."""
+        return self._started
+
     def start(self) -> None:
         """Write the study: with ``force`` remove the study's own files of a previous
         configuration, else cut a torn last line; then write ``study.json``. Idempotent."""

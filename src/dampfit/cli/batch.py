@@ -1,0 +1,127 @@
+"""``dampfit batch FILE|FOLDER… --out DIR``: many independent recordings, one results table
+(:mod:`dampfit.batch`).
+
+Each recording is analysed as ``dampfit analyze FILE`` would (same options, same seed) into
+``DIR/runs/NAME``; ``DIR/results.csv`` (and ``.parquet`` with pyarrow) has one row per
+recording, ``DIR/summary.md`` and ``DIR/comparison.png`` compare them. Runs on a local Dask
+cluster (``--workers N``, default the number of CPUs; 1: in this process) or an existing one
+(``--scheduler ADDRESS``). Rerunning the same command resumes; Ctrl-C keeps every finished row.
+
+Exit codes: 0 every recording has a row (analysed or refused by the analysis, with its
+reason), 1 some failed unexpectedly (tried again by the next run), 2 bad input or usage (one
+line, nothing written), 130/143 interrupted (finished rows kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options
+
+__all__ = ["add_arguments", "command"]
+
+#: Rows printed on the terminal; the rest are in results.csv.
+SHOWN_ROWS = 25
+
+
+def add_arguments(a: argparse.ArgumentParser) -> None:
+    """Options of ``dampfit batch``."""
+    from dampfit.cli.study import MAX_WORKERS, positive_int
+
+    a.description = ("Analyse many independent recordings (each as 'dampfit analyze' would, "
+                     "same options and seed) into one folder with one results table. "
+                     "Resumable: rerun the same command after an interruption.")
+    a.add_argument("paths", nargs="*", metavar="FILE|FOLDER",
+                   help="recordings, or folders whose recordings (by suffix, not recursive) "
+                        "are all analysed")
+    a.add_argument("--out", required=True, metavar="DIR",
+                   help="batch folder: results.csv, summary.md, comparison.png, runs/NAME/")
+    a.add_argument("--list", metavar="FILE", dest="list_file",
+                   help="a text file with one recording path per line (relative to its folder)")
+    a.add_argument("--masses", metavar="CSV",
+                   help="per-recording masses: columns file, mass [kg], optional mass_sd [kg] "
+                        "and reading options (time_column, accel_columns, …); --mass is then "
+                        "the default for recordings without a row")
+    add_analysis_options(a, quiet_help="no progress bar or status line")
+    add_reading_options(a)
+    a.add_argument("--summaries-only", action="store_true",
+                   help="write summary.json alone in each run folder (no posterior, signals, "
+                        "figures)")
+    a.add_argument("--workers", type=positive_int, metavar="N", default=None,
+                   help=f"local Dask worker processes, 1 to {MAX_WORKERS} (default: the number "
+                        "of CPUs; 1: in this process)")
+    a.add_argument("--scheduler", metavar="ADDRESS",
+                   help="use an existing Dask scheduler, e.g. tcp://host:8786 (the workers must "
+                        "see DIR at the same path)")
+    a.add_argument("--force", action="store_true",
+                   help="discard the rows stored in DIR by a batch with other options")
+
+
+def _options(args) -> tuple[dict, dict, dict]:
+    from dampfit.cli.analyze import read_options
+
+    options = {"axis": args.axis, "window": tuple(args.window) if args.window else None,
+               "band": tuple(args.band) if args.band else None, "seed": args.seed,
+               "max_steps": args.max_steps, "model": args.model, "amplitude": args.amplitude}
+    outputs = {"figures": not args.no_figures and not args.summaries_only,
+               "report": args.report and not args.summaries_only,
+               "summaries_only": args.summaries_only}
+    reading = {k: v for k, v in read_options(args).items() if k != "window"}
+    return options, outputs, reading
+
+
+def _print(table, out: Path, as_json: bool) -> None:
+    from dampfit.output.format import interval
+
+    if as_json:
+        print(table.to_json(orient="records", indent=2))
+        return
+    q = "c" if table["c_q50"].notna().any() else "zeta"
+    for _, r in table.head(SHOWN_ROWS).iterrows():
+        name = str(r["name"])[:40]
+        if r["status"] == "ok":
+            med, lo, hi = interval(r[f"{q}_q50"], r[f"{q}_q05"], r[f"{q}_q95"])
+            print(f"  {name:40s} {q} = {med} [{lo}, {hi}]  {r['verdict'] or ''}")
+        else:
+            print(f"  {name:40s} {r['status']}: {str(r['message'])[:100]}")
+    if len(table) > SHOWN_ROWS:
+        print(f"  … {len(table) - SHOWN_ROWS} more in results.csv")
+    counts = table["status"].value_counts()
+    print(f"\n  {len(table)} recordings: {int(counts.get('ok', 0))} analysed, "
+          f"{int(counts.get('refused', 0))} refused, {int(counts.get('failed', 0))} failed; "
+          f"written to {out}/ (results.csv, summary.md, runs/)")
+
+
+def command(args) -> int:
+    """Run the batch; exit code module docstring."""
+    from dampfit.batch.inputs import jobs
+    from dampfit.errors import InputError
+
+    check_analysis_options(args)
+    if args.masses is None and args.mass_sd is not None and args.mass is None:
+        raise InputError("argument --mass-sd: needs --mass")
+    if args.scheduler is None and (args.workers or os.cpu_count() or 1) > 1:
+        import importlib.util
+
+        if importlib.util.find_spec("distributed") is None:
+            raise InputError("dampfit batch on several workers runs on Dask: install it with "
+                             "pip install 'dask[distributed]', or give --workers 1")
+    options, outputs, reading = _options(args)
+    todo = jobs(args.paths, list_file=args.list_file, mass=args.mass, mass_sd=args.mass_sd,
+                masses=args.masses, read_options=reading)
+    out = Path(args.out)
+    from dampfit.batch.runner import run_batch
+
+    try:
+        table = run_batch(todo, out, options=options, outputs=outputs,
+                          workers=args.workers or os.cpu_count() or 1, scheduler=args.scheduler,
+                          force=args.force, quiet=args.quiet)
+    except KeyboardInterrupt:
+        print(f"dampfit: interrupted; finished rows are kept in {out}/rows.jsonl and "
+              f"{out}/results.csv; run the same command again to resume", file=sys.stderr)
+        raise
+    _print(table, out, args.json)
+    return 1 if (table["status"] == "failed").any() else 0
