@@ -1,0 +1,275 @@
+"""``dampfit batch`` and ``dampfit.analyze_many`` (issue 23): one row per recording, the same
+analysis as ``dampfit analyze``, refused recordings as rows, resumable, locked, bad input
+refused in one line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from tests._support.hostile import (assert_one_line_error, decay, decay_csv, fails, run,
+                                    run_subprocess, snapshot, assert_unchanged)
+from tests._support.hostile import no_compile_cache as _no_compile_cache  # noqa: F401
+
+pytestmark = pytest.mark.filterwarnings("ignore")
+
+
+def _recording(path: Path, seed: int, n_sec: float = 10.0, fs: float = 100.0) -> Path:
+    t, a = decay(n_sec, fs)
+    a = a + 0.01 * np.random.default_rng(seed).standard_normal(t.size)
+    return decay_csv(path, t, a)
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    """Three decays (one at another rate and length) and a corrupt file in one folder."""
+    root = tmp_path_factory.mktemp("batch-data")
+    _recording(root / "a.csv", 1)
+    _recording(root / "b.csv", 2, n_sec=8.0, fs=80.0)
+    _recording(root / "c.csv", 3)
+    (root / "broken.csv").write_text("time,acc\n0,1\n")
+    (root / "notes.md").write_text("not a recording\n")
+    return root
+
+
+@pytest.fixture(scope="module")
+def done(data, tmp_path_factory) -> Path:
+    """The batch of ``data`` (a folder argument), in this process, without figures."""
+    from dampfit.cli import main
+
+    out = tmp_path_factory.mktemp("batch-out") / "B"
+    os.environ["DAMPFIT_JAX_CACHE"] = "off"
+    try:
+        assert main(["batch", str(data), "--out", str(out), "--workers", "1", "--quiet",
+                     "--no-figures", "--mass", "0.5"]) == 0
+    finally:
+        os.environ.pop("DAMPFIT_JAX_CACHE", None)
+    return out
+
+
+def _table(out: Path) -> pd.DataFrame:
+    return pd.read_csv(out / "results.csv", keep_default_na=False)
+
+
+def test_a_batch_has_one_row_per_recording_and_refused_ones_are_rows(done):
+    table = _table(done)
+    assert list(table["name"]) == ["a.csv", "b.csv", "broken.csv", "c.csv"]  # notes.md is no recording
+    status = dict(zip(table["name"], table["status"]))
+    assert status == {"a.csv": "ok", "b.csv": "ok", "broken.csv": "refused", "c.csv": "ok"}
+    broken = table[table["name"] == "broken.csv"].iloc[0]
+    assert "samples" in broken["message"] and broken["c_q50"] == ""
+    ok = table[table["status"] == "ok"]
+    f_n = np.hypot(2 * np.pi * 5.0, 0.3) / (2 * np.pi)  # [Hz] of decay(): p = 0.3 1/s, f_d = 5 Hz
+    assert np.allclose(ok["f_n_q50"].astype(float), f_n, rtol=1e-4)
+    assert np.allclose(ok["c_q50"].astype(float), 2 * 0.5 * 0.3, rtol=0.01)  # c = 2 m p
+    assert (ok["c_q05"].astype(float) < ok["c_q50"].astype(float)).all()
+    assert set(ok["converged"]) == {"True"} and all(len(h) == 64 for h in table["sha256"])
+    md = (done / "summary.md").read_text()
+    assert "3 analysed, 1 refused, 0 failed" in md and "broken.csv" in md
+    import dampfit
+
+    loaded = dampfit.load(done / "runs" / "a.csv")  # each run folder is a result folder
+    assert loaded.summary()["parameters"]["c"]["q50"] == pytest.approx(
+        float(ok.iloc[0]["c_q50"]), rel=1e-12)
+
+
+def test_a_row_is_the_summary_dampfit_analyze_gives(done, data, tmp_path, capsys):
+    """The analysis is the same: the row and run folder of b.csv equal `dampfit analyze`'s
+    summary of that file with the same (default) seed, to the last digit."""
+    code, _, err = run(["analyze", data / "b.csv", "--mass", "0.5", "--out", tmp_path / "b",
+                        "--quiet", "--no-figures"], capsys)
+    assert code == 0, err
+    single = json.loads((tmp_path / "b" / "summary.json").read_text())
+    batch = json.loads((done / "runs" / "b.csv" / "summary.json").read_text())
+    assert batch["parameters"] == single["parameters"]
+    assert batch["model_checks"] == single["model_checks"]
+    row = _table(done).set_index("name").loc["b.csv"]
+    assert float(row["zeta_q50"]) == single["parameters"]["zeta"]["q50"]
+
+
+def test_the_same_command_resumes_without_redoing_finished_rows(done, data, capsys):
+    before = (done / "rows.jsonl").read_text()
+    code, _, err = run(["batch", data, "--out", done, "--workers", "1", "--no-figures",
+                        "--mass", "0.5"], capsys)
+    assert code == 0, err
+    assert "4 already done" in err and "0 to analyse" in err
+    assert (done / "rows.jsonl").read_text() == before  # nothing analysed again
+    # other analysis options (another seed) are another batch: refused without --force
+    fails(done.parent, capsys, ["batch", data, "--out", done, "--workers", "1", "--no-figures",
+                                "--mass", "0.5", "--seed", "1"], "different configuration")
+
+
+def test_a_second_batch_on_the_same_folder_stops_at_once(data, tmp_path, capsys):
+    from dampfit.files.lock import FileLock
+
+    out = tmp_path / "B"
+    out.mkdir()
+    lock = FileLock(out / ".lock", busy=lambda pid: "busy")
+    lock.acquire()
+    try:
+        line = fails(tmp_path, capsys, ["batch", data / "a.csv", "--out", out, "--workers", "1"],
+                     "another dampfit batch is running")
+    finally:
+        lock.release()
+    assert str(out) in line
+
+
+@pytest.mark.parametrize("case,match", [
+    ("empty", "no recordings given"),
+    ("missing", "does-not-exist.csv does not exist"),
+    ("twice", "is given twice"),
+    ("empty-folder", "holds no recordings"),
+    ("unknown-in-masses", "is not a recording of this batch"),
+    ("negative-mass", "mass must be positive"),
+    ("nan-mass", "mass must be positive"),
+    ("no-row", "has no row for"),
+    ("masses-twice", "names"),
+    ("bad-column", "unknown column"),
+    ("empty-list", "no recordings given"),
+])
+def test_bad_batch_input_is_one_line_and_writes_nothing(data, tmp_path, capsys, case, match):
+    a, b = data / "a.csv", data / "b.csv"
+    masses = tmp_path / "masses.csv"
+    (tmp_path / "empty").mkdir()
+    lst = tmp_path / "list.txt"
+    lst.write_text("# nothing here\n\n")
+    table = {"unknown-in-masses": f"file,mass\n{a},0.5\nelsewhere.csv,0.5\n",
+             "negative-mass": f"file,mass\n{a},-1\n",
+             "nan-mass": f"file,mass\n{a},nan\n",
+             "no-row": f"file,mass\n{a},0.5\n",
+             "masses-twice": f"file,mass\n{a},0.5\na.csv,0.6\n",
+             "bad-column": f"file,mass,colour\n{a},0.5,red\n"}
+    if case in table:
+        masses.write_text(table[case])
+    paths = {"empty": [], "missing": [a, data / "does-not-exist.csv"], "twice": [a, str(a)],
+             "empty-folder": [tmp_path / "empty"], "no-row": [a, b],
+             "empty-list": []}.get(case, [a])
+    extra = ["--masses", masses] if case in table else []
+    extra += ["--list", lst] if case == "empty-list" else []
+    fails(tmp_path, capsys, ["batch", *paths, *extra, "--out", tmp_path / "B", "--workers", "1"],
+          match, exclude=("B",))
+    assert not (tmp_path / "B").exists()
+
+
+def test_masses_csv_gives_each_recording_its_mass_and_reading_options(data, tmp_path):
+    from dampfit.batch.inputs import jobs
+
+    masses = tmp_path / "masses.csv"
+    masses.write_text(f"file,mass,mass_sd,time_column\n{data / 'a.csv'},0.5,0.01,Time (s)\n"
+                      "b.csv,0.7,,\n")
+    got = jobs([data / "a.csv", data / "b.csv", data / "c.csv"], masses=str(masses), mass=0.4)
+    assert [(j.mass, j.mass_sd) for j in got] == [(0.5, 0.01), (0.7, 0.0), (0.4, 0.0)]
+    assert got[0].read_options == {"time_column": "Time (s)"} and got[1].read_options == {}
+    assert len({j.key({}) for j in got}) == 3
+    # a row is identified by the bytes, the mass and the options: any change is a new analysis
+    import dataclasses
+
+    a = got[0]
+    assert a.key({"seed": 0}) == dataclasses.replace(a, file="elsewhere").key({"seed": 0})
+    assert a.key({"seed": 0}) != dataclasses.replace(a, mass=0.6).key({"seed": 0})
+    assert a.key({"seed": 0}) != a.key({"seed": 1})
+    assert a.key({"seed": 0}) != dataclasses.replace(a, sha256="0" * 64).key({"seed": 0})
+
+
+def test_a_hostile_file_name_becomes_a_safe_folder_and_an_escaped_row(tmp_path, capsys):
+    evil = tmp_path / "in" / "x\n| <script>alert(1)<\\script> $\\frac{1}{0}$ ..csv"
+    evil.parent.mkdir()
+    _recording(evil, 4, n_sec=8.0)
+    code, _, err = run(["batch", evil.parent, "--out", tmp_path / "B", "--workers", "1",
+                        "--quiet"], capsys)
+    assert code == 0, err
+    (run_dir,) = (tmp_path / "B" / "runs").iterdir()
+    assert all(ch.isalnum() or ch in "._-" for ch in run_dir.name)
+    table = _table(tmp_path / "B")
+    assert table.loc[0, "file"] == str(evil) and table.loc[0, "status"] == "ok"
+    md = (tmp_path / "B" / "summary.md").read_text()
+    assert "<script>" not in md and "\nx\n" not in md
+    assert (tmp_path / "B" / "comparison.png").stat().st_size > 1000
+
+
+def test_summaries_only_writes_summary_json_alone(data, tmp_path, capsys):
+    import dampfit
+
+    code, _, err = run(["batch", data / "a.csv", "--out", tmp_path / "B", "--workers", "1",
+                        "--summaries-only", "--quiet"], capsys)
+    assert code == 0, err
+    folder = tmp_path / "B" / "runs" / "a.csv"
+    assert sorted(p.name for p in folder.iterdir()) == [".dampfit-result", "summary.json"]
+    assert dampfit.load(folder).summary()["parameters"]["zeta"]["q50"] > 0
+
+
+def test_analyze_many_returns_the_same_table_without_writing(done, data):
+    import dampfit
+
+    table = dampfit.analyze_many([data / "b.csv", data / "broken.csv"], mass=0.5, figures=False)
+    assert list(table["status"]) == ["ok", "refused"]
+    ref = _table(done).set_index("name")
+    assert table.loc[0, "c_q50"] == float(ref.loc["b.csv", "c_q50"])
+    assert table.loc[0, "folder"] is None
+
+
+def test_a_killed_batch_keeps_its_rows_and_resumes(data, tmp_path):
+    """SIGTERM while the batch runs: exit 143, every finished row kept (rows.jsonl and
+    results.csv), and the same command analyses only what is left."""
+    out = tmp_path / "B"
+    files = [str(data / n) for n in ("a.csv", "b.csv", "c.csv")]
+    env = {**os.environ, "MPLBACKEND": "Agg", "DAMPFIT_JAX_CACHE": "off"}
+    proc = subprocess.Popen([sys.executable, "-m", "dampfit", "batch", *files, "--out", str(out),
+                             "--workers", "1", "--no-figures", "--quiet"], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    rows = out / "rows.jsonl"
+    deadline = time.monotonic() + 240
+    while time.monotonic() < deadline and proc.poll() is None:
+        if rows.exists() and rows.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "finished rows are kept" in err
+    kept = [json.loads(line) for line in rows.read_text().splitlines()]
+    assert 1 <= len(kept) < 3 and all(r["status"] == "ok" for r in kept)
+    assert len(_table(out)) == len(kept)
+    assert not [p for p in (out / "runs").iterdir() if p.name.startswith(".")]  # no staging left
+    code, _, err = run_subprocess(["batch", *files, "--out", out, "--workers", "1",
+                                   "--no-figures"], env={"DAMPFIT_JAX_CACHE": "off"}, timeout=300)
+    assert code == 0, err
+    assert f"{len(kept)} already done" in err
+    again = [json.loads(line) for line in rows.read_text().splitlines()]
+    assert again[:len(kept)] == kept and len(again) == 3  # the finished ones not redone
+    assert list(_table(out)["status"]) == ["ok", "ok", "ok"]
+
+
+def test_a_dask_batch_gives_the_rows_of_an_in_process_one(done, data, tmp_path, capsys):
+    """Two local Dask workers (isolated processes): the same numbers as in this process."""
+    pytest.importorskip("distributed")
+    code, _, err = run(["batch", data / "a.csv", data / "c.csv", "--out", tmp_path / "B",
+                        "--workers", "2", "--no-figures", "--mass", "0.5", "--quiet"], capsys)
+    assert code == 0, err
+    got = _table(tmp_path / "B").set_index("name")
+    ref = _table(done).set_index("name")
+    for name in ("a.csv", "c.csv"):
+        assert float(got.loc[name, "c_q50"]) == float(ref.loc[name, "c_q50"])
+        assert float(got.loc[name, "zeta_q95"]) == float(ref.loc[name, "zeta_q95"])
+
+
+def test_output_refusals_leave_other_folders_alone(data, tmp_path, capsys):
+    """--out that holds other files is refused (dampfit never writes into a folder it did not
+    make), and so is a file."""
+    other = tmp_path / "mine"
+    other.mkdir()
+    (other / "thesis.tex").write_text("keep me")
+    before = snapshot(tmp_path)
+    code, _, err = run(["batch", data / "a.csv", "--out", other, "--workers", "1"], capsys)
+    assert_one_line_error(code, err, 2, "holds no dampfit batch")
+    assert_unchanged(before, snapshot(tmp_path))
