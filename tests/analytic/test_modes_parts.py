@@ -165,3 +165,26 @@ def test_a_recording_that_cannot_support_the_modes_says_so():
         M.fit_modes(fd, many)
     with pytest.raises(InputError, match="cannot support 8 modes"):
         MS.select(prep, n_modes=8, band=(2.0, 10.0))
+
+
+def test_start_grid_varies_the_last_mode_by_rate_factors_and_frequency_cells():
+    """Every start row gives GRID_PER_START rows, start by start: the earlier modes as given,
+    the last mode's rate × each factor and its frequency shifted by each fraction of 1/T."""
+    starts = np.log([[0.1, 2 * np.pi * 3.0, 0.3, 2 * np.pi * 8.0],
+                     [0.1, 2 * np.pi * 3.0, 0.2, 2 * np.pi * 12.0]])
+    span = 20.0
+    grid = M.start_grid(starts, span)
+    assert grid.shape == (2 * M.GRID_PER_START, 4)
+    for s, block in zip(starts, grid.reshape(2, M.GRID_PER_START, 4)):
+        np.testing.assert_array_equal(block[:, :2], np.repeat(s[None, :2], M.GRID_PER_START, 0))
+        rates = sorted(set(np.round(np.exp(block[:, 2]) / np.exp(s[2]), 12)))
+        np.testing.assert_allclose(rates, sorted(M.GRID_RATE_FACTORS), rtol=1e-12)
+        cells = sorted(set(np.round((np.exp(block[:, 3]) - np.exp(s[3])) * span / (2 * np.pi), 9)))
+        np.testing.assert_allclose(cells, sorted(M.GRID_CELL_SHIFTS), atol=1e-9)
+
+
+def test_a_fit_that_finds_no_optimum_is_data_not_an_error():
+    failed = M.ModeFit.failed(2, 50, 3, M.NO_OPTIMUM)
+    assert not failed.found and not failed.converged and failed.q == 7
+    assert failed.residuals.shape == (50,) and np.isnan(failed.theta).all()
+    assert "resolution cell" in failed.message

@@ -62,3 +62,28 @@ def test_close_pair_at_three_half_power_bandwidths_is_resolved_and_reported():
                                 sel.fit_data.drift_degree)
     assert rows[0]["separation_half_power"] == pytest.approx(3.0, rel=0.25)
     assert rows[0]["separation_resolution"] > 2
+
+
+def test_evidence_is_the_chain_of_bayes_factors_at_each_new_modes_noise(two_modes):
+    """(MS5): ln Z_2 = ln Z_1(r(f_1)) + ln Z_2(r(f_new)) − ln Z_1(r(f_new)), r measured on the
+    residuals of the largest converged fit; P(K) follows from the ln Z of the admissible K."""
+    _, _, sel = two_modes
+    fd, n = sel.fit_data, sel.fit_data.tau.size
+    fit1, fit2 = sel.results[0].fit, sel.results[1].fit
+    ref = [r.fit for r in sel.results if r.fit is not None and r.fit.converged][-1]
+
+    def r_at(f):
+        return MS.local_ratio(ref.residuals, fd, float(f), ref.q + 2 * ref.n_modes)
+
+    def lnz(fit, r):
+        return MS.evidence(fit, n, temper=1 / r, band=sel.band, a_max=sel.a_max)[0]
+
+    new = fit2.f_d[int(np.argmax(np.min(np.abs(fit2.f_d[:, None] - fit1.f_d[None]), axis=1)))]
+    want1 = lnz(fit1, r_at(fit1.f_d[0]))
+    want2 = want1 + lnz(fit2, r_at(new)) - lnz(fit1, r_at(new))
+    assert sel.results[0].ln_evidence == pytest.approx(want1, rel=1e-12)
+    assert sel.results[1].ln_evidence == pytest.approx(want2, rel=1e-12)
+    assert sel.results[1].psd_ratio == pytest.approx(r_at(new), rel=1e-12)
+    ok = [not r.reason for r in sel.results]
+    lz = np.array([r.ln_evidence if good else -np.inf for r, good in zip(sel.results, ok)])
+    np.testing.assert_allclose(sel.probabilities, np.exp(lz - lz.max()) / np.exp(lz - lz.max()).sum())

@@ -59,12 +59,13 @@ from dampfit.inference.executables import kernel
 from dampfit.model import modes as mm
 from dampfit.model import profile
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, MIN_CYCLES, FitData, Prepared, fit_data
-from dampfit.signal.window import IMPACT_RATIO, impacts, running_median
+from dampfit.signal.window import END_REASONS, IMPACT_RATIO, impacts, running_median
 
 __all__ = ["ModeFit", "check_max_modes", "check_mode_of_mass", "modal_band", "modal_window",
            "modal_prepared", "modal_fit_data",
-           "support", "fit_modes", "padded_arrays", "vp_residual", "DEFAULT_MAX_MODES", "MAX_MODES_LIMIT",
-           "BAND_RATIO", "MIN_SAMPLES_PER_CYCLE"]
+           "support", "fit_modes", "start_grid", "padded_arrays", "vp_residual", "DEFAULT_MAX_MODES",
+           "MAX_MODES_LIMIT", "BAND_RATIO", "MIN_SAMPLES_PER_CYCLE", "GRID_PER_START",
+           "GRID_RATE_FACTORS", "GRID_CELL_SHIFTS", "N_LM", "RESTARTS", "NO_OPTIMUM"]
 
 #: Modes tried by default, and the most the options accept.
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
@@ -80,6 +81,11 @@ MIN_SAMPLES_PER_PARAMETER = 4
 #: Levenberg–Marquardt runs per K (one vmapped batch), rows per grid evaluation, and restarts
 #: of an optimum that has not converged within ``max_steps``.
 N_LM, GRID_BATCH, RESTARTS = 3, 64, 2
+#: The start grid around each start's last mode (:func:`start_grid`): rate factors and
+#: frequency shifts in resolution cells 1/T.
+GRID_RATE_FACTORS, GRID_CELL_SHIFTS = (1 / 3, 1.0, 3.0), (-0.25, 0.0, 0.25)
+#: Rows of the start grid per start row.
+GRID_PER_START = len(GRID_RATE_FACTORS) * len(GRID_CELL_SHIFTS)
 _SOLVER = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-10)
 
 
@@ -161,9 +167,23 @@ def modal_window(prep: Prepared, band: tuple[float, float]) -> tuple[tuple[float
     if start < w0:
         notes.append(f"modal window starts at {start:.4g} s ({w0 - start:.2g} s before the "
                      "one-mode window: higher modes decay faster)")
-    if not any(("rises again" in n) or ("abrupt envelope drop" in n) for n in prep.notes):
+    reason = prep.window_end_reason
+    if not (reason == END_REASONS[1] or reason.startswith("abrupt envelope drop")):
         return (start, w1), "; ".join(notes)
-    grid, env = prep.grid, prep.envelope
+    end = _beat_end(prep)
+    if end <= w1:
+        return (start, w1), "; ".join(notes)
+    notes.append(f"modal window extended to {end:.4g} s past the one-mode window's end "
+                 f"at {w1:.4g} s: the envelope dips and rises again gradually (the beating of "
+                 "close modes), not abruptly (a new excitation)")
+    return (start, end), "; ".join(notes)
+
+
+def _beat_end(prep: Prepared) -> float:
+    """Where a decay that beats ends [s] (:func:`modal_window`): the five-period running
+    median of the envelope below 3× the noise floor, an abrupt rise, or an impact spike —
+    whichever comes first after the one-mode window's start (at most the grid's end)."""
+    grid, env, w0 = prep.grid, prep.envelope, prep.window[0]
     per = max(1, int(round(prep.fs / prep.f0)))
     robust = running_median(env, 5 * per)
     smooth = ndimage.uniform_filter1d(env, per)
@@ -181,12 +201,7 @@ def modal_window(prep: Prepared, band: tuple[float, float]) -> tuple[tuple[float
         if tc > w0 + 1.0 / prep.f0 and ratio > IMPACT_RATIO:
             end = min(end, int(np.searchsorted(grid, tc)) - per // 2)
             break
-    if end <= i0 or grid[end] <= w1:
-        return (start, w1), "; ".join(notes)
-    notes.append(f"modal window extended to {grid[end]:.4g} s past the one-mode window's end "
-                 f"at {w1:.4g} s: the envelope dips and rises again gradually (the beating of "
-                 "close modes), not abruptly (a new excitation)")
-    return (start, float(grid[end])), "; ".join(notes)
+    return float(grid[max(end, i0)])
 
 
 def modal_prepared(prep: Prepared, band: tuple[float, float]) -> tuple[Prepared, str]:
@@ -286,6 +301,9 @@ def _details(n, theta, tau, y, drift, mask):
             profile.conditional_covariance(pr))
 
 
+#: Why a fit found no optimum (:meth:`ModeFit.failed`).
+NO_OPTIMUM = ("no optimum inside the band (ζ < 0.2) with every pair of modes more than one "
+              "resolution cell apart, from any start")
 #: Drift-column buckets of the padded arrays.
 _DRIFT_BUCKETS = (4, 8, 16, MAX_DRIFT_DEGREE + 1)
 
@@ -349,23 +367,39 @@ class ModeFit:
         """Linear coefficients: 2K amplitudes and the drift terms."""
         return 2 * self.n_modes + self.n_drift
 
+    @property
+    def found(self) -> bool:
+        """Whether the least squares found an optimum at all (finite θ; it may still not
+        have converged)."""
+        return bool(np.all(np.isfinite(self.theta)))
 
-def _grid(starts: np.ndarray, span: float) -> np.ndarray:
-    """Each start with its last mode's rate × {⅓, 1, 3} and frequency ± ¼ cell (1/T)."""
+    @classmethod
+    def failed(cls, n: int, m: int, n_drift: int, message: str) -> "ModeFit":
+        """A fit of ``n`` modes to ``m`` samples that found no optimum (NaN everywhere)."""
+        return cls(n, np.full(2 * n, np.nan), np.full(2 * n + n_drift, np.nan), np.inf,
+                   np.nan, np.full(m, np.nan), np.full((m, 2 * n), np.nan),
+                   np.full((2 * n, 2 * n), np.nan), n_drift, False, message)
+
+
+def start_grid(starts: np.ndarray, span: float) -> np.ndarray:
+    """:data:`GRID_PER_START` rows per start row of θ, start by start: its last mode's rate ×
+    :data:`GRID_RATE_FACTORS` and its frequency shifted by :data:`GRID_CELL_SHIFTS`
+    resolution cells 1/``span`` (``span`` T [s])."""
     rows = []
     for th in starts:
         w = math.exp(th[-1])
-        for dp in (math.log(1 / 3), 0.0, math.log(3)):
-            for dw in (-0.25, 0.0, 0.25):
+        for factor in GRID_RATE_FACTORS:
+            for cells in GRID_CELL_SHIFTS:
                 row = th.copy()
-                row[-2] += dp
-                row[-1] = math.log(max(w + 2 * math.pi * dw / span, 0.5 * w))
+                row[-2] += math.log(factor)
+                row[-1] = math.log(max(w + 2 * math.pi * cells / span, 0.5 * w))
                 rows.append(row)
     return np.array(rows)
 
 
-def _inside_prior(theta: np.ndarray, band: tuple[float, float] | None, span: float) -> bool:
-    """θ in the prior support (MK3) and no two modes within one resolution cell 1/``span``."""
+def _admissible(theta: np.ndarray, band: tuple[float, float] | None, span: float) -> bool:
+    """θ in the prior support (MK3) and no two modes within one resolution cell 1/``span``
+    (``band`` [Hz] None: every θ)."""
     if band is None:
         return True
     th = mm.order(theta)[0]
@@ -375,29 +409,31 @@ def _inside_prior(theta: np.ndarray, band: tuple[float, float] | None, span: flo
                 and (f.size < 2 or np.min(np.diff(f)) * span >= 1.0))
 
 
-def _run_lm(n, grid, args, max_steps, band, span, per_start=1):
-    """LM from the best grid row of each start (``per_start`` rows per start in ``grid``;
-    with ``per_start`` = 0 from ``grid``'s rows as they are), :data:`N_LM` starts at a time in
-    order of their grid RSS until one batch yields an optimum inside the prior support:
-    (rss, θ, code, steps) of its best (None if no start does)."""
-    if per_start:
-        rss0 = np.concatenate([np.asarray(_rss_batch(n, _pad_rows(grid[i:i + GRID_BATCH],
-                                                                   GRID_BATCH), *args))
-                               for i in range(0, len(grid), GRID_BATCH)])[:len(grid)]
-        rss0 = np.where(np.isfinite(rss0), rss0, np.inf).reshape(-1, per_start)
-        best_row = np.argmin(rss0, axis=1) + per_start * np.arange(len(rss0))
-        ranked = best_row[np.argsort(rss0.min(axis=1))]
-    else:
-        ranked = np.arange(len(grid))
-    for i in range(0, len(ranked), N_LM):
-        order = ranked[i:i + N_LM]
+def _ranked_starts(n: int, grid: np.ndarray, args) -> np.ndarray:
+    """The best row of each start's block of :data:`GRID_PER_START` rows in ``grid`` (by
+    projected RSS, evaluated :data:`GRID_BATCH` rows at a time), the starts ordered by it."""
+    rss0 = np.concatenate([np.asarray(_rss_batch(n, _pad_rows(grid[i:i + GRID_BATCH],
+                                                               GRID_BATCH), *args))
+                           for i in range(0, len(grid), GRID_BATCH)])[:len(grid)]
+    rss0 = np.where(np.isfinite(rss0), rss0, np.inf).reshape(-1, GRID_PER_START)
+    best_row = np.argmin(rss0, axis=1) + GRID_PER_START * np.arange(len(rss0))
+    return grid[best_row[np.argsort(rss0.min(axis=1), kind="stable")]]
+
+
+def _run_lm(n, rows, args, max_steps, band, span):
+    """Levenberg–Marquardt from ``rows`` of θ in order, :data:`N_LM` at a time (one vmapped
+    batch), until a batch yields an optimum inside the prior support with its modes more than
+    one resolution cell apart (:func:`_admissible`): (rss, θ, result code, steps) of that
+    batch's best such optimum, None if no row gives one."""
+    for i in range(0, len(rows), N_LM):
+        batch = rows[i:i + N_LM]
         th, rss, code, steps = (np.asarray(v) for v in _fit_batch(
-            n, int(max_steps), _pad_rows(grid[order], N_LM), *args))
+            n, int(max_steps), _pad_rows(batch, N_LM), *args))
         best = None
-        for j in range(len(order)):
+        for j in range(len(batch)):
             if not (np.isfinite(rss[j]) and np.all(np.isfinite(th[j]))):
                 continue
-            if _inside_prior(th[j], band, span) and (best is None or rss[j] < best[0]):
+            if _admissible(th[j], band, span) and (best is None or rss[j] < best[0]):
                 best = (float(rss[j]), th[j], int(code[j]), int(steps[j]))
         if best is not None:
             return best
@@ -425,19 +461,17 @@ def fit_modes(fd: FitData, starts, *, band: tuple[float, float] | None = None,
     with jax.enable_x64(True):
         args = padded_arrays(fd)
         span = float(fd.tau[-1] - fd.tau[0])
-        best = _run_lm(n, _grid(starts, span), args, max_steps, band, span, per_start=9)
+        rows = _ranked_starts(n, start_grid(starts, span), args)
+        best = _run_lm(n, rows, args, max_steps, band, span)
         for _ in range(RESTARTS):  # a slow valley (a heavily damped mode): go on from there
             if best is None or best[2] == 0:
                 break
-            again = _run_lm(n, best[1][None], args, max_steps, band, span, per_start=0)
-            if again is not None and again[0] <= best[0]:
-                best = again
+            again = _run_lm(n, best[1][None], args, max_steps, band, span)
+            if again is None or again[0] > best[0] * (1 + 1e-12):
+                break
+            best = again
         if best is None:
-            return ModeFit(n, np.full(2 * n, np.nan), np.full(2 * n + n_drift, np.nan), np.inf,
-                           np.nan, np.full(m, np.nan), np.full((m, 2 * n), np.nan),
-                           np.full((2 * n, 2 * n), np.nan), n_drift, False,
-                           "no optimum in the band with every pair of modes more than one "
-                           "resolution cell apart, from any start")
+            return ModeFit.failed(n, m, n_drift, NO_OPTIMUM)
         theta = mm.order(best[1])[0]
         beta, rss, logdet, resid, jac, minv = (np.asarray(v) for v in
                                                _details(n, theta, *args))

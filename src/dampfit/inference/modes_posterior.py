@@ -8,7 +8,7 @@ The K-mode model (MK1) of :mod:`dampfit.model.modes` for the K chosen by
 largest per-mode Whittle factor of the chosen fit's residuals (each floored at its
 white-noise value, :mod:`dampfit.inference.noise`) — as the one-mode posterior
 (:mod:`dampfit.inference.posterior`), which this is for K = 1. The prior is the ordered prior
-(MK3–MK4): ln p_i log-uniform on [10⁻⁶·ω_i, ω_i], ln ω_i uniform over the modal band,
+(MK3–MK4): ln p_i log-uniform on [10⁻⁶·ω_i, 0.2·ω_i], ln ω_i uniform over the modal band,
 ω_1 < … < ω_K, so the modes are numbered by frequency in every draw (no label switching).
 
 Per mode, from every draw of (p_i, ω_i) (:func:`dampfit.physics.quantities`):

@@ -38,7 +38,9 @@ f_new of the mode that step adds:
     ln Z_K = ln Z_1(r(f_1)) + Σ_{k=2}^{K} [ln Z_k(r(f_new,k)) − ln Z_{k−1}(r(f_new,k))],     (MS5)
 
 r(f) measured on the residuals of the largest converged fit (which has absorbed every real
-mode) over ±¼f and floored at its white-noise value (:func:`local_ratio`). With white noise
+mode) over ±¼f and floored at its white-noise value (:func:`local_ratio`). A step starts from
+the last converged K below (usually K − 1; if that one did not converge, the one before), and
+the first converged fit starts the chain at the r of its strongest mode. With white noise
 r ≡ 1 and (MS5) is (MS3). With equal prior probabilities for the admissible K,
 P(K | y) = Z_K / Σ_K' Z_K'. Modes at 2…5× a stronger mode's frequency are flagged as possible
 harmonics of a nonlinear oscillation (:func:`harmonics`).
@@ -79,7 +81,7 @@ from dampfit.model import modes as mm
 from dampfit.signal import subspace
 from dampfit.signal.prepare import FitData, Prepared
 
-__all__ = ["KResult", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
+__all__ = ["KResult", "Tried", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
            "amplitude_prior_radius", "psd_ratios", "local_ratio", "harmonics", "reject_reason",
            "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE",
            "MAX_CANDIDATES"]
@@ -93,6 +95,14 @@ MAX_CANDIDATES = 6
 #: A mode within this relative distance of m × a stronger mode's frequency (m = 2…5) is
 #: flagged as a possible harmonic.
 HARMONIC_TOLERANCE = 0.02
+
+
+@dataclass(frozen=True)
+class Tried:
+    """One K of the greedy fits: its ``fit``, or None and ``why`` it was not tried."""
+
+    fit: ModeFit | None
+    why: str = ""
 
 
 @dataclass(frozen=True)
@@ -286,7 +296,8 @@ def _candidates(fd: FitData, theta, resid, pencil, band, span: float, zeta: floa
         f = w / (2 * np.pi)
         if np.all(np.abs(have - f) * span >= 1.0) and all(
                 abs(f - g) * span >= 1.0 for _, g in out):
-            out.append(((math.log(max(p, 1e-6 * w)), math.log(w)), f))
+            p = min(max(p, 1e-6 * w), 0.5 * mm.P_MAX * w)  # inside the prior's rates (MK3)
+            out.append(((math.log(p), math.log(w)), f))
     return [c for c, _ in out]
 
 
@@ -328,21 +339,33 @@ def select(prep: Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
     except InputError:
         pencil = None
     peaks = tuple(subspace.spectrum_peaks(x, fsx, band))
-    zeta = _zeta_guess(pencil)
-    fits: list[ModeFit | None] = []
-    theta, resid = None, fd.y - fd.drift @ (fd.drift.T @ fd.y)
-    for k in range(1, max_modes + 1):
-        cands = _candidates(fd, theta, resid, pencil, band, span, zeta)
-        built = k == 1 or (fits[-1] is not None and np.all(np.isfinite(fits[-1].theta)))
-        if support(fd, k) or not cands or not built:
-            fits.append(None)
-            continue
-        fit = fit_modes(fd, _starts(theta, cands), band=band)
-        fits.append(fit)
-        if np.all(np.isfinite(fit.theta)):
-            theta, resid = fit.theta, fit.residuals
+    fits = _greedy_fits(fd, band, span, pencil, max_modes)
     sel = _decide(fd, band, span, fits, pencil, peaks, max_modes, n_modes is not None)
     return dataclasses.replace(sel, notes=(note,) if note else ())
+
+
+def _greedy_fits(fd: FitData, band, span: float, pencil, max_modes: int) -> list[Tried]:
+    """K = 1 … ``max_modes`` fitted greedily (module docstring): K from the K − 1 optimum
+    plus each candidate mode; a K is not tried (with the reason) when the samples cannot
+    support it, no candidate is left, or K − 1 found no optimum to build on."""
+    zeta = _zeta_guess(pencil)
+    out: list[Tried] = []
+    theta, resid = None, fd.y - fd.drift @ (fd.drift.T @ fd.y)
+    for k in range(1, max_modes + 1):
+        why = support(fd, k)
+        if not why and k > 1 and not (out[-1].fit is not None and out[-1].fit.found):
+            why = f"not tried: {k - 1} mode{'s' if k > 2 else ''} could not be fitted"
+        cands = [] if why else _candidates(fd, theta, resid, pencil, band, span, zeta)
+        if not why and not cands:
+            why = "no candidate left for another mode"
+        if why:
+            out.append(Tried(None, why))
+            continue
+        fit = fit_modes(fd, _starts(theta, cands), band=band)
+        out.append(Tried(fit, ""))
+        if fit.found:
+            theta, resid = fit.theta, fit.residuals
+    return out
 
 
 def _new_mode(fit: ModeFit, prev: ModeFit) -> float:
@@ -354,8 +377,7 @@ def _new_mode(fit: ModeFit, prev: ModeFit) -> float:
 
 def _decide(fd, band, span, fits, pencil, peaks, max_modes, fixed) -> ModeSelection:
     """Evidence of every fit (MS5), rejection reasons and the chosen K (module docstring)."""
-    n = fd.tau.size
-    conv = [f for f in fits if f is not None and f.converged]
+    conv = [t.fit for t in fits if t.fit is not None and t.fit.converged]
     if not conv:
         raise InputError("no mode could be fitted to the free-decay window (least squares "
                          "failed for every number of modes); check the window and band")
@@ -364,40 +386,7 @@ def _decide(fd, band, span, fits, pencil, peaks, max_modes, fixed) -> ModeSelect
     def r_at(f):
         return local_ratio(ref.residuals, fd, float(f), ref.q + 2 * ref.n_modes)
 
-    a_max = amplitude_prior_radius(fd)
-    z_min = z_threshold(band, span)
-    results, ln_z, prev = [], float("nan"), None
-    for k, fit in enumerate(fits, start=1):
-        if fit is None:
-            why = support(fd, k) or (f"not tried: {k - 1} modes could not be fitted"
-                                     if k > 1 and results[-1].fit is None
-                                     or k > 1 and not np.all(np.isfinite(results[-1].fit.theta))
-                                     else "no candidate left for another mode")
-            results.append(KResult(k, None, float("nan"), np.zeros(0), np.zeros((0, 0)), why))
-            ln_z, prev = float("nan"), None
-            continue
-        finite = bool(np.all(np.isfinite(fit.theta)))
-        ratios = np.array([r_at(f) for f in fit.f_d]) if finite else np.full(k, np.nan)
-        z = amplitude_z(fit, n, 1.0 / ratios)
-        r = r_at(fit.f_d[0] if prev is None else _new_mode(fit, prev)) if finite else np.nan
-        lnz_k, cov = evidence(fit, n, temper=1.0 / r, band=band, a_max=a_max)
-        if prev is None:
-            ln_z = lnz_k
-        else:  # MS5: the step's Bayes factor at the new mode's own Whittle factor
-            ln_z += lnz_k - evidence(prev, n, temper=1.0 / r, band=band, a_max=a_max)[0]
-        if not fit.converged:
-            why = f"least squares did not converge ({fit.message})"
-            if z.size and np.isfinite(z).all():
-                why += (f"; its weakest mode ({fit.f_d[int(np.argmin(z))]:.4g} Hz) has an "
-                        f"amplitude of {z.min():.2g} sd (noise: below {z_min:.2g})")
-        else:
-            why = reject_reason(fit, z, band, span, fd.fs, z_min)
-            if not why and not np.isfinite(ln_z):
-                why = "the evidence is not defined (singular curvature, or no K − 1 fit)"
-        results.append(KResult(k, fit, float(ln_z), z, cov, why, float(r)))
-        prev = fit if fit.converged else None
-        if prev is None:
-            ln_z = float("nan")
+    results = _evidence_chain(fd, band, span, fits, r_at)
     ok = np.array([not res.reason for res in results])
     if fixed:
         ok[:-1] = False
@@ -413,12 +402,53 @@ def _decide(fd, band, span, fits, pencil, peaks, max_modes, fixed) -> ModeSelect
     if not fixed and prob[chosen - 1] < 0.9:
         alt = ", ".join(f"P(K = {k + 1}) = {p:.2g}" for k, p in enumerate(prob) if p >= 0.01)
         warns.append(f"the number of modes is uncertain: {alt}")
-    warns += harmonics(results[chosen - 1].fit)
+    best = results[chosen - 1]
+    warns += harmonics(best.fit)
     return ModeSelection(fit_data=fd, band=band, span=span, results=tuple(results),
-                         probabilities=prob, n_modes=chosen,
-                         psd_ratio=results[chosen - 1].psd_ratio,
-                         psd_ratios=np.array([r_at(f) for f in results[chosen - 1].fit.f_d]),
-                         pencil=pencil, peaks=peaks, a_max=a_max, warnings=tuple(warns))
+                         probabilities=prob, n_modes=chosen, psd_ratio=best.psd_ratio,
+                         psd_ratios=np.array([r_at(f) for f in best.fit.f_d]),
+                         pencil=pencil, peaks=peaks, a_max=amplitude_prior_radius(fd),
+                         warnings=tuple(warns))
+
+
+def _evidence_chain(fd, band, span, fits, r_at) -> list[KResult]:
+    """One :class:`KResult` per tried K: ln Z_K by the chain of Bayes factors (MS5), each
+    step from the last converged fit below K (``base``) tempered at the Whittle factor
+    ``r_at(f)`` of the mode K added farthest from ``base``'s modes; the first converged fit
+    starts the chain at its strongest mode's r (its first mode's for K = 1). Amplitude
+    significance (MS4) of each mode at its own r; the rejection reason."""
+    n = fd.tau.size
+    a_max = amplitude_prior_radius(fd)
+    z_min = z_threshold(band, span)
+    results: list[KResult] = []
+    base, base_lnz = None, float("nan")
+    for k, tried in enumerate(fits, start=1):
+        fit = tried.fit
+        if fit is None or not fit.found:
+            why = tried.why or f"least squares did not converge ({fit.message})"
+            results.append(KResult(k, fit, float("nan"), np.zeros(0), np.zeros((0, 0)), why))
+            continue
+        ratios = np.array([r_at(f) for f in fit.f_d])
+        z = amplitude_z(fit, n, 1.0 / ratios)
+        f_step = fit.f_d[int(np.argmax(fit.amplitudes))] if base is None \
+            else _new_mode(fit, base)
+        r = r_at(f_step)
+        lnz_k, cov = evidence(fit, n, temper=1.0 / r, band=band, a_max=a_max)
+        ln_z = lnz_k if base is None else (
+            base_lnz + lnz_k - evidence(base, n, temper=1.0 / r, band=band, a_max=a_max)[0])
+        if not fit.converged:
+            why = f"least squares did not converge ({fit.message})"
+            if np.isfinite(z).all():
+                why += (f"; its weakest mode ({fit.f_d[int(np.argmin(z))]:.4g} Hz) has an "
+                        f"amplitude of {z.min():.2g} sd (noise: below {z_min:.2g})")
+        else:
+            why = reject_reason(fit, z, band, span, fd.fs, z_min)
+            if not why and not np.isfinite(ln_z):
+                why = "the evidence is not defined (singular curvature at the optimum)"
+        results.append(KResult(k, fit, float(ln_z), z, cov, why, float(r)))
+        if fit.converged and np.isfinite(ln_z):
+            base, base_lnz = fit, float(ln_z)
+    return results
 
 
 def harmonics(fit: ModeFit) -> list[str]:
