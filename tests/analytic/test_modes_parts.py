@@ -188,3 +188,17 @@ def test_a_fit_that_finds_no_optimum_is_data_not_an_error():
     assert not failed.found and not failed.converged and failed.q == 7
     assert failed.residuals.shape == (50,) and np.isnan(failed.theta).all()
     assert "resolution cell" in failed.message
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(max_modes=0), "from 1 to 8, got 0"), (dict(max_modes=100), "from 1 to 8, got 100"),
+    (dict(max_modes="4"), "whole number"), (dict(n_modes=9), "from 1 to 8, got 9"),
+    (dict(max_modes=2, mode_of_mass=3), "out of range: the recording has 2 modes"),
+    (dict(mode_of_mass="1"), "mode number"), (dict(mass=-1.0), "mass"),
+    (dict(mass_sd=0.1), "mass_sd was given without mass")])
+def test_the_modes_stage_refuses_bad_options_before_fitting(kw, match):
+    from dampfit import stages
+
+    prep, _ = modal_prep(duration=6.0)
+    with pytest.raises(InputError, match=match):
+        stages.modes_stage(prep, **kw)

@@ -9,10 +9,11 @@ import pytest
 
 from dampfit import physics_modal as pm
 from dampfit import simulate as sim
+from dampfit import stages
+from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.estimators.subspace import subspace_modes
 from dampfit.inference import modes_posterior as MP
-from dampfit.inference import modes_select as MS
 from dampfit.signal import prepare as pp
 
 MASS = 0.8
@@ -24,13 +25,12 @@ def two_mode_posterior():
                          noise_density=300.0, modes=[(8.91, 0.012, 0.25, 0.5)], seed=21)
     rec, truth = sim.recording(cfg)
     prep = pp.prepare(rec)
-    sel = MS.select(prep, max_modes=2)
-    post = MP.sample(sel, mass=MASS, seed=2, min_ess=400)
-    return prep, truth, sel, post
+    stage = stages.modes_stage(prep, max_modes=2, mass=MASS, seed=2, min_ess=400)
+    return prep, truth, stage.selection, stage.posterior, stage
 
 
 def test_each_mode_has_its_posterior_in_every_damping_convention(two_mode_posterior):
-    _, truth, sel, post = two_mode_posterior
+    _, truth, sel, post = two_mode_posterior[:4]
     assert sel.n_modes == 2 and post.converged and post.max_r_hat < 1.05
     rows = post.summary()
     assert [r["index"] for r in rows] == [1, 2]
@@ -52,7 +52,7 @@ def test_each_mode_has_its_posterior_in_every_damping_convention(two_mode_poster
 
 
 def test_mode_of_mass_can_be_chosen_and_is_checked(two_mode_posterior):
-    _, _, sel, _ = two_mode_posterior
+    _, _, sel, _ = two_mode_posterior[:4]
     post = MP.sample(sel, mass=MASS, mode_of_mass=2, seed=3, min_ess=100, max_steps=400)
     rows = post.summary()
     assert rows[1]["mass_mode"] and "k" in rows[1] and "k" not in rows[0]
@@ -63,7 +63,7 @@ def test_mode_of_mass_can_be_chosen_and_is_checked(two_mode_posterior):
 
 
 def test_rayleigh_from_the_posterior_draws(two_mode_posterior):
-    _, truth, _, post = two_mode_posterior
+    _, truth, _, post = two_mode_posterior[:4]
     w = 2 * np.pi * post.draws("f_n")
     out = pm.rayleigh_summary(w, post.draws("zeta"))
     assert out["dof"] == 0 and out["statement"].startswith("exact")
@@ -80,7 +80,7 @@ def test_rayleigh_from_the_posterior_draws(two_mode_posterior):
 
 
 def test_subspace_baseline_finds_both_modes(two_mode_posterior):
-    prep, truth, _, _ = two_mode_posterior
+    prep, truth, _, _ = two_mode_posterior[:4]
     est = subspace_modes(prep, max_modes=3)
     assert len(est) == 2
     for e, mode in zip(est, truth["modes"]):
@@ -92,7 +92,7 @@ def test_subspace_baseline_finds_both_modes(two_mode_posterior):
 def test_modal_summary_is_plain_data_with_bounds_pairs_and_rayleigh(two_mode_posterior):
     import json
 
-    _, _, sel, post = two_mode_posterior
+    _, _, sel, post = two_mode_posterior[:4]
     out = MP.modal_summary(sel, post)
     json.dumps(out)  # plain data
     assert out["n_modes"] == 2 and out["mode_of_mass"] == 1 and len(out["modes"]) == 2
@@ -103,3 +103,28 @@ def test_modal_summary_is_plain_data_with_bounds_pairs_and_rayleigh(two_mode_pos
         # the posterior sd of a well-separated mode is near its Cramér–Rao bound
         ratio = row["zeta"]["sd"] / row["crlb_sd"]["zeta"]
         assert 0.6 < ratio < 1.7, ratio
+
+
+def test_the_modes_stage_gives_plain_data_for_every_mode(two_mode_posterior):
+    """stages.modes_stage: the selection and posterior it ran, and one JSON-safe summary with
+    every mode's quantities, bound, P(K) and reason of every K, the pair and Rayleigh α, β."""
+    import json
+
+    _, truth, sel, post, stage = two_mode_posterior
+    out = stage.summary
+    assert json.loads(json.dumps(out, allow_nan=False)) == out
+    assert out == jsonable(MP.modal_summary(sel, post) | {"sampling": out["sampling"]})
+    assert out["n_modes"] == 2 and len(out["modes"]) == 2
+    for row in out["modes"]:
+        for name in ("f_n", "zeta", "p", "eta", "delta", "Q"):
+            assert set(row[name]) >= {"mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk"}
+            assert row[name]["q05"] <= row[name]["q50"] <= row[name]["q95"]
+        assert row["crlb_sd"]["zeta"] > 0
+    ev = out["modes_evidence"]["evidence"]
+    assert [r["n_modes"] for r in ev] == [1, 2] and ev[0]["reason"] and not ev[1]["reason"]
+    assert sum(r["probability"] for r in ev) == pytest.approx(1.0)
+    assert out["pairs"][0]["modes"] == [1, 2] and out["pairs"][0]["flagged"] is False
+    ray = out["rayleigh"]
+    assert ray["alpha"]["q05"] < ray["alpha"]["q95"] and ray["beta"]["unit"] == "s"
+    assert out["sampling"]["posterior_converged"] and out["sampling"]["max_r_hat"] < 1.05
+    assert stage.seconds > 0
