@@ -302,7 +302,7 @@ def _details(n, theta, tau, y, drift, mask):
 
 
 #: Why a fit found no optimum (:meth:`ModeFit.failed`).
-NO_OPTIMUM = ("no optimum inside the band (ζ < 0.2) with every pair of modes more than one "
+NO_OPTIMUM = ("none inside the band (ζ < 0.2) with every pair of modes more than one "
               "resolution cell apart, from any start")
 #: Drift-column buckets of the padded arrays.
 _DRIFT_BUCKETS = (4, 8, 16, MAX_DRIFT_DEGREE + 1)

@@ -425,7 +425,7 @@ def _evidence_chain(fd, band, span, fits, r_at) -> list[KResult]:
     for k, tried in enumerate(fits, start=1):
         fit = tried.fit
         if fit is None or not fit.found:
-            why = tried.why or f"least squares did not converge ({fit.message})"
+            why = tried.why or f"least squares found no optimum ({fit.message})"
             results.append(KResult(k, fit, float("nan"), np.zeros(0), np.zeros((0, 0)), why))
             continue
         ratios = np.array([r_at(f) for f in fit.f_d])
