@@ -16,6 +16,12 @@ The closed form of Yao & Pandit (1995) for a single real damped sinusoid in whit
 given for checking (:func:`yao_pandit_var_p`). Times ``τ`` [s] count from the instant at
 which A, B and u₀ are defined (the analysed window's start).
 
+Several modes (:func:`fisher_modes`, :func:`bound_modes`): the same Fisher information for the
+K-mode model (MK1) of :mod:`dampfit.model.modes`, φ = (p_i, ω_i, A_i, B_i for every mode,
+drift); each mode's bound comes from its 4×4 block of F⁻¹, so it carries the price of the
+other modes (their overlap with it) — the bound of close modes grows as their separation
+shrinks.
+
 Reference: Y.-X. Yao and S. M. Pandit, "Cramér–Rao lower bounds for a damped sinusoidal
 process", IEEE Trans. Signal Processing 43(4), 878–885, 1995.
 """
@@ -30,7 +36,8 @@ import numpy as np
 from dampfit import physics
 from dampfit.errors import InputError
 
-__all__ = ["yao_pandit_var_p", "fisher", "bound", "from_noise_density", "UNITS"]
+__all__ = ["yao_pandit_var_p", "fisher", "bound", "fisher_modes", "bound_modes", "from_noise_density",
+           "UNITS"]
 
 #: Unit of every quantity :func:`bound` reports.
 UNITS = {name: physics.UNITS[name] for name in ("p", "omega_d", "zeta", "f_n", "u0", "c", "k")}
@@ -232,4 +239,69 @@ def bound(
     out["drift_degree"] = drift_degree
     out["mass"] = mass
     out["mass_sd"] = mass_sd if mass is not None else None
+    return out
+
+
+# ----------------------------------------------------------------------------- several modes
+def fisher_modes(times, sigma, modes, drift_degree: int | None = 0) -> np.ndarray:
+    r"""Fisher information of K modes, φ = (p_1, ω_1, A_1, B_1, …, p_K, ω_K, A_K, B_K[, drift]).
+
+    The data model is (MK1) of :mod:`dampfit.model.modes` — the sum of K (M1) decays — in
+    white noise: J is the side-by-side stack of each mode's closed-form columns of
+    :func:`fisher` (the modes share no parameter), so F = Jᵀ·diag(1/σ²)·J couples them only
+    through the overlap of their columns, which is what makes close modes hard. ``modes`` is
+    a sequence of (p [1/s], ω_d [rad/s], A, B [m/s²]); the other arguments as for
+    :func:`fisher`. Shape (4K + d + 1,)*2.
+    """
+    from dampfit.model import viscous
+
+    modes = [tuple(float(v) for v in m) for m in modes]
+    if not modes or any(len(m) != 4 for m in modes):
+        raise InputError("modes must be a non-empty list of (p, omega_d, a_cos, a_sin)")
+    for m in modes:
+        t, s, _, degree = _check_design(times, sigma, *m, drift_degree)
+    n_par = 4 * len(modes) + (0 if degree is None else degree + 1)
+    if t.size <= n_par:
+        raise InputError(f"{t.size} samples cannot identify {n_par} parameters; give more samples")
+    cols = []
+    for p, wd, a, b in modes:
+        e = np.exp(-p * t)
+        cos, sin = e * np.cos(wd * t), e * np.sin(wd * t)
+        y = a * cos + b * sin
+        cols.append(np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1))
+    jac = np.concatenate(cols, axis=1)
+    if degree is not None:
+        jac = np.concatenate([jac, viscous.drift_basis(t, degree)], axis=1)
+    jw = jac / s[:, None]
+    return jw.T @ jw
+
+
+def bound_modes(times, sigma, modes, *, drift_degree: int | None = 0,
+                mass: float | None = None, mode_of_mass: int | None = None) -> list[dict]:
+    """CRLB standard deviations of every mode's p, ω_d, ζ, f_n and u₀ (and, for the mode
+    ``mode_of_mass`` (0-based) with ``mass`` [kg], c and k), from :func:`fisher_modes`.
+
+    Returns one plain dict per mode, in the order given: ``{quantity: {"value", "sd"}}`` as
+    :func:`bound` (without the mass uncertainty), plus ``"units"``.
+    """
+    import jax
+
+    mass = physics.check_mass(mass)[0]
+    f = fisher_modes(times, sigma, modes, drift_degree)
+    cov = _inverse(f)
+    out = []
+    with jax.enable_x64(True):
+        for i, mode in enumerate(modes):
+            x = np.asarray(mode, dtype=np.float64)
+            m = np.float64(mass if mass is not None else 1.0)
+            values, grad_x, _ = (np.asarray(v) for v in _derived_jacobian()(x, m))
+            block = cov[4 * i:4 * i + 4, 4 * i:4 * i + 4]
+            entry: dict = {}
+            for j, name in enumerate(_DERIVED):
+                if name in ("c", "k") and (mass is None or i != mode_of_mass):
+                    continue
+                var = float(grad_x[j] @ block @ grad_x[j])
+                entry[name] = {"value": float(values[j]), "sd": math.sqrt(max(var, 0.0))}
+            entry["units"] = {k: v for k, v in UNITS.items() if k in entry}
+            out.append(entry)
     return out

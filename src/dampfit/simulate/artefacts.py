@@ -17,7 +17,7 @@ from dampfit.files.writers import DIALECTS, write_phyphox_csv, write_truth  # re
 from dampfit.physics import quantities, to_decay
 from dampfit.simulate.config import SimulationConfig, noise_sigma
 
-__all__ = ["recording_truth", "envelope_at", "write_phyphox_csv", "write_truth", "DIALECTS"]
+__all__ = ["recording_truth", "modes_truth", "envelope_at", "write_phyphox_csv", "write_truth", "DIALECTS"]
 
 
 def recording_truth(cfg: SimulationConfig, t_catch: float | None, direction: np.ndarray) -> dict[str, Any]:
@@ -28,6 +28,12 @@ def recording_truth(cfg: SimulationConfig, t_catch: float | None, direction: np.
         derived = {name: float(v) for name, v in quantities(p, omega_d, cfg.mass).items()}
     config = {k: v.item() if isinstance(v, np.generic) else v for k, v in dataclasses.asdict(cfg).items()}
     config["bias"] = list(cfg.bias)
+    extra = {}
+    if cfg.modes:  # the one-mode truth stays as it was
+        config["modes"] = [list(m) for m in cfg.modes]
+        extra["modes"] = modes_truth(cfg, derived, float(omega_d))
+    else:
+        config.pop("modes")
     return {
         "mass": float(cfg.mass),
         "c": float(cfg.c),
@@ -48,7 +54,24 @@ def recording_truth(cfg: SimulationConfig, t_catch: float | None, direction: np.
         "noise_sigma": noise_sigma(cfg),
         "config": config,
         "dampfit_version": __version__,
-    }
+    } | extra
+
+
+def modes_truth(cfg: SimulationConfig, primary: dict[str, float], omega_d: float) -> list[dict[str, Any]]:
+    """Truth of every mode of ``cfg``, the primary (m, k, c) one first: f_n, f_d [Hz], ζ [1],
+    p [1/s], ω_n, ω_d [rad/s], acceleration envelope amplitude at release [m/s²], phase [rad]
+    (None for the primary, whose phase follows from the release at rest)."""
+    a1 = cfg.u0 * primary["omega_n"] ** 3 / omega_d
+    out = [{"f_n": primary["f_n"], "f_d": primary["f_d"], "zeta": primary["zeta"],
+            "p": primary["p"], "omega_n": primary["omega_n"], "omega_d": omega_d,
+            "accel_amplitude": a1, "phase": None, "primary": True}]
+    for f_n, zeta, ratio, phase in cfg.modes:
+        wn = 2.0 * math.pi * f_n
+        wd = wn * math.sqrt(1.0 - zeta**2)
+        out.append({"f_n": f_n, "f_d": wd / (2.0 * math.pi), "zeta": zeta, "p": zeta * wn,
+                    "omega_n": wn, "omega_d": wd, "accel_amplitude": ratio * a1,
+                    "phase": phase, "primary": False})
+    return out
 
 
 def envelope_at(truth: dict[str, Any], t) -> float | np.ndarray:

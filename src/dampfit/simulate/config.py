@@ -84,6 +84,13 @@ class SimulationConfig:
         End with a catch (impact, then held) 1.5 s before the end.
     seed : int
         Seed of all random ingredients.
+    modes : sequence of (f_n, zeta, ratio, phase)
+        Further modes of the structure after the release (a second bending mode, a pendulum
+        swing): natural frequency f_n [Hz], damping ratio ζ [1], acceleration envelope
+        amplitude at release relative to the primary (m, k, c) mode's u0·ω_n³/ω_d [1], and
+        phase [rad]; each adds R·A₁·e^{−ζω_nτ}·cos(ω_n√(1−ζ²)·τ + φ) along the motion
+        (:func:`dampfit.simulate.synthesis.extra_modes`). Empty (the default): one mode, and
+        the recording and its truth are exactly those of a one-mode configuration.
     """
 
     mass: float = 5.3
@@ -107,6 +114,7 @@ class SimulationConfig:
     handheld: float = 0.0
     catch: bool = False
     seed: int = 0
+    modes: tuple = ()
 
     def __post_init__(self) -> None:
         _require_number(self, "mass", positive=None)
@@ -137,6 +145,7 @@ class SimulationConfig:
         if self.main_axis not in AXES:
             raise InputError(f"main_axis must be one of x, y, z, got {self.main_axis!r}")
         object.__setattr__(self, "bias", _bias_tuple(self.bias))
+        object.__setattr__(self, "modes", _modes_tuple(self.modes, self.sample_rate))
         if self.catch and catch_time(self) <= self.handheld:
             raise InputError(
                 f"a catch {_CATCH_BEFORE_END:g} s before the end of a {self.duration:g} s recording "
@@ -168,6 +177,27 @@ def _bias_tuple(bias: Any) -> tuple[float, float, float]:
     if values.shape != (3,) or not np.all(np.isfinite(values)):
         raise InputError(f"bias must be one finite number or three (x, y, z) [m/s²], got {bias!r}")
     return tuple(float(v) for v in values)
+
+
+def _modes_tuple(modes: Any, sample_rate: float) -> tuple[tuple[float, float, float, float], ...]:
+    """Extra modes as a tuple of (f_n [Hz], ζ [1], ratio [1], phase [rad]) float tuples."""
+    try:
+        rows = np.asarray(modes, dtype=float) if len(modes) else np.empty((0, 4))
+    except (TypeError, ValueError):
+        rows = np.empty(0)
+    if rows.ndim != 2 or rows.shape[1] != 4:
+        raise InputError("modes must be a list of (f_n, zeta, amplitude ratio, phase) "
+                         f"tuples, got {modes!r}")
+    for f_n, zeta, ratio, phase in rows:
+        if not np.all(np.isfinite([f_n, zeta, ratio, phase])):
+            raise InputError(f"modes: every value must be finite, got {modes!r}")
+        if not 0 < f_n < sample_rate / 2:
+            raise InputError(f"modes: f_n = {f_n:g} Hz must be positive and below the Nyquist "
+                             f"frequency {sample_rate / 2:g} Hz")
+        if not 0 <= zeta < 1 or ratio < 0:
+            raise InputError(f"modes: need 0 <= zeta < 1 and amplitude ratio >= 0, "
+                             f"got zeta = {zeta:g}, ratio = {ratio:g}")
+    return tuple(tuple(float(v) for v in row) for row in rows)
 
 
 def catch_time(cfg: SimulationConfig) -> float:

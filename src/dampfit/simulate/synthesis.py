@@ -53,7 +53,7 @@ from dampfit.simulate.artefacts import recording_truth
 from dampfit.simulate.config import (AXES, GAP_LENGTH, TWO_PI, SimulationConfig, catch_time,
                                      noise_sigma)
 
-__all__ = ["recording", "free_decay"]
+__all__ = ["recording", "free_decay", "extra_modes"]
 
 #: Hand-tremor band [Hz] and rms per axis [m/s²].
 _TREMOR_BAND = (3.0, 12.0)
@@ -87,6 +87,23 @@ def free_decay(
     u = u0 * decay * (cos + (p / omega_d) * sin)
     v = -u0 * ((p**2 + omega_d**2) / omega_d) * decay * sin
     return u, v, -(c * v + k * u) / mass
+
+
+def extra_modes(tau, cfg: SimulationConfig) -> np.ndarray:
+    """Acceleration [m/s²] of the extra ``cfg.modes`` at ``tau`` [s] after the release:
+    Σ R·A₁·e^{−ζω_nτ}·cos(ω_n√(1−ζ²)·τ + φ), A₁ = u0·ω_n³/ω_d [m/s²] of the primary mode
+    (its acceleration envelope at release)."""
+    tau = np.asarray(tau, dtype=float)
+    out = np.zeros_like(tau)
+    if not cfg.modes:
+        return out
+    p1, wd1 = (float(x) for x in to_decay(cfg.c, cfg.k, cfg.mass))
+    a1 = cfg.u0 * (p1**2 + wd1**2) ** 1.5 / wd1
+    for f_n, zeta, ratio, phase in cfg.modes:
+        wn = TWO_PI * f_n
+        out += ratio * a1 * np.exp(-zeta * wn * tau) * np.cos(wn * math.sqrt(1 - zeta**2) * tau
+                                                              + phase)
+    return out
 
 
 def _direction(cfg: SimulationConfig) -> np.ndarray:
@@ -223,6 +240,8 @@ def recording(config: SimulationConfig) -> tuple[Recording, dict[str, Any]]:
     # acceleration along the motion direction
     along = np.zeros(t.size)
     along[free] = free_decay(t[free] - t_release, cfg.mass, cfg.c, cfg.k, cfg.u0)[2]
+    if cfg.modes:  # one-mode recordings stay byte-identical
+        along[free] += extra_modes(t[free] - t_release, cfg)
     if t_release > 0:
         before = t < t_release
         along[before] = _pull(t[before], cfg)

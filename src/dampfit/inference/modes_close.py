@@ -1,0 +1,114 @@
+r"""Close modes: how far apart each pair is, and how much each one's uncertainty suffers.
+
+Two modes i, j with natural frequencies f_i < f_j [Hz] and damping ratios ζ_i, ζ_j are
+separated by
+
+    Δf = f_j − f_i [Hz],   s_hp = Δf / ((B_i + B_j)/2),   s_T = Δf·T,                        (C1)
+
+B = 2ζ·f_n [Hz] the half-power bandwidth of a mode (the width of its resonance peak) and T
+[s] the analysed window: s_hp counts half-power bandwidths, s_T frequency resolution cells
+1/T. A pair with s_T < 1 is not separable in this record (its least squares is refused as
+two modes by :mod:`dampfit.inference.modes_select`).
+
+How much a neighbour costs is measured, not guessed: the Cramér–Rao bound of each mode's f_n
+and ζ in the K-mode design (:func:`dampfit.inference.crlb.bound_modes`, the modes' columns
+overlapping) divided by the bound of the same mode fitted alone on the same samples,
+
+    g = sd_CRLB(with the other modes) / sd_CRLB(alone)   [1].                               (C2)
+
+For well-separated modes g ≈ 1; as the separation falls below a few bandwidths the errors
+grow as 1/gap to 1/gap³ (the columns become collinear). A pair is **flagged** when g of f_n
+or ζ of either mode exceeds :data:`FLAG_INFLATION`. g is a ratio of bounds on the same
+samples, so the noise level cancels (σ = 1 is used).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+
+from dampfit import physics
+from dampfit.errors import InputError
+from dampfit.inference import crlb
+
+__all__ = ["pairs", "inflation", "selection_pairs", "selection_bounds", "FLAG_INFLATION"]
+
+#: CRLB inflation (C2) above which a pair is flagged in the warnings.
+FLAG_INFLATION = 1.25
+
+
+def inflation(times, modes, drift_degree: int | None = 0) -> list[dict[str, float]]:
+    """g of (C2) for f_n and ζ of every mode: ``[{"f_n": g, "zeta": g}, …]``.
+
+    ``times`` [s] the fitted sample times, ``modes`` the (p [1/s], ω_d [rad/s], A, B [m/s²])
+    of each mode (as in :func:`dampfit.inference.crlb.fisher_modes`)."""
+    modes = [tuple(float(v) for v in m) for m in modes]
+    together = crlb.bound_modes(times, 1.0, modes, drift_degree=drift_degree)
+    out = []
+    for i, mode in enumerate(modes):
+        alone = crlb.bound_modes(times, 1.0, [mode], drift_degree=drift_degree)[0]
+        out.append({q: together[i][q]["sd"] / alone[q]["sd"] for q in ("f_n", "zeta")})
+    return out
+
+
+def pairs(p, omega_d, amplitudes, times, drift_degree: int | None = 0) -> tuple[list[dict],
+                                                                                 list[str]]:
+    """Every pair of modes (C1) with the inflation (C2) of its members, and the warnings.
+
+    ``p`` [1/s], ``omega_d`` [rad/s] and ``amplitudes`` (A_i, B_i) [m/s²] of each mode (the
+    least-squares values), ``times`` [s] the fitted samples. Rows: ``{"modes": [i, j]``
+    (1-based)``, "separation_hz", "separation_half_power", "separation_resolution",
+    "inflation_f_n", "inflation_zeta", "flagged"}`` (inflation: the larger of the two modes').
+    """
+    p, wd = np.asarray(p, dtype=float), np.asarray(omega_d, dtype=float)
+    amp = np.asarray(amplitudes, dtype=float).reshape(-1, 2)
+    q = physics.quantities(p, wd)
+    f, zeta = np.asarray(q["f_n"]), np.asarray(q["zeta"])
+    t = np.asarray(times, dtype=float)
+    span = float(t[-1] - t[0])
+    try:
+        g = inflation(t, [(p[i], wd[i], *amp[i]) for i in range(p.size)], drift_degree)
+    except InputError:  # a singular design: the modes are not separable at all
+        g = [{"f_n": math.inf, "zeta": math.inf} for _ in range(p.size)]
+    rows, warns = [], []
+    for i, j in itertools.combinations(range(p.size), 2):
+        df = abs(f[j] - f[i])
+        half_power = 0.5 * (2 * zeta[i] * f[i] + 2 * zeta[j] * f[j])
+        gf, gz = max(g[i]["f_n"], g[j]["f_n"]), max(g[i]["zeta"], g[j]["zeta"])
+        flagged = bool(gf > FLAG_INFLATION or gz > FLAG_INFLATION)
+        rows.append({"modes": [i + 1, j + 1], "separation_hz": float(df),
+                     "separation_half_power": float(df / half_power) if half_power > 0
+                     else math.inf,
+                     "separation_resolution": float(df * span),
+                     "inflation_f_n": float(gf), "inflation_zeta": float(gz),
+                     "flagged": flagged})
+        if flagged:
+            warns.append(
+                f"modes {i + 1} and {j + 1} ({f[i]:.4g} and {f[j]:.4g} Hz) are close: "
+                f"{rows[-1]['separation_half_power']:.2g} half-power bandwidths, "
+                f"{df * span:.2g} resolution cells apart; their uncertainty is {gf:.2g}x (f) "
+                f"and {gz:.2g}x (ζ) that of a lone mode")
+    return rows, warns
+
+
+def selection_pairs(sel) -> tuple[list[dict], list[str]]:
+    """:func:`pairs` of the chosen fit of a
+    :class:`~dampfit.inference.modes_select.ModeSelection` on its fit samples."""
+    fit, fd = sel.chosen.fit, sel.fit_data
+    return pairs(fit.p, fit.omega_d, fit.beta[:2 * fit.n_modes], fd.tau, fd.drift_degree)
+
+
+def selection_bounds(sel) -> list[dict]:
+    """Cramér–Rao bound of every mode of the chosen fit of ``sel`` on its own design: the fit
+    samples' times, white noise at the level the residuals show near each mode —
+    σ_i = √(r_i·RSS/(n − q)) per fitted sample, r_i the Whittle factor at mode i — and the
+    fitted (p, ω_d, A, B) of every mode (:func:`dampfit.inference.crlb.bound_modes`; f_n, ζ,
+    p, ω_d per mode; u₀ of the filtered samples)."""
+    fit, fd = sel.chosen.fit, sel.fit_data
+    s2 = fit.rss / max(fd.tau.size - fit.q, 1)
+    amp = np.asarray(fit.beta[:2 * fit.n_modes]).reshape(-1, 2)
+    modes = [(fit.p[i], fit.omega_d[i], *amp[i]) for i in range(fit.n_modes)]
+    return [crlb.bound_modes(fd.tau, math.sqrt(r * s2), modes, drift_degree=fd.drift_degree)[i]
+            for i, r in enumerate(sel.psd_ratios)]

@@ -1,0 +1,289 @@
+r"""Posterior of every mode's frequency and damping (emcee over the 2K nonlinear parameters).
+
+Model and priors
+----------------
+The K-mode model (MK1) of :mod:`dampfit.model.modes` for the K chosen by
+:func:`dampfit.inference.modes_select.select`, with the one profile likelihood of
+:mod:`dampfit.model.profile` (P3: amplitudes, drift and σ marginalised) tempered by 1/r, r the
+largest per-mode Whittle factor of the chosen fit's residuals (each floored at its
+white-noise value, :mod:`dampfit.inference.noise`) — as the one-mode posterior
+(:mod:`dampfit.inference.posterior`), which this is for K = 1. The prior is the ordered prior
+(MK3–MK4): ln p_i log-uniform on [10⁻⁶·ω_i, 0.2·ω_i], ln ω_i uniform over the modal band,
+ω_1 < … < ω_K, so the modes are numbered by frequency in every draw (no label switching).
+
+Per mode, from every draw of (p_i, ω_i) (:func:`dampfit.physics.quantities`):
+f_n = ω_n/2π and f_d [Hz], ζ = p/ω_n, p [1/s], the loss factor η = 2ζ, the logarithmic
+decrement Λ = 2π·p/ω_d and Q = 1/(2ζ) [1]; the acceleration amplitude √(A_i² + B_i²) [m/s²]
+at the window start from the conditional Gaussian of (A_i, B_i) given θ (the decimation
+filter's gain removed). c = 2·m·p [N·s/m], k = m·ω_n² [N/m], c_crit [N·s/m] and
+u₀ = √(A² + B²)/ω_n² [m] (eq. M2) only for the mode the mass belongs to: the mode given, or
+by default the dominant one (the largest signal energy ½·a_i²·Σ_τ e^{−2p_iτ} in the window,
+normally the spectrum's peak); the other modes have no modal mass in a free decay.
+
+Sampling
+--------
+emcee's ensemble with dampfit's moves (:func:`dampfit.inference.posterior.ensemble`; 64
+walkers, or 32·K if more), started in a ball from the Laplace covariance of the selection,
+run by :func:`dampfit.inference.posterior.run_adaptive` (≥ 50 autocorrelation times, R-hat
+< 1.01, bulk ESS ≥ ``min_ess`` over the 2K dimensions). R-hat and bulk ESS of every reported
+quantity of every mode come from arviz (walkers as chains).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings as _warnings
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from dampfit import physics
+from dampfit._arviz import arviz
+from dampfit.inference import posterior as _post
+from dampfit.inference.executables import kernel
+from dampfit.inference.least_squares import amplitude_gain
+from dampfit.inference.modes import check_mode_of_mass, padded_arrays
+from dampfit.inference.modes_select import psd_ratios
+from dampfit.model import modes as mm
+from dampfit.model import profile
+
+__all__ = ["ModalPosterior", "sample", "modal_summary", "mode_of_mass_default", "PER_MODE",
+           "MASS_MODE"]
+
+#: Quantities reported for every mode, and for the mode of the mass only.
+PER_MODE = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "accel_amplitude")
+MASS_MODE = ("c", "k", "c_crit", "u0", "mass")
+#: Blob fields per mode: conditional mean and covariance of (A_i, B_i).
+_BLOB = 5
+
+
+@dataclass(frozen=True)
+class ModalPosterior:
+    """Posterior of K modes: ``idata`` (arviz; per-mode variables have a ``mode`` dimension
+    1 … K, mass-mode variables none), convergence facts as
+    :class:`~dampfit.inference.posterior.PosteriorResult`, ``mode_of_mass`` (0-based),
+    ``temper`` = 1/r, and ``diagnostics`` name → list (per mode) or dict of
+    {"r_hat", "ess_bulk"}."""
+
+    idata: object
+    n_modes: int
+    mode_of_mass: int
+    temper: float
+    converged: bool
+    n_steps: int
+    burn_in: int
+    thin: int
+    autocorr_time: np.ndarray
+    acceptance: float
+    max_r_hat: float
+    min_ess_bulk: float
+    diagnostics: dict
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    def draws(self, name: str) -> np.ndarray:
+        """Flattened draws of ``name``: (n, K) for a per-mode quantity, (n,) otherwise."""
+        v = np.asarray(self.idata.posterior[name])
+        return v.reshape((-1,) + v.shape[2:])
+
+    def summary(self) -> list[dict]:
+        """One plain dict per mode (by frequency): ``index`` (1-based), ``mass_mode``, and
+        for each quantity ``{"mean", "sd", "q05", "q50", "q95", "r_hat", "ess_bulk"}`` with
+        its ``unit``."""
+        out = []
+        for i in range(self.n_modes):
+            row: dict = {"index": i + 1, "mass_mode": i == self.mode_of_mass}
+            for name in PER_MODE:
+                row[name] = _stats(self.draws(name)[:, i], self.diagnostics[name][i], name)
+            if i == self.mode_of_mass:
+                for name in MASS_MODE:
+                    if name in self.idata.posterior:
+                        row[name] = _stats(self.draws(name), self.diagnostics[name], name)
+            out.append(row)
+        return out
+
+
+_UNITS = dict(physics.UNITS, eta="1", accel_amplitude="m/s^2")
+
+
+def _stats(x, diag, name) -> dict:
+    q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+    return {"mean": float(np.mean(x)), "sd": float(np.std(x, ddof=1)), "q05": float(q05),
+            "q50": float(q50), "q95": float(q95), "r_hat": diag["r_hat"],
+            "ess_bulk": diag["ess_bulk"], "unit": _UNITS.get(name, "1")}
+
+
+@kernel(static_argnums=(0,))
+def _batched_log_prob(n, thetas, tau, y, drift, mask, n_real, n_drift, temper, bounds):
+    """(tempered ln posterior, per-mode conditional moments of (A_i, B_i)) for a batch of θ."""
+    mdl = mm.model(n)
+
+    def one(theta):
+        inside = jnp.isfinite(mm.log_prior(theta, bounds[0], bounds[1], xp=jnp))
+        samples = profile.Samples(tau, y, drift, mask, n_real, n_drift)
+        ll, ab, cov = profile.marginal_and_amplitudes(mdl, theta, samples, temper)
+        blobs = jnp.stack([jnp.stack([ab[2 * i], ab[2 * i + 1], cov[2 * i, 2 * i],
+                                      cov[2 * i, 2 * i + 1], cov[2 * i + 1, 2 * i + 1]])
+                           for i in range(n)]).reshape(-1)
+        return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf), blobs
+
+    return jax.vmap(one)(thetas)
+
+
+def _make_log_prob(n, fd, band, temper):
+    with jax.enable_x64(True):
+        args = padded_arrays(fd) + jax.device_put((np.float64(fd.tau.size),
+                                                   np.float64(fd.drift_degree + 1),
+                                                   np.float64(temper),
+                                                   np.log(2 * np.pi * np.asarray(band, float))))
+
+    def log_prob(thetas):  # called inside jax.enable_x64(True)
+        lp, blobs = _batched_log_prob(n, np.asarray(thetas, dtype=np.float64), *args)
+        return np.column_stack([np.asarray(lp), np.asarray(blobs)])
+
+    return log_prob
+
+
+def mode_of_mass_default(fit, fd) -> int:
+    """Index (0-based) of the dominant mode of a :class:`~dampfit.inference.modes.ModeFit`:
+    the largest ½·a_i²·Σ_τ e^{−2p_iτ} (a_i its gain-corrected acceleration amplitude)."""
+    tau = np.asarray(fd.tau, dtype=float)
+    energy = [0.5 * (a / abs(amplitude_gain(fd, p, w))) ** 2 * np.sum(np.exp(-2 * p * tau))
+              for a, p, w in zip(fit.amplitudes, fit.p, fit.omega_d)]
+    return int(np.argmax(energy))
+
+
+def _start(theta, cov, lw, rng, n_walkers) -> np.ndarray:
+    """Walkers in a ball around θ̂ from ``cov``, all inside the ordered support."""
+    k = theta.size
+    cov = np.asarray(cov, dtype=float)
+    if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov).min() <= 0:
+        cov = np.diag((1e-3 * np.abs(theta) + 1e-6) ** 2)
+    cov = cov + np.diag(np.full(k, _post.START_SPREAD_FLOOR**2))
+    out = np.empty((0, k))
+    for scale in (0.25, 0.05, 0.01, 0.0):
+        draw = rng.multivariate_normal(theta, scale * cov, size=4 * n_walkers) if scale else \
+            np.repeat(theta[None], n_walkers, 0)
+        ok = np.isfinite(mm.log_prior(draw, lw[0], lw[1]))
+        out = np.concatenate([out, draw[ok]])
+        if len(out) >= n_walkers:
+            break
+    return out[:n_walkers]
+
+
+def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
+           mode_of_mass: int | None = None, seed: int = 0, min_ess: float = 1000.0,
+           max_steps: int = 20000, block: int = 500) -> ModalPosterior:
+    """Sample the posterior of the chosen K of ``sel`` (a
+    :class:`~dampfit.inference.modes_select.ModeSelection`); see the module docstring.
+
+    ``mass``, ``mass_sd`` [kg] (checked by :func:`dampfit.physics.check_mass`);
+    ``mode_of_mass`` the 1-based mode the mass belongs to (None: the dominant one;
+    :class:`~dampfit.errors.InputError` if out of range); ``seed`` makes the run reproducible.
+    """
+    mass, mass_sd = physics.check_mass(mass, mass_sd)
+    res, fd = sel.chosen, sel.fit_data
+    k = res.n_modes
+    i_mass = check_mode_of_mass(mode_of_mass, k)
+    if i_mass is None:
+        i_mass = mode_of_mass_default(res.fit, fd)
+    temper = 1.0 / float(np.max(psd_ratios(res.fit, fd)))
+    rng = np.random.default_rng(seed)
+    n_walkers = max(_post.N_WALKERS, 32 * k)
+    lw = np.log(2 * np.pi * np.asarray(sel.band, dtype=float))
+    cov = res.cov / (res.psd_ratio * temper)  # the Laplace covariance (∝ r) at this r
+    start = _start(res.fit.theta, cov, lw, rng, n_walkers)
+    sampler = _post.ensemble(2 * k, _make_log_prob(k, fd, sel.band, temper), rng, n_walkers)
+    run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
+                             block=block, x64=True)
+    warns = [] if run.converged else [
+        f"modal posterior NOT converged after {run.steps} steps: {run.reason}"]
+    burn, thin = _post.burn_thin(run.tau)
+    chain = sampler.get_chain(discard=burn, thin=thin)
+    blobs = sampler.get_blobs(discard=burn, thin=thin)
+    idata = _to_idata(chain, blobs, sampler.get_log_prob(discard=burn, thin=thin), fd, res.fit,
+                      i_mass, mass, mass_sd, temper, rng)
+    diag = _diagnostics(idata)
+    flat = [d for v in diag.values() for d in (v if isinstance(v, list) else [v])]
+    rh = [d["r_hat"] for d in flat if math.isfinite(d["r_hat"])]
+    es = [d["ess_bulk"] for d in flat if math.isfinite(d["ess_bulk"])]
+    return ModalPosterior(
+        idata=idata, n_modes=k, mode_of_mass=i_mass, temper=temper, converged=run.converged,
+        n_steps=run.steps, burn_in=burn, thin=thin, autocorr_time=np.asarray(run.tau),
+        acceptance=float(np.mean(sampler.acceptance_fraction)),
+        max_r_hat=max(rh, default=math.nan), min_ess_bulk=min(es, default=math.nan),
+        diagnostics=diag, warnings=tuple(warns))
+
+
+def _to_idata(chain, blobs, lp, fd, fit, i_mass, mass, mass_sd, temper, rng):
+    n_draw, n_walk, dim = chain.shape
+    k = dim // 2
+    flat = chain.reshape(-1, dim)
+    p, wd = mm.rates(flat)
+    mom = np.asarray(blobs).reshape(-1, k, _BLOB)
+    gains = np.array([abs(amplitude_gain(fd, float(a), float(b)))
+                      for a, b in zip(fit.p, fit.omega_d)])
+    amp = np.column_stack([np.hypot(*_post.conditional_amplitudes(mom[:, i], rng).T)
+                           for i in range(k)]) / gains
+    q = physics.quantities(p, wd, accel_amplitude=amp)
+    post = {name: q[name] for name in ("f_n", "f_d", "zeta", "p", "delta", "Q")}
+    post["eta"] = 2.0 * q["zeta"]
+    post["accel_amplitude"] = amp
+    m = _post.mass_draws(mass, mass_sd, p.shape[0], rng)
+    qm = physics.quantities(p[:, i_mass], wd[:, i_mass], m, accel_amplitude=amp[:, i_mass])
+    post["u0"] = qm["u0"]
+    if m is not None:
+        post.update({"mass": m, "c": qm["c"], "k": qm["k"], "c_crit": qm["c_crit"]})
+
+    def shape(v):  # (draw·walker[, K]) → (walker = chain, draw[, K])
+        v = np.asarray(v).reshape((n_draw, n_walk) + np.shape(v)[1:])
+        return np.swapaxes(v, 0, 1)
+
+    dims = {name: ["mode"] for name in PER_MODE}
+    with _warnings.catch_warnings():
+        _warnings.filterwarnings("ignore", message="More chains")
+        return arviz().from_dict(
+            posterior={name: shape(v) for name, v in post.items()},
+            sample_stats={"lp": lp.T}, dims=dims, coords={"mode": np.arange(1, k + 1)},
+            attrs={"n_walkers": n_walk, "likelihood_temper": float(temper)})
+
+
+def _diagnostics(idata) -> dict:
+    az = arviz()
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        rhat = az.rhat(idata.posterior)
+        ess = az.ess(idata.posterior, method="bulk")
+    out: dict = {}
+    for name in idata.posterior.data_vars:
+        r, e = np.atleast_1d(rhat[name].values), np.atleast_1d(ess[name].values)
+        rows = [{"r_hat": float(a), "ess_bulk": float(b)} for a, b in zip(r, e)]
+        out[str(name)] = rows if "mode" in idata.posterior[name].dims else rows[0]
+    return out
+
+
+def modal_summary(sel, post: ModalPosterior) -> dict:
+    """Plain data of a multi-mode analysis (for the outputs): ``n_modes``; ``modes_evidence``
+    (:meth:`~dampfit.inference.modes_select.ModeSelection.summary`: P(K), the reasons);
+    ``modes`` (:meth:`ModalPosterior.summary`, each with ``crlb_sd`` of f_n, ζ, p, ω_d from
+    :func:`dampfit.inference.modes_close.selection_bounds`); ``pairs`` (separation and CRLB
+    inflation of every pair); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary`
+    of the draws, None for one mode); ``mode_of_mass`` (1-based); ``psd_ratio`` r;
+    ``warnings`` and ``notes``."""
+    from dampfit import physics_modal
+    from dampfit.inference import modes_close
+
+    modes = post.summary()
+    for row, bound in zip(modes, modes_close.selection_bounds(sel)):
+        row["crlb_sd"] = {q: bound[q]["sd"] for q in ("f_n", "zeta", "p", "omega_d")}
+    pairs, pair_warnings = modes_close.selection_pairs(sel)
+    rayleigh = None
+    warns = list(sel.warnings) + pair_warnings + list(post.warnings)
+    if post.n_modes >= 2:
+        rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n"),
+                                                  post.draws("zeta"))
+        warns += rayleigh["warnings"]
+    return {"n_modes": post.n_modes, "modes_evidence": sel.summary(), "modes": modes,
+            "pairs": pairs, "rayleigh": rayleigh, "mode_of_mass": post.mode_of_mass + 1,
+            "psd_ratio": 1.0 / post.temper, "warnings": warns, "notes": list(sel.notes)}

@@ -1,0 +1,204 @@
+"""Several modes, the exact parts: Rayleigh α, β (exact for two modes, the misfit stated
+for more), the simulator's extra modes (added exactly; one-mode truth unchanged), the matrix
+pencil on noise-free modes, the rejection reasons of a K-mode fit, and every validation path of
+the options (``max_modes``, ``mode_of_mass``, a recording that cannot support K modes)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from dampfit import physics_modal as pm
+from dampfit import simulate as sim
+from dampfit.errors import InputError
+from dampfit.inference import modes as M
+from dampfit.inference import modes_select as MS
+from dampfit.signal import subspace
+from tests._support.modes import modal_prep
+
+MASS = 0.8
+
+
+def test_rayleigh_is_exact_for_two_modes_and_states_its_misfit_for_more():
+    w = 2 * np.pi * np.array([3.0, 9.0, 20.0])
+    alpha, beta = 0.12, 4e-4
+    z = pm.rayleigh_zeta(alpha, beta, w)
+    two = pm.rayleigh(w[:2], z[:2])
+    assert two["alpha"] == pytest.approx(alpha, rel=1e-12)
+    assert two["beta"] == pytest.approx(beta, rel=1e-12) and two["dof"] == 0
+    three = pm.rayleigh(w, z * np.array([1.0, 1.3, 1.0]), weights=[1.0, 1.0, 1.0])
+    assert three["dof"] == 1 and three["chi2"] > 0 and three["max_relative_misfit"] > 0.05
+    rng = np.random.default_rng(0)
+    W = w + 1e-3 * rng.standard_normal((2000, 3))
+    good = pm.rayleigh_summary(W, z * (1 + 0.05 * rng.standard_normal((2000, 3))))
+    assert good["p_value"] > 0.05 and "reproduces all 3" in good["statement"]
+    assert good["alpha"]["q05"] < alpha < good["alpha"]["q95"]
+    bad = pm.rayleigh_summary(W, z * np.array([1.0, 1.5, 1.0])
+                              * (1 + 0.02 * rng.standard_normal((2000, 3))))
+    assert bad["p_value"] < 0.01 and "does NOT reproduce" in bad["statement"]
+    neg = pm.rayleigh_summary(W[:, :2], np.column_stack([np.full(2000, 0.05),
+                                                         np.full(2000, 0.001)])
+                              * (1 + 0.01 * rng.standard_normal((2000, 2))))
+    assert any("beta is negative" in x for x in neg["warnings"])
+
+
+@pytest.mark.parametrize("omega, zeta, match", [
+    ([10.0], [0.01], "at least two modes"),
+    ([10.0, 20.0], [0.01], "same shape"),
+    ([10.0, 10.0], [0.01, 0.02], "same frequency"),
+    ([10.0, -20.0], [0.01, 0.02], "positive"),
+    ([10.0, 20.0], [0.01, float("nan")], "finite"),
+])
+def test_rayleigh_inputs_are_validated(omega, zeta, match):
+    with pytest.raises(InputError, match=match):
+        pm.rayleigh(omega, zeta)
+
+
+def test_rayleigh_weights_are_validated():
+    with pytest.raises(InputError, match="2 positive finite numbers"):
+        pm.rayleigh([10.0, 20.0], [0.01, 0.02], weights=[1.0, -1.0])
+    with pytest.raises(InputError, match=r"shape \(draws ≥ 2, modes\)"):
+        pm.rayleigh_summary([10.0, 20.0], [0.01, 0.02])
+
+
+def test_simulator_adds_modes_exactly_and_one_mode_truth_is_unchanged():
+    clean = dict(noise_density=0.0, drift=0.0, quantization=0.0, bias=0.0, duration=6.0,
+                 sample_rate=200.0)
+    base = sim.from_modal(MASS, 3.0, 0.01, u0=0.01, **clean)
+    rec1, truth1 = sim.recording(base)
+    assert "modes" not in truth1 and "modes" not in truth1["config"]
+    two = sim.from_modal(MASS, 3.0, 0.01, u0=0.01, modes=[(11.0, 0.02, 0.3, 0.7)], **clean)
+    rec2, truth2 = sim.recording(two)
+    extra = truth2["modes"][1]
+    a1 = truth2["modes"][0]["accel_amplitude"]
+    assert a1 == pytest.approx(0.01 * truth1["omega_n"] ** 3 / truth1["omega_d"], rel=1e-12)
+    assert extra["accel_amplitude"] == pytest.approx(0.3 * a1) and extra["zeta"] == 0.02
+    t = rec2.time
+    want = 0.3 * a1 * np.exp(-extra["p"] * t) * np.cos(extra["omega_d"] * t + 0.7)
+    along = (rec2.accel - rec1.accel) @ np.asarray(truth2["direction"])
+    np.testing.assert_allclose(along, want, atol=1e-12)
+    assert truth2["config"]["modes"] == [[11.0, 0.02, 0.3, 0.7]]
+
+
+@pytest.mark.parametrize("modes, match", [
+    (3, "list of"), ([(1.0, 0.01, 0.5)], "list of"), ([(200.0, 0.01, 0.5, 0.0)], "Nyquist"),
+    ([(5.0, 1.0, 0.5, 0.0)], "0 <= zeta < 1"), ([(5.0, 0.1, -0.5, 0.0)], "ratio >= 0"),
+    ([(5.0, 0.1, 0.5, math.inf)], "finite"),
+])
+def test_simulator_modes_are_validated(modes, match):
+    with pytest.raises(InputError, match=match):
+        sim.from_modal(MASS, 3.0, 0.01, sample_rate=100.0, modes=modes)
+
+
+def test_modes_within_one_resolution_cell_are_refused():
+    fit = M.ModeFit(2, np.log([0.1, 2 * np.pi * 3.0, 0.1, 2 * np.pi * 3.02]), np.ones(6), 1.0,
+                    0.0, np.zeros(5), np.zeros((5, 4)), np.eye(4), 2, True, "converged")
+    why = MS.reject_reason(fit, np.array([50.0, 50.0]), (1.0, 10.0), 20.0, 100.0, 4.0)
+    assert "within one resolution cell" in why and "0.4" in why
+    why = MS.reject_reason(fit, np.array([50.0, 50.0]), (1.0, 10.0), 60.0, 100.0, 4.0)
+    assert why == ""
+    why = MS.reject_reason(fit, np.array([50.0, 2.0]), (1.0, 10.0), 60.0, 100.0, 4.0)
+    assert "not distinguishable from the noise" in why
+    why = MS.reject_reason(fit, np.array([50.0, 50.0]), (3.01, 10.0), 60.0, 100.0, 4.0)
+    assert "outside the band" in why
+
+
+def test_matrix_pencil_finds_the_poles_of_noise_free_modes():
+    fs = 50.0
+    t = np.arange(600) / fs
+    x = (1.2 * np.exp(-0.2 * t) * np.cos(2 * np.pi * 2.0 * t + 0.3)
+         + 0.4 * np.exp(-0.7 * t) * np.cos(2 * np.pi * 7.5 * t - 1.0))
+    res = subspace.matrix_pencil(x, fs, max_order=8, order=4)
+    got = sorted((q.f_d, q.p, q.amplitude) for q in res.poles)
+    np.testing.assert_allclose([g[0] for g in got], [2.0, 7.5], rtol=1e-8)
+    np.testing.assert_allclose([g[1] for g in got], [0.2, 0.7], rtol=1e-6)
+    np.testing.assert_allclose([g[2] for g in got], [1.2, 0.4], rtol=1e-6)
+    noisy = x + 1e-3 * np.random.default_rng(0).standard_normal(t.size)
+    res = subspace.matrix_pencil(noisy, fs, max_order=8)
+    assert res.order_mdl >= 4 and res.order_gap == 4 and res.order_floor == 4
+    peaks = subspace.spectrum_peaks(noisy, fs, (0.5, 20.0), 2)
+    np.testing.assert_allclose(sorted(f for f, _ in peaks), [2.0, 7.5], atol=0.03)
+    with pytest.raises(InputError, match="cannot hold a pencil of order 8"):
+        subspace.matrix_pencil(x[:20], fs, max_order=8)
+
+
+@pytest.mark.parametrize("value, match", [
+    (0, "from 1 to 8, got 0"), (100, "from 1 to 8, got 100"), (2.5, "whole number"),
+    ("3", "whole number"), (True, "whole number"), (None, "whole number"),
+    (float("nan"), "whole number")])
+def test_max_modes_is_validated(value, match):
+    with pytest.raises(InputError, match=match):
+        M.check_max_modes(value)
+
+
+def test_max_modes_accepts_whole_numbers():
+    assert M.check_max_modes(4) == 4 and M.check_max_modes(np.int64(2)) == 2
+    assert M.check_max_modes(3.0) == 3
+
+
+@pytest.mark.parametrize("value, match", [
+    (0, "out of range: the recording has 2 modes"), (3, "out of range"),
+    (1.5, "mode number 1 … 2"), ("1", "mode number"), (True, "mode number")])
+def test_mode_of_mass_is_validated(value, match):
+    with pytest.raises(InputError, match=match):
+        M.check_mode_of_mass(value, 2)
+
+
+def test_mode_of_mass_maps_to_an_index():
+    assert M.check_mode_of_mass(None, 3) is None
+    assert M.check_mode_of_mass(2, 3) == 1 and M.check_mode_of_mass(1.0, 1) == 0
+
+
+def test_a_recording_that_cannot_support_the_modes_says_so():
+    prep, _ = modal_prep([], duration=3.0, zeta=0.006, sample_rate=50.0)  # ≈ 85 samples
+    with pytest.raises(InputError, match="too few samples per cycle of the highest mode"):
+        M.modal_band(prep, (2.0, 48.0))
+    with pytest.raises(InputError, match=r"holds only .* cycles of the band's lower edge"):
+        M.modal_band(prep, (0.5, 10.0))
+    with pytest.raises(InputError, match="not a valid band"):
+        M.modal_band(prep, (5.0, 2.0))
+    fd = M.modal_fit_data(prep, (2.0, 10.0))
+    many = np.log(np.tile([0.1, 2 * np.pi * 3.3], 8))[None]
+    with pytest.raises(InputError, match=r"cannot support 8 modes .* too short"):
+        M.fit_modes(fd, many)
+    with pytest.raises(InputError, match="cannot support 8 modes"):
+        MS.select(prep, n_modes=8, band=(2.0, 10.0))
+
+
+def test_start_grid_varies_the_last_mode_by_rate_factors_and_frequency_cells():
+    """Every start row gives GRID_PER_START rows, start by start: the earlier modes as given,
+    the last mode's rate × each factor and its frequency shifted by each fraction of 1/T."""
+    starts = np.log([[0.1, 2 * np.pi * 3.0, 0.3, 2 * np.pi * 8.0],
+                     [0.1, 2 * np.pi * 3.0, 0.2, 2 * np.pi * 12.0]])
+    span = 20.0
+    grid = M.start_grid(starts, span)
+    assert grid.shape == (2 * M.GRID_PER_START, 4)
+    for s, block in zip(starts, grid.reshape(2, M.GRID_PER_START, 4)):
+        np.testing.assert_array_equal(block[:, :2], np.repeat(s[None, :2], M.GRID_PER_START, 0))
+        rates = sorted(set(np.round(np.exp(block[:, 2]) / np.exp(s[2]), 12)))
+        np.testing.assert_allclose(rates, sorted(M.GRID_RATE_FACTORS), rtol=1e-12)
+        cells = sorted(set(np.round((np.exp(block[:, 3]) - np.exp(s[3])) * span / (2 * np.pi), 9)))
+        np.testing.assert_allclose(cells, sorted(M.GRID_CELL_SHIFTS), atol=1e-9)
+
+
+def test_a_fit_that_finds_no_optimum_is_data_not_an_error():
+    failed = M.ModeFit.failed(2, 50, 3, M.NO_OPTIMUM)
+    assert not failed.found and not failed.converged and failed.q == 7
+    assert failed.residuals.shape == (50,) and np.isnan(failed.theta).all()
+    assert "resolution cell" in failed.message
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(max_modes=0), "from 1 to 8, got 0"), (dict(max_modes=100), "from 1 to 8, got 100"),
+    (dict(max_modes="4"), "whole number"), (dict(n_modes=9), "from 1 to 8, got 9"),
+    (dict(max_modes=2, mode_of_mass=3), "out of range: the recording has 2 modes"),
+    (dict(mode_of_mass="1"), "mode number"), (dict(mass=-1.0), "mass"),
+    (dict(mass_sd=0.1), "mass_sd was given without mass")])
+def test_the_modes_stage_refuses_bad_options_before_fitting(kw, match):
+    from dampfit import stages
+
+    prep, _ = modal_prep(duration=6.0)
+    with pytest.raises(InputError, match=match):
+        stages.modes_stage(prep, **kw)
