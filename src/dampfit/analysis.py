@@ -36,6 +36,7 @@ from dampfit.io.recording import Recording
 from dampfit.result.folder import real
 from dampfit.result.views import ResultViews
 from dampfit.signal import prepare
+from dampfit._arviz import write_netcdf
 
 __all__ = ["Analysis", "PARAMETER_UNITS"]
 
@@ -332,7 +333,7 @@ class Analysis(ResultViews):
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file."""
-        return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
+        return atomic_write(path, lambda tmp: write_netcdf(self.posterior, tmp),
                             suffix=".nc")
 
 

@@ -10,6 +10,7 @@ Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (bot
 from __future__ import annotations
 
 from dampfit import physics
+from dampfit._arviz import preload as preload_arviz
 from dampfit import stages
 from dampfit.analysis import Analysis
 from dampfit.errors import InputError
@@ -61,6 +62,7 @@ def analyze(
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
+    preload_arviz()  # needed by the posterior stage; imported meanwhile
     m, sd = physics.check_mass(mass, mass_sd)
     stages.check_damping_options(model, amplitude)
     warns: list[str] = []

@@ -20,6 +20,7 @@ import numpy as np
 from dampfit.errors import DampfitError
 from dampfit.files.atomic import atomic_write, atomic_write_text
 from dampfit.result.views import ResultViews
+from dampfit._arviz import write_netcdf
 
 __all__ = ["CampaignAnalysis", "SUMMARY_KEYS"]
 
@@ -122,7 +123,7 @@ class CampaignAnalysis(ResultViews):
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the joint posterior (arviz InferenceData) to a NetCDF file."""
-        return atomic_write(path, lambda tmp: self.posterior.to_netcdf(tmp, engine="h5netcdf"),
+        return atomic_write(path, lambda tmp: write_netcdf(self.posterior, tmp),
                             suffix=".nc")
 
     # --------------------------------------------------------------- renderings

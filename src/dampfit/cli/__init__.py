@@ -83,6 +83,10 @@ COMMANDS = (
 )
 
 
+#: Commands that run on Dask; the others run with Dask hidden (:func:`dampfit._arviz.dask_absent`).
+DASK_COMMANDS = ("batch", "study")
+
+
 def get_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``dampfit`` command (the command modules import nothing
     heavy at the top, so building it stays fast)."""
@@ -224,7 +228,13 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         if args.command is None:
             raise InputError("no command given; use analyze, batch, record, simulate, demo, report, "
                              "export, verify or study (see 'dampfit --help')")
-        return {name: command for name, _, _, command in COMMANDS}[args.command](args)
+        command = {name: command for name, _, _, command in COMMANDS}[args.command]
+        if args.command in DASK_COMMANDS:
+            return command(args)
+        from dampfit._arviz import dask_absent
+
+        with dask_absent():  # xarray's probes for Dask cost 0.3 s where none is used
+            return command(args)
     except DampfitError as exc:
         print(f"dampfit: error: {_one_line(exc)}", file=sys.stderr)
         return 2

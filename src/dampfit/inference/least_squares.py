@@ -23,7 +23,6 @@ from dataclasses import dataclass
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from dampfit.inference.executables import kernel
 from dampfit.model import profile
@@ -112,17 +111,22 @@ def _projected_residual(theta, args):
     return profile.profile(_M1, theta, tau, y, drift, mask).residual
 
 
-_SOLVER = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
+#: Solver tolerances (relative, absolute) of the Levenberg–Marquardt loop.
+TOLERANCES = (1e-10, 1e-12)
 
 
 @kernel(static_argnums=(0,))
 def _fit(max_steps, grid, tau, y, drift, mask):
     """(θ̂, β̂ (padded), RSS, residuals (padded), Jacobian (padded rows, all columns), solver
     result code, steps) of the fit started at the best point of ``grid`` (rows θ)."""
+    import optimistix as optx  # here, not at the top: a process that loads the compiled
+    # kernel (dampfit.inference.executables) never traces this and never imports optimistix
+
     arrays = (tau, y, drift, mask)
     rss = jax.vmap(lambda th: profile.profile(_M1, th, tau, y, drift, mask).rss)(grid)
     theta0 = grid[jnp.nanargmin(rss)]
-    sol = optx.least_squares(_projected_residual, _SOLVER, theta0, args=arrays,
+    solver = optx.LevenbergMarquardt(rtol=TOLERANCES[0], atol=TOLERANCES[1])
+    sol = optx.least_squares(_projected_residual, solver, theta0, args=arrays,
                              max_steps=max_steps, throw=False)
     pr = profile.profile(_M1, sol.value, tau, y, drift, mask)
     phi = jnp.concatenate([sol.value, pr.beta])
@@ -134,6 +138,8 @@ def _fit(max_steps, grid, tau, y, drift, mask):
 
 def _solver_message(code: int) -> str:
     """optimistix's text for a result code (its RESULTS table)."""
+    import optimistix as optx
+
     try:
         return optx.RESULTS._index_to_message[code].split("\n")[0]
     except (AttributeError, IndexError, TypeError):
