@@ -15,10 +15,29 @@ import pytest
 
 from dampfit.cli import main
 from dampfit.errors import InputError
-from dampfit.fem import calculix, lsdyna, modal, opensees, response, sdof, timestep, units, verify
+from dampfit.fem import (
+    calculix,
+    lsdyna,
+    modal,
+    opensees,
+    response,
+    sdof,
+    timestep,
+    units,
+    verify,
+)
 from dampfit.fem.export import build, output_interval
-from tests._support.fem import (C, K, M, MODES, U0, modal_entries, write_modal_summary,
-                                write_result, write_summary)
+from tests._support.fem import (
+    MODES,
+    U0,
+    C,
+    K,
+    M,
+    modal_entries,
+    write_modal_summary,
+    write_result,
+    write_summary,
+)
 
 FORMATS = ("lsdyna", "opensees", "calculix")
 
@@ -69,7 +88,7 @@ def test_a_one_mode_summary_with_modes_keys_gives_the_one_mode_deck(tmp_path, fm
     rows, _ = modal_entries(MODES[:1])
     for layout in ({"n_modes": 1, "modes": rows, "modes_rayleigh": None},
                    {"modes": {"n_modes": 1, "modes": rows, "rayleigh": None}}):
-        _edit(plain, lambda s: s.update(layout))
+        _edit(plain, lambda s, layout=layout: s.update(layout))
         again, info = build(plain, fmt)
         # the summary's hash is in the deck: compare with it put back
         digest = hashlib.sha256((plain / "summary.json").read_bytes()).hexdigest()

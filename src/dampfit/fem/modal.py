@@ -32,6 +32,7 @@ here; text (the misfit statement) reaches a deck only through :mod:`dampfit.fem.
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -114,7 +115,7 @@ def modal_damping(summary: dict[str, Any], where: str | Path = "summary.json") -
             mass_mode = i + 1
         rows.append(row)
     f = [r["f_n"]["q50"] for r in rows]
-    if any(b <= a for a, b in zip(f, f[1:])):
+    if any(b <= a for a, b in itertools.pairwise(f)):
         raise InputError(f"{shown(where)}: the modes' f_n.q50 must increase strictly (by "
                          f"frequency), got {', '.join(f'{x:g}' for x in f)}")
     out = {"n_modes": len(rows), "modes": rows, "mass_mode": mass_mode}
