@@ -4,6 +4,7 @@ that read a result folder: a ``summary.json`` alone, or a whole result with ``si
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 
@@ -53,4 +54,46 @@ def write_result(folder, noise=0.0, mass=M, drop=()):
     if mass is None:
         summary["parameters"]["c"] = summary["parameters"]["k"] = None
     (folder / "summary.json").write_text(json.dumps(summary))
+    return folder
+
+
+#: Two measured modes (f_n [Hz], ζ [1]) of a modal summary; the first is the damper's mode.
+MODES = ((math.sqrt(K / M) / (2 * math.pi), C / (2 * math.sqrt(K * M))), (10.0, 0.004))
+
+
+def modal_entries(modes=MODES, spread=0.02, n=4000, seed=0):
+    """(modes list, Rayleigh entry) as the modes stage writes them (mean/sd/q05/q50/q95 per
+    quantity; Rayleigh from :func:`dampfit.physics_modal.rayleigh_summary` of draws with a
+    relative spread ``spread`` around each mode's (f_n, ζ))."""
+    from dampfit.physics_modal import rayleigh_summary
+
+    rng = np.random.default_rng(seed)
+    f = np.array([m[0] for m in modes]) * (1 + 0.1 * spread * rng.standard_normal((n, len(modes))))
+    z = np.array([m[1] for m in modes]) * (1 + spread * rng.standard_normal((n, len(modes))))
+
+    def stats(x, unit):
+        q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+        return {"mean": float(x.mean()), "sd": float(x.std(ddof=1)), "q05": float(q05),
+                "q50": float(q50), "q95": float(q95), "unit": unit}
+
+    rows = [{"index": i + 1, "mass_mode": i == 0, "f_n": stats(f[:, i], "Hz"),
+             "zeta": stats(z[:, i], "1")} for i in range(len(modes))]
+    ray = rayleigh_summary(2 * np.pi * f, z) if len(modes) >= 2 else None
+    return rows, ray
+
+
+def write_modal_summary(folder, modes=MODES, layout="list", **kw):
+    """:func:`write_summary` plus several modes: ``layout`` "list" (top-level ``modes`` list,
+    ``n_modes`` and ``modes_rayleigh``), "rayleigh" (the list with ``rayleigh`` beside it) or
+    "stage" (``modes`` = the whole modes-stage object with ``modes`` and ``rayleigh``)."""
+    write_summary(folder, **kw)
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    rows, ray = modal_entries(modes)
+    if layout == "stage":
+        summary["modes"] = {"n_modes": len(rows), "modes": rows, "rayleigh": ray}
+    else:
+        summary.update({"n_modes": len(rows), "modes": rows,
+                        ("modes_rayleigh" if layout == "list" else "rayleigh"): ray})
+    path.write_text(json.dumps(summary))
     return folder

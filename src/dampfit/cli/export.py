@@ -45,4 +45,10 @@ def command(args: argparse.Namespace) -> int:
           f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
     print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
           f"output every {info['output_dt']:.4g} s")
+    md = info.get("modal")
+    if md:
+        print(f"  modal damping of {md['n_modes']} modes: Rayleigh alpha = "
+              f"{md['alpha']['q50']:.4g} 1/s, beta = {md['beta']['q50']:.4g} s (zeta "
+              + ", ".join(f"{r['zeta']['q50']:.3g} at {r['f_n']['q50']:.4g} Hz"
+                          for r in md["modes"]) + ")")
     return 0

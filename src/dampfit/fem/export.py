@@ -135,6 +135,9 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     dt = timestep.choose(sdof.omega_n, dur, output_dt)
     if dur / dt > 5e7:
         raise InputError(f"{dur:g} s at a step of {dt:.3g} s is over 5e7 steps; give a shorter --duration")
+    from dampfit.fem.modal import modal_damping
+
+    modal = None if summary.get("kind") == "campaign" else modal_damping(summary, path)
     if fmt == "lsdyna":
         from dampfit.fem.lsdyna import deck
 
@@ -142,18 +145,35 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     elif fmt == "opensees":
         from dampfit.fem.opensees import script
 
-        text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1])
+        text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1],
+                      modal=modal)
     else:
         from dampfit.fem.calculix import deck
 
         text = deck(sdof, system, dur, dt, output_dt)
+    if modal is not None and fmt != "opensees":
+        text = _with_modal(text, fmt, modal, system)
     note = sdof.source.get("campaign")
     if note:
         text = _with_note(text, fmt, note)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
             "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
-            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof}
+            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal}
     return text, info
+
+
+def _with_modal(text: str, fmt: str, modal: dict[str, Any], system) -> str:
+    """``text`` of an LS-DYNA or CalculiX deck with the comment block of the modal damping
+    (:mod:`dampfit.fem.modal`): before LS-DYNA's closing ``*END``, at the end of CalculiX's."""
+    from dampfit.fem import modal as modal_mod
+
+    if fmt == "lsdyna":
+        body = text.rstrip("\n")
+        if not body.endswith("\n*END"):
+            raise ValueError("an LS-DYNA deck ends with *END")
+        lines = modal_mod.lsdyna_lines(modal, system)
+        return body[:-len("*END")] + "\n".join(lines) + "\n*END\n"
+    return text + "\n".join(modal_mod.calculix_lines(modal, system)) + "\n"
 
 
 def _with_note(text: str, fmt: str, note: str) -> str:

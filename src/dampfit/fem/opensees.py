@@ -51,7 +51,8 @@ from dampfit.fem.units import UnitSystem, factor
 from dampfit.fem.units import get as get_units
 
 __all__ = ["BLAS_REASON", "CSV_HEADER", "MAX_ROW_BYTES", "NOT_INSTALLED_REASON", "SCRIPT_NAME",
-           "engine_version", "free_decay", "run_script", "run_steps", "script", "step_options",
+           "engine_version", "free_decay", "modal_step", "run_modal", "run_script", "run_steps",
+           "script", "step_options",
            "unavailable"]
 
 #: Why OpenSeesPy cannot run when its binary misses the system BLAS/LAPACK (Debian packages).
@@ -178,7 +179,7 @@ written with repr (the exact float64). Options replace the defaults below:
   --dt DT --steps N        time step [{T}] and number of steps (default: dt, duration/dt)
   --every K                steps per output row (default: output_every)
 (dampfit verify runs this exact script with these options: see verification.json.)
-"""
+{modal_doc}"""
 import argparse
 import math
 import os
@@ -194,7 +195,7 @@ g = {g!r}  # gravity [{A}] (0: none)
 duration = {duration!r}  # [{T}]
 dt = {dt!r}  # time step [{T}]
 output_every = {every}  # steps between output rows
-
+{modal_values}
 cli = argparse.ArgumentParser(description="Free decay of the mass; writes time,u,v,a as CSV.")
 cli.add_argument("out", nargs="?", metavar="OUT.csv",
                  default=os.path.splitext(os.path.abspath(__file__))[0] + ".csv")
@@ -203,7 +204,7 @@ cli.add_argument("--v-start", type=float, default=0.0)
 cli.add_argument("--dt", type=float, default=dt)
 cli.add_argument("--steps", type=int)
 cli.add_argument("--every", type=int, default=output_every)
-args = cli.parse_args()
+{modal_option}args = cli.parse_args()
 finite = all(map(math.isfinite, (args.u_start, args.v_start, args.dt)))
 if not (finite and args.dt > 0 and args.every >= 1):
     cli.error("--dt must be positive, --every at least 1, all numbers finite")
@@ -216,7 +217,7 @@ else:
 
 import openseespy.opensees as ops  # after the options: --help and their errors need no OpenSees
 
-ops.wipe()
+{modal_run}ops.wipe()
 ops.model("basic", "-ndm", 1, "-ndf", 1)
 ops.node(1, 0.0)  # anchor
 ops.node(2, 0.0)  # mass
@@ -254,9 +255,122 @@ print(f"wrote {{n_rows + 1}} rows to {{args.out}}; omega_n = {{math.sqrt(k / m):
 '''
 
 
+#: Docstring lines of a script with several modes (before its closing quotes).
+_MODAL_DOC = """
+Several modes were measured: {n} modes, each with its own damping. --modal runs them instead
+of the model above: {n} uncoupled oscillators (node i+1, unit mass, k_i = (2*pi*f_i)^2, a
+zeroLength element with -doRayleigh 1) damped by Rayleigh damping alone,
+ops.rayleigh(alphaM, betaK, 0, 0), each released at rest from u = 1 {L}; output: time, u1..u{n}.
+Each mode then decays at p_i = alphaM/2 + betaK*(2*pi*f_i)^2/2 [1/{T}].
+  --modal --modal-dt DT --modal-every K   step of the modal run and steps per output row
+                           (default: modal_dt, the highest mode's T/200, and modal_every)
+Per-mode damping instead of Rayleigh (OpenSees applies it to the residual only, so it needs
+an iterating algorithm such as Newton, not Linear): ops.eigen({n}); ops.modalDamping(*modal_zeta)
+{described}
+"""
+#: Constants of a script with several modes (after output_every).
+_MODAL_VALUES = """modal_f = {f!r}  # natural frequencies of the measured modes [1/{T}]
+modal_zeta = {zeta!r}  # their damping ratios (posterior medians) [1]
+alphaM = {alpha!r}  # Rayleigh mass-proportional coefficient [1/{T}]
+betaK = {beta!r}  # Rayleigh stiffness-proportional coefficient [{T}]
+modal_dt = {modal_dt!r}  # time step of the --modal run [{T}]
+modal_every = {modal_every}  # steps between output rows of the --modal run
+"""
+_MODAL_OPTION = """cli.add_argument("--modal", action="store_true",
+                 help="run the measured modes with Rayleigh damping instead (see the docstring)")
+cli.add_argument("--modal-dt", type=float, default=modal_dt)
+cli.add_argument("--modal-every", type=int, default=modal_every)
+"""
+_MODAL_RUN = """if args.modal:  # the measured modes: uncoupled oscillators damped by Rayleigh alone
+    every = args.modal_every
+    if not (math.isfinite(args.modal_dt) and args.modal_dt > 0 and every >= 1):
+        cli.error("--modal-dt must be a positive finite number, --modal-every at least 1")
+    if args.steps is None:
+        n_rows = int(round(duration / (args.modal_dt * every)))
+    elif args.steps % every == 0:
+        n_rows = args.steps // every
+    else:
+        cli.error("--steps must be a non-negative multiple of --modal-every")
+    ops.wipe()
+    ops.model("basic", "-ndm", 1, "-ndf", 1)
+    ops.node(1, 0.0)  # anchor of every oscillator
+    ops.fix(1, 1)
+    for i, f in enumerate(modal_f, start=1):
+        k_i = (2.0 * math.pi * f) ** 2  # unit mass
+        ops.node(1 + i, 0.0)
+        ops.mass(1 + i, 1.0)
+        ops.uniaxialMaterial("Elastic", i, k_i)
+        ops.element("zeroLength", i, 1, 1 + i, "-mat", i, "-dir", 1, "-doRayleigh", 1)
+        ops.setNodeDisp(1 + i, 1, 1.0, "-commit")
+        ops.setNodeAccel(1 + i, 1, -k_i, "-commit")  # at rest: no damping force
+    ops.rayleigh(alphaM, betaK, 0.0, 0.0)
+    ops.constraints("Plain")
+    ops.numberer("Plain")
+    ops.system("BandGeneral")
+    ops.test("NormDispIncr", 1e-12, 10)
+    ops.algorithm("Linear")
+    ops.integrator("Newmark", 0.5, 0.25)
+    ops.analysis("Transient")
+    nodes = range(2, len(modal_f) + 2)
+    with open(args.out, "w") as fh:
+        fh.write("time," + ",".join(f"u{i}" for i in range(1, len(modal_f) + 1)) + "\\n")
+        fh.write("0.0," + ",".join(repr(ops.nodeDisp(n, 1)) for n in nodes) + "\\n")
+        for i in range(1, n_rows + 1):
+            if ops.analyze(every, args.modal_dt) != 0:
+                sys.exit(f"OpenSees failed before t = {i * every * args.modal_dt}")
+            fh.write(repr(ops.getTime()) + "," + ",".join(repr(ops.nodeDisp(n, 1))
+                                                           for n in nodes) + "\\n")
+    ops.wipe()
+    print(f"wrote {n_rows + 1} rows of {len(modal_f)} modes to {args.out}")
+    sys.exit(0)
+
+"""
+
+
+def _modal_fields(modal: dict[str, Any] | None, units: UnitSystem, duration: float,
+                  output_dt: float, label) -> dict[str, str]:
+    """The four insertions of a script with several modes (empty strings for one mode, so
+    its text stays what it was): docstring, constants, options and the ``--modal`` run."""
+    if modal is None:
+        return dict.fromkeys(("modal_doc", "modal_values", "modal_option", "modal_run"), "")
+    from dampfit.fem import modal as modal_mod
+
+    ff, ft = factor("frequency", units), factor("time", units)
+    f = [float(r["f_n"]["q50"] * ff) for r in modal["modes"]]
+    zeta = [float(r["zeta"]["q50"]) for r in modal["modes"]]
+    alpha, beta = float(modal["alpha"]["q50"] * ff), float(modal["beta"]["q50"] * ft)
+    w_max = 2 * math.pi * max(r["f_n"]["q50"] for r in modal["modes"])
+    step = modal_step(w_max, output_dt)
+    modal_dt, modal_every = float(step * ft), int(max(1, round(output_dt / step)))
+    for key, v in (("alpha", alpha), ("beta", beta), ("modal_dt", modal_dt), *zip(
+            ("f",) * len(f), f), *zip(("zeta",) * len(zeta), zeta)):
+        if not math.isfinite(v):
+            raise InputError(f"{key} = {v!r} in {units.name} units is not a finite number")
+    described = "\n".join(python_comment(t, None) for t in modal_mod.describe(modal))
+    return {"modal_doc": _MODAL_DOC.format(n=len(f), L=label("length"), T=label("time"),
+                                           described=described),
+            "modal_values": _MODAL_VALUES.format(f=f, zeta=zeta, alpha=alpha, beta=beta,
+                                                 modal_dt=modal_dt, modal_every=modal_every,
+                                                 T=label("time")),
+            "modal_option": _MODAL_OPTION, "modal_run": _MODAL_RUN}
+
+
+def modal_step(omega_max: float, output_dt: float) -> float:
+    """Step [s] of the ``--modal`` run: T/200 of the highest mode ``omega_max`` [rad/s], made
+    to divide ``output_dt`` [s] (:func:`dampfit.fem.timestep.choose` without a phase demand)."""
+    from dampfit.fem.timestep import MIN_STEPS_PER_PERIOD
+
+    dt_max = 2 * math.pi / omega_max / MIN_STEPS_PER_PERIOD
+    return output_dt / math.ceil(output_dt / dt_max * (1.0 - 1e-12))
+
+
 def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
-           name: str = SCRIPT_NAME) -> str:
+           name: str = SCRIPT_NAME, modal: dict[str, Any] | None = None) -> str:
     """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI.
+
+    ``modal`` (:func:`dampfit.fem.modal.modal_damping` of a summary with several modes) adds
+    the ``--modal`` run of the measured modes with Rayleigh damping (:data:`_MODAL_RUN`);
+    without it the text is exactly the one-mode script.
 
     Text from outside (the source folder, the dampfit version of the summary, ``name``) is
     written into the docstring only through :func:`~dampfit.fem.sanitize.python_comment` and
@@ -288,6 +402,7 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
         "steps_per_period": sdof.period / dt,
         "period_error": newmark_period_error(sdof.omega_n, dt),
     }
+    fields.update(_modal_fields(modal, units, duration, output_dt, label))
     for key in ("m", "k", "c", "u0", "g", "duration", "dt"):
         if not math.isfinite(fields[key]):
             raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
@@ -310,6 +425,14 @@ def run_script(text: str, options: Sequence[str], rows: int,
     OpenSeesPy is unusable; :class:`RuntimeError` if the run fails or its output is not what
     the script writes.
     """
+    data = _execute(text, options, rows, name, CSV_HEADER, 4)
+    return {"t": data[:, 0], "u": data[:, 1], "v": data[:, 2], "a": data[:, 3]}
+
+
+def _execute(text: str, options: Sequence[str], rows: int, name: str, header: str,
+             columns: int) -> np.ndarray:
+    """Run the script ``text`` in an isolated child (see :func:`run_script`) and read the
+    ``rows`` × ``columns`` numbers of the CSV it writes under ``header``."""
     reason = unavailable()
     if reason is not None:  # not installed, or its BLAS/LAPACK libraries are missing
         raise InputError(reason)
@@ -325,8 +448,26 @@ def run_script(text: str, options: Sequence[str], rows: int,
                                   stdin=subprocess.DEVNULL, stdout=so, stderr=se, check=False)
         if proc.returncode != 0:
             raise RuntimeError(f"OpenSees run failed (exit {proc.returncode}): {_last_line(err)}")
-        data = _read_response(out, rows)
-    return {"t": data[:, 0], "u": data[:, 1], "v": data[:, 2], "a": data[:, 3]}
+        return _read_response(out, rows, header, columns)
+
+
+def run_modal(text: str, n_modes: int, modal_dt: float, n_steps: int, every: int = 1,
+              name: str = SCRIPT_NAME) -> dict[str, np.ndarray]:
+    """Run the ``--modal`` model of a script with several modes (:func:`script` with
+    ``modal``) for ``n_steps`` steps of ``modal_dt`` (script units), a row every ``every``
+    steps: ``t`` (``modal_dt``·steps) and ``u`` (rows × ``n_modes``, each oscillator released
+    at rest from 1 length unit) and ``options`` (what it ran with)."""
+    if n_steps % every:
+        raise ValueError("n_steps must be a multiple of every")
+    options = ["--modal", f"--modal-dt={float(modal_dt)!r}", f"--modal-every={int(every)}",
+               f"--steps={int(n_steps)}", "--every=1"]
+    header = "time," + ",".join(f"u{i}" for i in range(1, n_modes + 1))
+    rows = int(n_steps) // int(every) + 1
+    data = _execute(text, options, rows, name, header, n_modes + 1)
+    t = float(modal_dt) * every * np.arange(rows)
+    if not np.all(np.abs(data[:, 0] - t) <= 0.5 * modal_dt):
+        raise RuntimeError("the OpenSees output rows are not the steps of the run")
+    return {"t": t, "u": data[:, 1:], "options": options}
 
 
 #: Child process of :func:`run_script`: ``sys.argv[1:]`` = the script's path, then its own
@@ -359,9 +500,11 @@ def _last_line(path: str, limit: int = 4096) -> str:
     return " ".join(lines[-1].split())[:200]
 
 
-def _read_response(path: str, rows: int) -> np.ndarray:
-    """The ``rows`` × 4 numbers of the CSV the script wrote to ``path`` (size checked first)."""
-    limit = len(CSV_HEADER) + 1 + rows * MAX_ROW_BYTES
+def _read_response(path: str, rows: int, header: str = CSV_HEADER,
+                   columns: int = 4) -> np.ndarray:
+    """The ``rows`` × ``columns`` numbers of the CSV the script wrote to ``path`` under the
+    line ``header`` (size checked first: ``repr`` floats of at most 24 characters)."""
+    limit = len(header) + 1 + rows * (columns * 25)
     try:
         size = os.stat(path).st_size
     except OSError:
@@ -369,12 +512,12 @@ def _read_response(path: str, rows: int) -> np.ndarray:
     if size > limit:
         raise RuntimeError(f"the OpenSees script wrote {size} bytes, more than {rows} rows hold")
     with open(path, encoding="ascii", errors="replace") as fh:
-        if fh.readline().strip() != CSV_HEADER:
-            raise RuntimeError(f"the OpenSees output does not start with {CSV_HEADER!r}")
+        if fh.readline().strip() != header:
+            raise RuntimeError(f"the OpenSees output does not start with {header!r}")
         data = np.loadtxt(fh, delimiter=",", ndmin=2, dtype=float)
-    if data.shape != (rows, 4):
+    if data.shape != (rows, columns):
         raise RuntimeError(f"the OpenSees script wrote {data.shape[0]} rows of {data.shape[1]} "
-                           f"numbers, not {rows} of 4")
+                           f"numbers, not {rows} of {columns}")
     return data
 
 

@@ -27,6 +27,12 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    (default ``DIR/verify.png``) atomically; print a short table. An existing report.html/.md
    that dampfit wrote is refreshed; one it did not write is left alone (a note on stdout).
 
+6. Several modes (a summary with ``modes``; :mod:`dampfit.fem.modal`): the same script's
+   ``--modal`` run — the measured modes as uncoupled unit-mass oscillators damped by the
+   exported Rayleigh α, β alone — and each mode's decay rate from its peaks against
+   α/2 + β·ω_i²/2 and the measured ζ_i (:func:`modal_run`; ``modal_damping`` in
+   verification.json, a block of the table).
+
 Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
 ``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
 link is replaced itself, never its target), is a directory, has a name the file system cannot
@@ -71,7 +77,7 @@ from dampfit.result.schema import is_campaign
 from dampfit.result.folder import load_signals
 from dampfit.result.schema import folder_of
 
-__all__ = ["exported_script", "figure_format", "plot", "run", "table", "verify"]
+__all__ = ["exported_script", "figure_format", "modal_run", "plot", "run", "table", "verify"]
 
 #: Periods left out at each end for the "interior" error measures (filter settling).
 EDGE_PERIODS = 3.0
@@ -88,11 +94,13 @@ def run(folder: str | Path | Any, dt: float | None = None) -> dict[str, Any]:
     DIR --format opensees`` writes, byte for byte (module docstring).
     """
     from dampfit.fem import opensees
+    from dampfit.fem.modal import modal_damping
 
     folder, summary = sdof_mod.read_summary(folder_of(folder))
     _refuse_campaign(folder, summary)
     ident = sdof_mod.load(folder, 0.5)
     p_id = sdof_mod.summary_quantile(summary, "p", 0.5, folder)  # checked before any work
+    md = modal_damping(summary, folder / "summary.json")  # several modes: checked here too
     sig = load_signals(folder)
     t, tau = sig["t"], sig["t"] - sig["t0"]
     spacing = float(np.median(np.diff(t)))
@@ -149,9 +157,59 @@ def run(folder: str | Path | Any, dt: float | None = None) -> dict[str, Any]:
                        "measured_displacement_peaks": measured_decay["p"],
                        "model_least_squares": sig["p"]},
     }
+    if md is not None:
+        report["modal_damping"] = modal_run(text, md, span, script["name"])
     arrays = {"t": t, "u_fem": u_fem, "a_fem": a_fem, "u_meas": sig["displacement"],
               "a_meas": sig["accel"], "period": ident.period}
     return {"report": report, "arrays": arrays}
+
+
+#: Periods of the lowest mode the ``--modal`` run of verify lasts (at most the window).
+MODAL_PERIODS = 20.0
+#: Largest relative difference between the FEM decay rate of a mode and α/2 + β·ω²/2.
+MODAL_RATE_TOLERANCE = 2e-3
+
+
+def modal_run(text: str, md: dict[str, Any], span: float, name: str) -> dict[str, Any]:
+    """Run the ``--modal`` model of the exported script ``text`` (SI; the measured modes as
+    uncoupled oscillators damped by the exported Rayleigh α, β alone; :mod:`dampfit.fem.modal`)
+    for min(``span``, 20 periods of the lowest mode) [s] and compare every mode's decay rate
+    from the peaks of its displacement with the rate α/2 + β·ω_i²/2 [1/s] the exported
+    α, β give (``fem_vs_rayleigh``: numerics, within :data:`MODAL_RATE_TOLERANCE`) and
+    ζ_fem = p_fem/ω_i with the measured ζ_i: inside its 90 % interval, and off by no more than
+    the Rayleigh misfit (``within_misfit``: |ζ_fem/ζ_i − 1| ≤ max_relative_misfit + 1 %)."""
+    from dampfit.fem import modal as modal_mod
+    from dampfit.fem import opensees
+
+    f = [r["f_n"]["q50"] for r in md["modes"]]
+    step = opensees.modal_step(2 * math.pi * max(f), 1.0 / (50.0 * max(f)))
+    duration = min(span, MODAL_PERIODS / min(f))
+    every = 4
+    n_steps = every * math.ceil(duration / (step * every))
+    res = opensees.run_modal(text, len(f), step, n_steps, every, name=name)
+    misfit = md.get("max_relative_misfit") or 0.0
+    modes = []
+    for i, (row, p_ray) in enumerate(zip(md["modes"], modal_mod.decay_rates(md))):
+        omega = 2 * math.pi * row["f_n"]["q50"]
+        fem = response.peak_decay_rate(res["t"], res["u"][:, i])["p"]
+        z = row["zeta"]
+        zeta_fem = None if fem is None else fem / omega
+        rel = None if fem is None else fem / p_ray - 1.0
+        off = None if zeta_fem is None else zeta_fem / z["q50"] - 1.0
+        modes.append({
+            "index": row["index"], "f_n_hz": row["f_n"]["q50"], "p_fem": fem,
+            "p_rayleigh": p_ray, "fem_vs_rayleigh": rel,
+            "fem_matches_rayleigh": rel is not None and abs(rel) <= MODAL_RATE_TOLERANCE,
+            "zeta_fem": zeta_fem, "zeta_measured": z,
+            "zeta_in_measured_interval": (zeta_fem is not None and "q05" in z and "q95" in z
+                                          and z["q05"] <= zeta_fem <= z["q95"]),
+            "relative_to_measured": off,
+            "within_misfit": off is not None and abs(off) <= misfit + 0.01})
+    return {"alpha": md["alpha"], "beta": md["beta"], "statement": md.get("statement"),
+            "max_relative_misfit": misfit, "unit": "1/s", "dt_s": step, "n_steps": n_steps,
+            "duration_s": n_steps * step, "run_options": res["options"], "modes": modes,
+            "model": "uncoupled unit-mass oscillators k_i = w_i^2, zeroLength -doRayleigh 1, "
+                     "rayleigh(alphaM, betaK, 0, 0); the exported script's --modal run"}
 
 
 def _step(ident: sdof_mod.Sdof, span: float, spacing: float,
@@ -289,6 +347,18 @@ def table(rep: dict[str, Any]) -> str:
     diff = "n/a" if rel is None else f"{100 * rel:+.3f} %"
     lines += ["", (f"  decay rate p [1/s]: FEM peaks {_fmt(d['fem_peaks'], '.6g')}, identified "
                    f"{_fmt(d['identified_q50'], '.6g')} (posterior median), difference {diff}")]
+    md = rep.get("modal_damping")
+    if md:
+        lines += ["", (f"  modal damping (--modal run): Rayleigh alpha = {md['alpha']['q50']:.4g} "
+                       f"1/s, beta = {md['beta']['q50']:.4g} s")]
+        for m in md["modes"]:
+            rel = "n/a" if m["fem_vs_rayleigh"] is None else f"{100 * m['fem_vs_rayleigh']:+.3f} %"
+            lines.append(f"    mode {m['index']} ({m['f_n_hz']:.5g} Hz): p FEM "
+                         f"{_fmt(m['p_fem'], '.5g')} vs alpha/2 + beta*w^2/2 "
+                         f"{m['p_rayleigh']:.5g} 1/s ({rel}); zeta FEM "
+                         f"{_fmt(m['zeta_fem'], '.4g')} vs measured "
+                         f"{m['zeta_measured']['q50']:.4g}"
+                         f"{'' if m['zeta_in_measured_interval'] else ' (outside its 90 % interval)'}")
     return "\n".join(lines)
 
 
