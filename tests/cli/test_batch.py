@@ -273,3 +273,18 @@ def test_output_refusals_leave_other_folders_alone(data, tmp_path, capsys):
     code, _, err = run(["batch", data / "a.csv", "--out", other, "--workers", "1"], capsys)
     assert_one_line_error(code, err, 2, "holds no dampfit batch")
     assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_local_workers_run_xla_on_one_thread_each(monkeypatch):
+    """Several local workers share the processors: each gets one XLA compute thread (unless
+    the user set XLA_FLAGS), so their small kernels do not fight over the cores."""
+    pytest.importorskip("distributed")
+    from dampfit import cluster
+
+    monkeypatch.delenv("XLA_FLAGS", raising=False)
+    assert cluster.worker_env(1) == {}
+    with cluster.client(2, None) as c:
+        flags = c.run(lambda: __import__("os").environ.get("XLA_FLAGS"))  # read there
+    assert len(flags) == 2 and set(flags.values()) == {cluster.ONE_THREAD_XLA}
+    monkeypatch.setenv("XLA_FLAGS", "--mine")
+    assert cluster.worker_env(2) == {}
