@@ -71,6 +71,9 @@ def dask_absent():
             del sys.modules["dask"]
 
 
-def write_netcdf(idata, path: str | os.PathLike) -> None:
-    """Write the arviz InferenceData ``idata`` to ``path`` (NetCDF 4 through h5netcdf)."""
+def write_netcdf(idata, path: str | os.PathLike, groups=None) -> None:
+    """Write the arviz InferenceData ``idata`` to ``path`` (NetCDF 4 through h5netcdf), and
+    each xarray Dataset of ``groups`` (name → Dataset) as a further group."""
     idata.to_netcdf(str(path), engine="h5netcdf")
+    for name, data in (groups or {}).items():
+        data.to_netcdf(str(path), mode="a", group=name, engine="h5netcdf")

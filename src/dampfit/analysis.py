@@ -38,11 +38,51 @@ from dampfit.result.views import ResultViews
 from dampfit.signal import prepare
 from dampfit._arviz import write_netcdf
 
-__all__ = ["Analysis", "PARAMETER_UNITS"]
+__all__ = ["Analysis", "Modes", "PARAMETER_UNITS", "modes_of_summary"]
 
 #: Unit of every reported parameter.
 PARAMETER_UNITS = {name: physics.UNITS[name] for name in (
     "c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta", "Q", "c_crit")}
+
+
+@dataclass(frozen=True)
+class Modes:
+    """The several-modes stage's result (:func:`dampfit.pipeline.modes_stage`): ``n_modes``;
+    ``modes`` one plain dict per mode (by frequency; None for one mode: then the one mode is
+    ``parameters``, :meth:`Analysis.summary` fills it in); ``evidence`` summary.json's
+    ``modes_evidence``; ``rayleigh`` α [1/s], β [s] (None below two modes); ``idata`` the
+    per-mode posterior (arviz, dimension ``mode``; None for one mode); ``warnings``."""
+
+    n_modes: int = 1
+    modes: list | None = None
+    evidence: dict = field(default_factory=dict)
+    rayleigh: dict | None = None
+    idata: Any = None
+    warnings: tuple[str, ...] = ()
+
+
+#: Quantities of each entry of summary.json's ``modes`` (and of the modes group of
+#: posterior.nc); c, k, c_crit, u0, mass only for the mass's mode.
+MODE_QUANTITIES = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "c", "k", "c_crit", "u0")
+
+
+def modes_of_summary(params: dict[str, Any], crlb: dict | None) -> list[dict[str, Any]]:
+    """summary.json's ``modes`` of a one-mode result: the one mode is ``parameters`` (each
+    quantity as there, η = 2ζ added), marked as the mass's mode, with the bounds' sd."""
+    row: dict[str, Any] = {"index": 1, "mass_mode": True}
+    for name in MODE_QUANTITIES:
+        if name == "eta":
+            z = params.get("zeta")
+            row["eta"] = None if z is None else {
+                key: (2 * v if key in ("mean", "sd", "q05", "q50", "q95", "crlb_sd")
+                      and isinstance(v, (int, float)) else v) for key, v in z.items()}
+            if row["eta"] is not None:
+                row["eta"]["unit"] = "1"
+        elif params.get(name) is not None:
+            row[name] = copy.deepcopy(params[name])
+    crlb = crlb or {}
+    row["crlb_sd"] = {q: (crlb.get(q) or {}).get("sd") for q in ("f_n", "zeta", "p", "omega_d")}
+    return [row]
 
 
 @dataclass
@@ -71,6 +111,7 @@ class Analysis(ResultViews):
     options: dict[str, Any]
     warnings: list[str] = field(default_factory=list)
     damping: Any = None  # dampfit.damping.DampingAssessment (None when not assessed)
+    modes: Modes | None = None  # the several-modes stage (None: not run, as max modes 1)
     date: str = field(default_factory=lambda: datetime.now(timezone.utc).isoformat(timespec="seconds"))
     #: Result folder this analysis was loaded from (:func:`dampfit.load`); None when live.
     folder: Path | None = None
@@ -158,6 +199,7 @@ class Analysis(ResultViews):
             "noise_model": fit["noise_model"],
             "crlb": self.crlb,
             **damping,
+            **self._modes_summary(params),
             "fit": fit["fit"],
             "preprocessing": fit["preprocessing"],
             "diagnostics": {"converged": self.converged,
@@ -166,6 +208,38 @@ class Analysis(ResultViews):
             "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
                            "python": platform.python_version(), "versions": versions()},
         })
+
+    def _modes_summary(self, params: dict[str, Any]) -> dict[str, Any]:
+        """``n_modes``, ``modes``, ``modes_evidence`` and ``rayleigh`` (schema docstring)."""
+        modes = self.modes or Modes(evidence={"max_modes": 1, "screen": None,
+                                              "reason": "several modes not looked for"})
+        rows = modes.modes if modes.modes is not None else modes_of_summary(params, self.crlb)
+        return {"n_modes": modes.n_modes, "modes": rows, "modes_evidence": modes.evidence,
+                "rayleigh": modes.rayleigh}
+
+    @property
+    def modes_posterior(self):
+        """The per-mode posterior (an ``xarray.Dataset``, dimensions chain, draw and ``mode``
+        1 … K by frequency; c, k, u0 of the mass's mode without ``mode``), or None when the
+        recording has one mode (then it is :attr:`posterior`). Of a loaded result: the
+        ``modes`` group of posterior.nc."""
+        if self._loaded is not None:
+            post = self._loaded.posterior()
+            return post["modes"] if "modes" in post.groups() else None
+        if self.modes is None or self.modes.idata is None:
+            return None
+        return self.modes.idata.posterior
+
+    def mode_draws(self, name: str) -> np.ndarray:
+        """Flattened draws of ``name`` from :attr:`modes_posterior`: (draws, K) for a per-mode
+        quantity, (draws,) for the mass's mode's c, k, u0; for one mode the one-mode
+        posterior's draws as (draws, 1) (η = 2ζ)."""
+        post = self.modes_posterior
+        if post is None:
+            x = 2 * self.draws("zeta") if name == "eta" else self.draws(name)
+            return x[:, None] if name in ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q") else x
+        v = np.asarray(post[name])
+        return v.reshape((-1,) + v.shape[2:])
 
     def _reach_zero(self, params: dict[str, Any]) -> None:
         """p, ζ, c, δ (and Q) of a decay that cannot be told from 0 as one-sided intervals
@@ -332,9 +406,13 @@ class Analysis(ResultViews):
                     warnings.warn("; ".join(notes), stacklevel=4)
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
-        """Write the posterior (arviz InferenceData) to a NetCDF file."""
-        return atomic_write(path, lambda tmp: write_netcdf(self.posterior, tmp),
-                            suffix=".nc")
+        """Write the posterior (arviz InferenceData) to a NetCDF file, with the per-mode
+        posterior (:attr:`modes_posterior`, when there are several modes) as its group
+        ``modes``."""
+        modal = self.modes_posterior
+        return atomic_write(path, lambda tmp: write_netcdf(
+            self.posterior, tmp, groups={} if modal is None else {"modes": modal}),
+            suffix=".nc")
 
 
 def _baselines_summary(base: dict, p_post: dict | None) -> dict[str, Any]:

@@ -32,7 +32,7 @@ __all__ = ["Analysis", "CampaignAnalysis", "analyze", "analyze_campaign", "analy
            "read"]
 
 #: Options of :func:`analyze` that only apply to one recording.
-SINGLE_ONLY = ("model", "amplitude", "on_stage")
+SINGLE_ONLY = ("model", "amplitude", "on_stage", "max_modes", "mode_of_mass")
 
 
 def analyze(recording: Recording | Sequence[Recording], mass: float | None = None,
@@ -42,20 +42,23 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
             progress: bool = False, max_steps: int = 20000, min_ess: float = 1000.0,
             model: str = "auto", amplitude: float | None = None, on_stage=None,
             added_mass: Sequence[float] | None = None,
-            added_mass_sd: float | None = None) -> Analysis | CampaignAnalysis:
+            added_mass_sd: float | None = None, max_modes: int = 4,
+            mode_of_mass: int | None = None) -> Analysis | CampaignAnalysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording
     (:func:`dampfit.pipeline.analyze`, which documents every option), or jointly from several
     recordings of one damper (a list or tuple: :func:`dampfit.campaign.analyze_campaign`,
     which documents ``added_mass`` [kg] per recording and ``added_mass_sd`` [kg]; ``window``
     and ``band`` may then be one per recording).
 
-    ``model``, ``amplitude`` and ``on_stage`` apply to one recording and ``added_mass``,
+    ``model``, ``amplitude``, ``on_stage``, ``max_modes`` and ``mode_of_mass`` (several
+    modes in one recording) apply to one recording and ``added_mass``,
     ``added_mass_sd`` to several: giving one where it does not apply is a one-line
     :class:`~dampfit.errors.InputError`, never silently ignored.
     """
     if isinstance(recording, (list, tuple)):
         given = {"model": model != "auto", "amplitude": amplitude is not None,
-                 "on_stage": on_stage is not None}
+                 "on_stage": on_stage is not None, "max_modes": max_modes != 4,
+                 "mode_of_mass": mode_of_mass is not None}
         wrong = [name for name in SINGLE_ONLY if given[name]]
         if wrong:
             raise InputError(f"{', '.join(wrong)} apply to a single recording, not to a "
@@ -69,7 +72,8 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
                          "one recording")
     return analyze_one(recording, mass, mass_sd, axis=axis, window=window, band=band,
                        seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
-                       model=model, amplitude=amplitude, on_stage=on_stage)
+                       model=model, amplitude=amplitude, on_stage=on_stage,
+                       max_modes=max_modes, mode_of_mass=mode_of_mass)
 
 
 def load(folder: str | os.PathLike) -> Analysis | CampaignAnalysis:

@@ -2,22 +2,26 @@
 
 Fixed pipeline, each stage in :mod:`dampfit.stages`: ``prepare`` (axis, band, window) →
 ``baselines`` (initial guess, reported) → ``least squares`` → ``noise`` (calibration) →
-``posterior`` (emcee) → ``CRLB`` → ``damping`` (laws, verdict) → :class:`~dampfit.analysis.Analysis`.
+``posterior`` (emcee) → ``CRLB`` → ``damping`` (laws, verdict) → ``modes`` (several modes,
+:func:`modes_stage`) → :class:`~dampfit.analysis.Analysis`.
 Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (both through
 :func:`dampfit.analyze`).
 """
 
 from __future__ import annotations
 
+import math
+import time
+
 from dampfit import physics
 from dampfit._arviz import preload as preload_arviz
 from dampfit import stages
-from dampfit.analysis import Analysis
+from dampfit.analysis import Analysis, Modes
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 from dampfit.signal import prepare
 
-__all__ = ["analyze"]
+__all__ = ["analyze", "modes_stage"]
 
 
 def analyze(
@@ -35,6 +39,8 @@ def analyze(
     model: str = "auto",
     amplitude: float | None = None,
     on_stage=None,
+    max_modes: int = 4,
+    mode_of_mass: int | None = None,
 ) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
 
@@ -59,12 +65,19 @@ def analyze(
     (:func:`dampfit.stages.sampling_summary`) — the CLI draws figures from them in a second
     process meanwhile (:mod:`dampfit.output.figure_process`). Not used for several
     recordings.
+
+    ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
+    looked for in the recording (:func:`modes_stage`; 1: the stage is skipped) and
+    ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
+    belongs to: only that mode gets c and k in ``modes``. ``parameters`` stay the one-mode
+    analysis of the dominant mode.
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
     preload_arviz()  # needed by the posterior stage; imported meanwhile
     m, sd = physics.check_mass(mass, mass_sd)
     stages.check_damping_options(model, amplitude)
+    max_modes, mode_of_mass = _check_modes_options(max_modes, mode_of_mass)
     warns: list[str] = []
     stages.refuse_impossible_time(recording)
     prep = prepare.prepare(recording, axis=axis, window=window, band=band)
@@ -86,14 +99,18 @@ def analyze(
     assessment = stages.assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
                                        max_steps, min_ess, warns, post.n_steps, viscous_seconds)
     warns.extend(_noise_warning(nm, assessment))
+    modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
+                        seed=seed, min_ess=min_ess, max_steps=max_steps)
+    warns.extend(modes.warnings)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
                "min_ess": min_ess, "model": model, "amplitude": amplitude,
+               "max_modes": max_modes, "mode_of_mass": mode_of_mass,
                **recording.read_options}
     an = Analysis(
         recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
         sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd,
-        seed=int(seed), options=options, warnings=warns,
+        seed=int(seed), options=options, warnings=warns, modes=modes,
     )
     if signals:
         an.keep_signals(signals[0])
@@ -122,3 +139,80 @@ def _noise_warning(nm, assessment) -> list[str]:
                 "this path (coloured noise, amplitude-dependent damping or a second mode?); "
                 "intervals were widened to match"]
     return []
+
+
+def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
+    """``max_modes`` and ``mode_of_mass`` checked before any work (one-line InputError)."""
+    from dampfit.inference.modes import check_max_modes, check_mode_of_mass
+
+    max_modes = check_max_modes(max_modes)
+    index = check_mode_of_mass(mode_of_mass, max_modes)
+    return max_modes, None if index is None else index + 1
+
+
+def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
+                mode_of_mass: int | None, seed: int, min_ess: float,
+                max_steps: int) -> Modes:
+    """Several modes in the recording (issue 21), after the one-mode analysis.
+
+    ``max_modes`` 1: nothing is done (``n_modes`` 1, "not looked for"). Otherwise the cheap
+    screen :func:`dampfit.inference.modes_gate.screen` (≈ 0.01–0.05 s) looks at the one-mode
+    least squares ``ls``'s residual in the modal band: if nothing stands out of the noise the
+    recording is one mode, and neither the order selection nor the modal posterior is run
+    (the screen's false-negative risk is in its module docstring: it errs towards running the
+    selection). Else the number of modes is chosen by evidence
+    (:func:`dampfit.inference.modes_select.select`); for K ≥ 2 every mode's posterior is
+    sampled (:func:`dampfit.inference.modes_posterior.sample`, ``mass``, ``mass_sd`` [kg] for
+    the mode ``mode_of_mass``) and summarised with its bound, close pairs and Rayleigh α, β
+    (:func:`~dampfit.inference.modes_posterior.modal_summary`). K = 1 — by the screen or the
+    evidence — is the one-mode posterior of ``parameters`` (the same model, so no second
+    sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
+    gives one mode with the reason as a warning. ``mode_of_mass`` beyond the modes found is
+    a one-line :class:`~dampfit.errors.InputError`.
+    """
+    from dampfit.errors import InputError
+    from dampfit.inference import modes_gate, modes_posterior, modes_select
+
+    start = time.perf_counter()
+    if max_modes == 1:
+        return Modes(evidence={"max_modes": 1, "screen": None, "reason":
+                               "several modes not looked for (max modes 1)"})
+
+    def one(evidence: dict, warnings: tuple[str, ...] = ()) -> Modes:
+        if mode_of_mass is not None and mode_of_mass > 1:
+            raise InputError(f"mode of mass {mode_of_mass} is out of range: the recording has "
+                             "1 mode (1 … 1)")
+        evidence.update(max_modes=max_modes, seconds=time.perf_counter() - start)
+        return Modes(evidence=evidence, warnings=warnings)
+
+    try:
+        gate = modes_gate.screen(prep, ls.p, ls.omega_d)
+        if not gate.passed:
+            return one({"screen": gate.summary(), "reason": gate.reason})
+        sel = modes_select.select(prep, max_modes=max_modes)
+    except InputError as exc:
+        why = f"several modes not analysed: {exc}"
+        return one({"screen": None, "reason": why}, (why,))
+    evidence = {"screen": gate.summary(), **sel.summary()}
+    if sel.n_modes == 1:
+        evidence["reason"] = "one mode by evidence"
+        return one(evidence, tuple(sel.warnings))
+    post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
+                                  seed=seed, min_ess=min_ess, max_steps=max_steps)
+    out = modes_posterior.modal_summary(sel, post)
+    evidence.update(reason=f"{sel.n_modes} modes by evidence", pairs=out["pairs"],
+                    notes=out["notes"], max_modes=max_modes,
+                    sampling={"converged": post.converged, "max_r_hat": post.max_r_hat,
+                              "min_ess_bulk": post.min_ess_bulk, "n_steps": post.n_steps,
+                              "n_walkers": int(post.idata.posterior.sizes["chain"])},
+                    seconds=time.perf_counter() - start)
+    warns = list(out["warnings"])
+    f1 = ls.omega_d / (2 * math.pi)
+    nearest = min(range(len(out["modes"])),
+                  key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
+    if nearest != post.mode_of_mass:
+        warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
+                     f"(mode {nearest + 1}); the mass belongs to mode {post.mode_of_mass + 1}, "
+                     f"whose c and k are in modes[{post.mode_of_mass}]")
+    return Modes(n_modes=sel.n_modes, modes=out["modes"], evidence=evidence,
+                 rayleigh=out["rayleigh"], idata=post.idata, warnings=tuple(warns))

@@ -33,7 +33,8 @@ from dampfit.batch.task import run_job
 __all__ = ["ANALYSIS_OPTIONS", "analyze_many", "execute", "run_batch"]
 
 #: Options of :func:`dampfit.pipeline.analyze` a batch passes to every recording.
-ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "model", "amplitude")
+ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "model", "amplitude",
+                    "max_modes", "mode_of_mass")
 
 
 def _dead_row(job: Job, key: str, exc: BaseException) -> dict[str, Any]:
@@ -153,7 +154,8 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
                  figures: bool = True, report: bool = False, summaries_only: bool = False,
                  force: bool = False, read_options: dict[str, Any] | None = None,
                  axis: str = "auto", window=None, band=None, seed: int = 0,
-                 max_steps: int = 20000, model: str = "auto", amplitude: float | None = None):
+                 max_steps: int = 20000, model: str = "auto", amplitude: float | None = None,
+                 max_modes: int = 4, mode_of_mass: int | None = None):
     """Analyse many independent recordings; return the results table (a ``pandas.DataFrame``,
     one row per recording: :mod:`dampfit.batch.table`).
 
@@ -170,7 +172,8 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
                      read_options=read_options)
     options = {"axis": axis, "window": None if window is None else tuple(window),
                "band": None if band is None else tuple(band), "seed": seed,
-               "max_steps": max_steps, "model": model, "amplitude": amplitude}
+               "max_steps": max_steps, "model": model, "amplitude": amplitude,
+               "max_modes": max_modes, "mode_of_mass": mode_of_mass}
     outputs = {"figures": figures, "report": report, "summaries_only": summaries_only}
     if out is not None:
         return run_batch(jobs, out, options=options, outputs=outputs, client=client,

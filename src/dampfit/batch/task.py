@@ -74,7 +74,7 @@ def run_job(job, key: str, options: dict[str, Any], outputs: dict[str, bool],
             runs: str | None) -> dict[str, Any]:
     """Analyse ``job`` (a :class:`dampfit.batch.inputs.Job`) with the analysis ``options``
     (keyword arguments of :func:`dampfit.pipeline.analyze`: axis, window, band, seed,
-    max_steps, model, amplitude); write its folder into ``runs`` (None: nothing written) with
+    max_steps, model, amplitude, max_modes, mode_of_mass); write its folder into ``runs`` (None: nothing written) with
     ``outputs`` (figures, report, summaries_only); return its row (module docstring)."""
     t0 = time.perf_counter()
     row: dict[str, Any] = {"key": key, "file": job.file, "name": job.name,

@@ -17,8 +17,10 @@ of a single analysis (``--out`` may not be or hold the folder of any of them).
 Refused before any work, one line, exit 2, nothing written: ``--added-mass`` with a count other
 than the number of files, ``--added-mass`` together with ``--mass`` (the added-mass method
 estimates the effective mass m₀ itself), ``--added-mass-sd`` without ``--added-mass``, a file
-given twice, ``--model``/``--amplitude`` (single-recording options); a file that cannot be read
-is named in its one error line. ``--window``/``--band``/``--axis`` apply to every file.
+given twice, ``--model``/``--amplitude``/``--max-modes``/``--mode-of-mass`` (single-recording
+options); a file that cannot be read
+is named in its one error line. ``--window``/``--band``/``--axis`` apply to every file;
+``--max-modes``/``--mode-of-mass`` (several modes in one recording) are refused for a campaign.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from pathlib import Path
 from dampfit.cli.options import real_arg, seed_arg
 from dampfit.physics import MAX_MASS
 from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options
+from dampfit.cli.options import modes_options
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
@@ -179,7 +182,7 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
                  band=tuple(args.band) if args.band else None, seed=args.seed,
                  progress=not args.quiet and sys.stderr.isatty(),
                  max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
-                 on_stage=figs.send)
+                 on_stage=figs.send, **modes_options(args))
     gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
     an.save(folder, figures=not args.no_figures, figure_process=figs)
     return an
@@ -199,8 +202,13 @@ def _check_campaign_options(args, files: list[str]) -> None:
         raise InputError("argument --added-mass-sd: given without --added-mass")
     if args.mass_sd is not None and args.mass is None:
         raise InputError("argument --mass-sd: a mass standard deviation without --mass")
-    if args.model != "auto" or args.amplitude is not None:
-        which = "--model" if args.model != "auto" else "--amplitude"
+    single = [name for name, given in (("--model", args.model != "auto"),
+                                       ("--amplitude", args.amplitude is not None),
+                                       ("--max-modes", args.max_modes is not None),
+                                       ("--mode-of-mass", args.mode_of_mass is not None))
+              if given]
+    if single:
+        which = single[0]
         raise InputError(f"argument {which}: applies to one recording, not to a campaign of "
                          f"{n} files; analyse a file alone for its damping-law check")
     seen: dict[str, str] = {}

@@ -62,10 +62,12 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
 
 def _options(args) -> tuple[dict, dict, dict]:
     from dampfit.cli.analyze import read_options
+    from dampfit.cli.options import modes_options
 
     options = {"axis": args.axis, "window": tuple(args.window) if args.window else None,
                "band": tuple(args.band) if args.band else None, "seed": args.seed,
-               "max_steps": args.max_steps, "model": args.model, "amplitude": args.amplitude}
+               "max_steps": args.max_steps, "model": args.model, "amplitude": args.amplitude,
+               **modes_options(args)}
     outputs = {"figures": not args.no_figures and not args.summaries_only,
                "report": args.report and not args.summaries_only,
                "summaries_only": args.summaries_only}

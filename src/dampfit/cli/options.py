@@ -14,11 +14,15 @@ import math
 from dampfit.errors import InputError
 from dampfit.physics import MAX_MASS
 
-__all__ = ["MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
+__all__ = ["MAX_STEPS", "modes_options", "SEED_LIMIT", "Parser", "add_analysis_options",
            "check_analysis_options", "float_arg", "seed_arg"]
 
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
 SEED_LIMIT = 2**32
+#: Default and largest --max-modes: :data:`dampfit.inference.modes.DEFAULT_MAX_MODES` and
+#: :data:`~dampfit.inference.modes.MAX_MODES_LIMIT` (not imported: that module imports JAX,
+#: and the parser is built before the scientific stack; a test checks they agree).
+DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
 #: Largest --max-steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).
 MAX_STEPS = 10**6
 
@@ -99,6 +103,14 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
                                              lambda v: v > 0), metavar="M",
                    help="displacement amplitude [m] at which a non-viscous law's equivalent "
                         "viscous c is reported (the amplitude your FEM model will see)")
+    a.add_argument("--max-modes", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
+                   default=None,
+                   help=f"most modes looked for in the recording, 1 to {MAX_MODES_LIMIT} "
+                        f"(default {DEFAULT_MAX_MODES}; 1: one mode only, no modal analysis)")
+    a.add_argument("--mode-of-mass", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
+                   default=None,
+                   help="the mode (1 = lowest frequency) the --mass belongs to: only it gets "
+                        "c and k (default: the dominant mode)")
 
 
 def check_analysis_options(args) -> None:
@@ -106,9 +118,19 @@ def check_analysis_options(args) -> None:
     if args.window is not None and not args.window[0] < args.window[1]:
         raise InputError(f"argument --window: END must come after its start, got "
                          f"{args.window[0]:g} {args.window[1]:g}")
+    max_modes = getattr(args, "max_modes", None) or DEFAULT_MAX_MODES
+    if getattr(args, "mode_of_mass", None) is not None and args.mode_of_mass > max_modes:
+        raise InputError(f"argument --mode-of-mass: mode {args.mode_of_mass} is beyond "
+                         f"--max-modes {max_modes}")
     if args.band is not None and not args.band[0] < args.band[1]:
         raise InputError(f"argument --band: the pass band needs LO < HI, got "
                          f"{args.band[0]:g} {args.band[1]:g}")
+
+
+def modes_options(args) -> dict:
+    """``max_modes`` and ``mode_of_mass`` of :func:`dampfit.pipeline.analyze` from ``args``."""
+    return {"max_modes": getattr(args, "max_modes", None) or DEFAULT_MAX_MODES,
+            "mode_of_mass": getattr(args, "mode_of_mass", None)}
 
 
 def add_reading_options(a: argparse.ArgumentParser) -> None:

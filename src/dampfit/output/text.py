@@ -139,6 +139,7 @@ def text(s: dict[str, Any]) -> str:
     if isinstance(s.get("model_checks"), dict):
         lines.append(_damping_law_line(s))
         lines.extend(_backbone_lines(s))
+    lines.extend(_modes_lines(s))
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"
     lines.append(
@@ -149,6 +150,44 @@ def text(s: dict[str, Any]) -> str:
         lines.append("")
         lines += [f"  WARNING: {w}" for w in d["warnings"]]
     return "\n".join(lines)
+
+
+#: Rows of each mode's block (:func:`_modes_lines`): key, label; c and k for the mass's mode.
+_MODE_ROWS = (("f_n", "f_n    [Hz]"), ("zeta", "zeta   [1]"), ("eta", "eta    [1]"),
+              ("delta", "Lambda [1]"), ("Q", "Q      [1]"), ("c", "c      [N s/m]"),
+              ("k", "k      [N/m]"))
+
+
+def _modes_lines(s: dict[str, Any]) -> list[str]:
+    """One block per mode when the recording has several (summary's ``modes``): f_n, ζ,
+    η = 2ζ, Λ (log decrement), Q with 90 % intervals; c and k only for the mass's mode;
+    then P(K) and the Rayleigh statement. Nothing for one mode (it is the table above)."""
+    modes = s.get("modes")
+    if not isinstance(modes, list) or s.get("n_modes") in (None, 1) or len(modes) < 2:
+        return []
+    ev = s.get("modes_evidence") if isinstance(s.get("modes_evidence"), dict) else {}
+    probs = [f"P(K = {r.get('n_modes')}) = {r.get('probability'):.2g}"
+             for r in ev.get("evidence") or [] if isinstance(r, dict)
+             and isinstance(r.get("probability"), (int, float)) and r["probability"] >= 0.001]
+    lines = ["", f"  {len(modes)} modes" + (f" ({', '.join(probs)})" if probs else "")]
+    for i, mode in enumerate(modes):
+        if not isinstance(mode, dict):
+            continue
+        mark = "  (the mass's mode)" if mode.get("mass_mode") is True else ""
+        lines.append(f"  mode {i + 1}{mark}")
+        for key, label in _MODE_ROWS:
+            q = mode.get(key)
+            if not isinstance(q, dict) or not all(isinstance(q.get(x), (int, float))
+                                                  for x in ("q05", "q50", "q95")):
+                continue
+            med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
+            lines.append(f"    {label:13s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
+                         f"   R-hat {_f(q.get('r_hat'), '.4f')}")
+    ray = s.get("rayleigh")
+    if isinstance(ray, dict) and isinstance(ray.get("statement"), str):
+        lines.append(f"  Rayleigh        alpha = {_with_interval(ray.get('alpha') or {})} 1/s, "
+                     f"beta = {_with_interval(ray.get('beta') or {})} s; {ray['statement']}")
+    return lines
 
 
 def _head_lines(s: dict[str, Any]) -> list[str]:

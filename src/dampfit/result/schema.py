@@ -79,6 +79,24 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "f_d_sd_hz", …}], "slope", "backbone", …},     # ζ(A) and f(A)
      "c_equivalent": null | {"model", "c", "zeta", "amplitude_m", "note",
              "recorded_amplitude_range_m", "extrapolated"},
+     "n_modes": int,                               # modes found (1 … max modes)
+     "modes": [{"index", "mass_mode",              # one per mode, by frequency (1-based)
+             "f_n": {"unit": "Hz", "mean", "sd", "q05", "q50", "q95", "r_hat",
+                   "ess_bulk"}, "f_d", "zeta", "p", "eta", "delta", "Q",
+             "accel_amplitude",                  # K ≥ 2 only
+             "c", "k", "c_crit", "u0",             # the mass's mode only (c, k with mass)
+             "crlb_sd": {"f_n", "zeta", "p", "omega_d"}}],
+             # one mode: modes[0] is parameters (eta = 2 zeta added)
+     "modes_evidence": {"max_modes", "reason", "seconds",
+             "screen": null | {"passed", "max_z2", "at_hz", "rate_per_s",
+                   "threshold_z2", "reason"},  # the cheap one-mode screen
+             "evidence": [{"n_modes", "ln_evidence", "probability", "admissible",
+                   "reason", "f_d_hz", "amplitude_z"}],   # every K tried, P(K)
+             "band_hz", "window_s", "psd_ratio", "pairs": [{…, "flagged"}],
+             "sampling", …},                     # only when more modes were fitted
+     "rayleigh": null | {"alpha": {"unit": "1/s", …}, "beta": {"unit": "s", …},
+             "zeta_fitted", "zeta_measured", "chi2", "dof", "p_value",
+             "max_relative_misfit", "statement", "warnings"},  # K ≥ 2
      "fit": {"path": "raw" | "decimated", "n_samples", "sample_rate_hz", "drift_degree",
              "n_excluded", "t0_s"},
      "preprocessing": {"n_stale_dropped", "n_clipped", "n_spikes", "noise_density",
@@ -244,10 +262,11 @@ def parse_json(data: bytes) -> Any:
 
 def _check_fields(summary: dict[str, Any], path: Path) -> None:
     """Field-level checks of the sections every reader relies on (one line naming the field)."""
-    for section in ("mass", "input", "window"):
+    for section in ("mass", "input", "window", "modes_evidence", "rayleigh"):
         if summary.get(section) is not None and not isinstance(summary[section], dict):
             raise InputError(f"{shown(path)}: '{section}' must be an object, "
                              f"got {brief(summary[section])}")
+    _check_modes(summary, path)
     version = summary.get("dampfit_version")
     if version is not None and not isinstance(version, str):
         raise InputError(f"{shown(path)}: 'dampfit_version' must be a string, got {brief(version)}")
@@ -256,6 +275,29 @@ def _check_fields(summary: dict[str, Any], path: Path) -> None:
             raise InputError(f"{shown(path)}: 'kind' must be \"campaign\" (or absent for one "
                              f"recording), got {brief(summary['kind'])}")
         _check_campaign(summary, path)
+
+
+def _check_modes(summary: dict[str, Any], path: Path) -> None:
+    """``modes`` a list of objects (or absent/null: a summary older than the modes), each
+    quantity an object (or null), and ``n_modes`` a whole number 1 … len(modes) when given."""
+    modes = summary.get("modes")
+    if modes is None:
+        return
+    if not isinstance(modes, list):
+        raise InputError(f"{shown(path)}: 'modes' must be a list, got {brief(modes)}")
+    for i, mode in enumerate(modes):
+        if not isinstance(mode, dict):
+            raise InputError(f"{shown(path)}: modes[{i}] must be an object, got {brief(mode)}")
+        for name, entry in mode.items():
+            if name not in ("index", "mass_mode") and entry is not None \
+                    and not isinstance(entry, dict):
+                raise InputError(f"{shown(path)}: modes[{i}].{shown(name, 40)} must be an "
+                                 f"object, got {brief(entry)}")
+    n = summary.get("n_modes")
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int)
+                          or not 1 <= n <= max(len(modes), 1)):
+        raise InputError(f"{shown(path)}: 'n_modes' must be a whole number from 1 to the "
+                         f"{len(modes)} entries of 'modes', got {brief(n)}")
 
 
 #: Sections of a campaign summary (``"kind": "campaign"``) that are objects (or null/absent).
