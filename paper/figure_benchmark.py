@@ -41,7 +41,6 @@ import time
 from pathlib import Path
 
 MASS = 5.3  # [kg], as in paper/benchmark.py
-AMPLITUDE = "amplitude"
 
 
 def _figures_module(path: str | None):
@@ -81,13 +80,7 @@ def _one_figure(figs, an, name: str, outdir: Path, dpi: int) -> tuple[float, flo
 
 def _one_figure_timed(figs, an, name: str, outdir: Path, dpi: int) -> tuple[float, float]:
     t0 = time.perf_counter()
-    if name == AMPLITUDE:
-        fig = figs.amplitude_figure(figs._amplitude_curve(an), None, dpi=dpi,
-                                    f_d_hz=figs._ls_values(an)["f_d"],
-                                    frequency_trend=(an.damping.adequacy or {})
-                                    .get("frequency_trend"))
-    else:
-        fig = figs.FIGURES[name](an)
+    fig = figs.FIGURES[name](an)
     t1 = time.perf_counter()
     if fig is not None:
         figs.save_png(fig, outdir / f"{name}.png", dpi)
@@ -100,7 +93,7 @@ def _first_call(figs, an, tmp: Path, label: str, dpi: int) -> dict:
     t0 = time.perf_counter()
     written = figs.save_figures(an, tmp / f"{label}-first", dpi=dpi)
     return {"first": time.perf_counter() - t0, "wall": [], "cpu": [], "per": {},
-            "missing": sorted(set([*figs.FIGURES, AMPLITUDE]) - set(written))}
+            "missing": sorted(set(figs.FIGURES) - set(written))}
 
 
 def _time_call(figs, an, tmp: Path, label: str, r: int, dpi: int, res: dict) -> None:
@@ -115,7 +108,7 @@ def _time_figures(figs, an, tmp: Path, label: str, r: int, dpi: int, per: dict) 
     """One (build, write) timing of every figure of ``figs`` appended to ``per``."""
     out = tmp / f"{label}-each{r}"
     out.mkdir()
-    for name in [*figs.FIGURES, AMPLITUDE]:
+    for name in figs.FIGURES:
         build, write = _one_figure(figs, an, name, out, dpi)
         per.setdefault(name, ([], []))[0].append(build)
         per[name][1].append(write)

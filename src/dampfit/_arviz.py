@@ -6,45 +6,16 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
-import threading
 import warnings
 
 __all__ = ["arviz", "dask_absent", "write_netcdf"]
 
 
-#: arviz's import-time notice of its refactor (a FutureWarning meant for its developers' users).
-_NOTICE = r"\s*ArviZ is undergoing a major refactor"
-_preloading: threading.Thread | None = None
-
-
-def _quiet_import() -> None:
-    warnings.filterwarnings("ignore", message=_NOTICE, category=FutureWarning)
-    try:
-        import arviz  # noqa: F401
-    except Exception:  # noqa: BLE001 - imported again (and its error raised) on first use
-        pass
-
-
-def preload() -> None:
-    """Start importing arviz (with xarray and matplotlib ≈ 0.4 s of a warm ``dampfit
-    analyze``) in a background thread, once, so that it overlaps the least squares and the
-    sampler's compiled steps, which run without the interpreter lock; :func:`arviz` waits
-    for it. The pipeline calls this as an analysis starts, after every module it imports at
-    the top has been imported, so the two threads do not import the same modules."""
-    global _preloading
-    if "arviz" in sys.modules or _preloading is not None:
-        return
-    _preloading = threading.Thread(target=_quiet_import, name="dampfit-import-arviz",
-                                   daemon=True)
-    _preloading.start()
-
-
 def arviz():
     """The arviz module (imported on first use: it pulls in xarray and takes a moment)."""
-    if _preloading is not None:
-        _preloading.join()
-    warnings.filterwarnings("ignore", message=_NOTICE, category=FutureWarning)
-    import arviz as az
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        import arviz as az
 
     return az
 

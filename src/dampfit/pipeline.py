@@ -14,7 +14,6 @@ import math
 import time
 
 from dampfit import physics
-from dampfit._arviz import preload as preload_arviz
 from dampfit import stages
 from dampfit.analysis import Analysis, Modes
 from dampfit.errors import InputError
@@ -74,7 +73,6 @@ def analyze(
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
-    preload_arviz()  # needed by the posterior stage; imported meanwhile
     m, sd = physics.check_mass(mass, mass_sd)
     stages.check_damping_options(model, amplitude)
     max_modes, mode_of_mass = _check_modes_options(max_modes, mode_of_mass)

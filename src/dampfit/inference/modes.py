@@ -51,7 +51,6 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
-import optimistix as optx
 from scipy import ndimage
 
 from dampfit.errors import InputError
@@ -86,7 +85,8 @@ N_LM, GRID_BATCH, RESTARTS = 3, 64, 2
 GRID_RATE_FACTORS, GRID_CELL_SHIFTS = (1 / 3, 1.0, 3.0), (-0.25, 0.0, 0.25)
 #: Rows of the start grid per start row.
 GRID_PER_START = len(GRID_RATE_FACTORS) * len(GRID_CELL_SHIFTS)
-_SOLVER = optx.LevenbergMarquardt(rtol=1e-8, atol=1e-10)
+#: Levenberg–Marquardt tolerances (relative, absolute) of the K-mode least squares.
+TOLERANCES = (1e-8, 1e-10)
 
 
 # ----------------------------------------------------------------------------- options
@@ -280,7 +280,10 @@ def _fit_batch(n, max_steps, starts, tau, y, drift, mask):
     resid = vp_residual(n, tau, y, drift, mask)
 
     def one(th0):
-        sol = optx.least_squares(lambda th, _: resid(th), _SOLVER, th0, max_steps=max_steps,
+        import optimistix as optx  # only where traced: a loaded kernel needs no optimistix
+
+        solver = optx.LevenbergMarquardt(rtol=TOLERANCES[0], atol=TOLERANCES[1])
+        sol = optx.least_squares(lambda th, _: resid(th), solver, th0, max_steps=max_steps,
                                  throw=False)
         rss = profile.profile(mdl, sol.value, tau, y, drift, mask).rss
         return sol.value, rss, sol.result._value, sol.stats.get("num_steps", -1)

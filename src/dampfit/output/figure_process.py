@@ -21,7 +21,11 @@ posterior — mostly one core — a second Python process draws what is ready on
    every figure whose data have all arrived;
 3. :meth:`FigureProcess.deliver` passes the finished :class:`~dampfit.analysis.Analysis`'s
    summary (and whatever was not sent before) before the result's files are written, and
-   :meth:`FigureProcess.finish` waits for the last figures and returns the files written.
+   :meth:`FigureProcess.finish` draws, here and from the last figure backwards, the figures
+   the process has not yet taken (each figure is drawn by whichever process first creates
+   its claim file, :func:`dampfit.output.figures.claim_in`: the process is usually a figure
+   or two behind when the analysis ends, and this one would otherwise only wait), then
+   waits for the process and returns the files written.
 
 Messages are pickles, each preceded by its length (8 bytes, big-endian), written to the
 process's standard input; the process answers with one JSON line on its standard output and
@@ -81,8 +85,10 @@ class FigureProcess:
             self._writer = threading.Thread(target=self._write_loop, name="dampfit-figures",
                                             daemon=True)
             self._writer.start()
-        #: Where the figures of the last :meth:`finish` came from: "process" or "here".
+        #: Where the figures of the last :meth:`finish` came from: "process" (shared with
+        #: this one: :attr:`drawn_here`) or "here" (the process failed or was not used).
         self.drawn_by: str | None = None
+        self.drawn_here: list[str] = []
         self._sent: set[str] = set()  # "signals", "posterior" once a stage has sent them
         self._delivered = False  # the finished analysis was sent (deliver)
 
@@ -190,20 +196,32 @@ class FigureProcess:
         self._delivered = True
 
     def finish(self, an, outdir: str | os.PathLike) -> dict[str, Path]:
-        """The finished analysis ``an`` (:meth:`deliver`, unless done): wait for the process to
-        write every figure into ``outdir`` (or draw them here, module docstring);
-        ``{name: path}`` written."""
-        self.deliver(an, outdir)
-        if not self._broken and self._proc is not None:
-            written = self._answer() if self._drain(TIMEOUT_S) else None
-            if written is not None:
-                self.drawn_by = "process"
-                return {name: Path(outdir) / f"{name}.png" for name in written}
-        self.close()
-        from dampfit.output.figures import save_figures
+        """The finished analysis ``an`` (:meth:`deliver`, unless done): draw here, from the
+        last figure backwards, every figure the process has not yet taken, while it draws
+        from the first forwards — each figure goes to the process that first claims it
+        (:func:`dampfit.output.figures.claim_in`) — then wait for the process's answer (or
+        draw the rest here, module docstring); ``{name: path}`` written. The analysis process
+        is otherwise idle here, and the process is often a figure or two behind."""
+        from dampfit.output import figures
 
-        self.drawn_by = "here"
-        return save_figures(an, outdir, dpi=self._dpi)
+        self.deliver(an, outdir)
+        try:
+            mine: dict[str, Path | None] = {}
+            if not self._broken and self._proc is not None:
+                mine = figures.render(an, list(reversed(figures.FIGURES)), outdir, self._dpi,
+                                      claim=figures.claim_in(outdir))
+                written = self._answer() if self._drain(TIMEOUT_S) else None
+                if written is not None:
+                    self.drawn_by = "process"
+                    self.drawn_here = sorted(n for n, p in mine.items() if p is not None)
+                    names = set(written) | set(self.drawn_here)
+                    return {name: Path(outdir) / f"{name}.png" for name in names}
+            self.close()
+            self.drawn_by, self.drawn_here = "here", list(figures.FIGURES)
+            done = {n: p for n, p in mine.items() if p is not None}
+            return {**done, **figures.save_figures(an, outdir, dpi=self._dpi, skip=tuple(mine))}
+        finally:
+            figures.release_claims(outdir)
 
     def _answer(self) -> list[str] | None:
         proc = self._proc
@@ -254,27 +272,30 @@ def main() -> int:
     gc.freeze()
     stdin = sys.stdin.buffer
     data = figures.FigureData()
-    outdir, dpi, done = None, 110, {}
+    outdir, dpi, done, claim = None, 110, {}, None
     try:
         while True:
             msg = _read(stdin)
             if msg is None:
                 return 0  # the parent gave up: nothing to report
-            outdir = msg.get("outdir", outdir)
+            if msg.get("outdir", outdir) != outdir:
+                outdir = msg["outdir"]
+                claim = figures.claim_in(outdir)  # the parent draws the last ones too
             dpi = msg.get("dpi", dpi)
             data.add(msg.get("data", {}))
             if outdir is None:
                 continue
             if msg.get("end"):
-                written = figures.save_figures(data, outdir, dpi=dpi, skip=tuple(done))
-                names = sorted({n for n, p in done.items() if p is not None} | set(written))
+                rest = [n for n in figures.FIGURES if n not in done]
+                written = figures.render(data, rest, outdir, dpi, claim=claim)
+                names = sorted(n for n, p in {**done, **written}.items() if p is not None)
                 sys.stdout.write(json.dumps({"ok": True, "written": names}) + "\n")
                 sys.stdout.flush()
                 return 0
             ready = [n for n in figures.FIGURES
                      if n not in done and figures.NEEDS[n] <= data.keys()]
             if ready:
-                done.update(figures.render(data, ready, outdir, dpi))
+                done.update(figures.render(data, ready, outdir, dpi, claim=claim))
     except Exception as exc:  # noqa: BLE001 - reported; the parent draws the figures itself
         text = " ".join(f"{type(exc).__name__}: {exc}".split())[:500]
         sys.stdout.write(json.dumps({"ok": False, "error": text}) + "\n")

@@ -81,18 +81,22 @@ NEEDS: dict[str, frozenset[str]] = {
 
 
 def render(an: Any, names, outdir: str | os.PathLike, dpi: int = 110,
-           on_missing: Callable[[str, str], object] | None = None) -> dict[str, Path | None]:
+           on_missing: Callable[[str, str], object] | None = None,
+           claim: Callable[[str], bool] | None = None) -> dict[str, Path | None]:
     """Draw the figures ``names`` of :data:`FIGURES` of ``an`` (an analysis or its
     :class:`FigureData`) and write each as ``<name>.png`` into ``outdir`` (atomically).
     Returns ``{name: path}``; ``None`` for a figure that does not apply, whose older file in
     ``outdir`` is removed. A figure whose data are absent raises :class:`MissingData`, or with
     ``on_missing`` is reported as ``on_missing(name, message)`` and left out (its file left
-    as it is)."""
+    as it is). With ``claim``, a figure is drawn only if ``claim(name)`` is true (another
+    process drawing into the same folder took the others: :func:`claim_in`)."""
     data = as_data(an)
     outdir = Path(outdir)
     written: dict[str, Path | None] = {}
     with drawing():
         for name in names:
+            if claim is not None and not claim(name):
+                continue
             try:
                 fig = FIGURES[name](data)
             except MissingData as exc:
@@ -108,6 +112,34 @@ def render(an: Any, names, outdir: str | os.PathLike, dpi: int = 110,
             save_png(fig, path, dpi)
             written[name] = path
     return written
+
+
+#: Suffix of the claim files two processes drawing into one folder share (:func:`claim_in`).
+CLAIM_SUFFIX = ".figure-claim"
+
+
+def claim_in(outdir: str | os.PathLike) -> Callable[[str], bool]:
+    """A ``claim`` for :func:`render`: figure ``name`` is this process's to draw if it is the
+    first to create the empty file ``.<name>.figure-claim`` in ``outdir`` (``O_EXCL``: the
+    file system decides, atomically, between the figure process and the analysis process,
+    which share the last figures this way). :func:`release_claims` removes the files."""
+    folder = Path(outdir)
+
+    def claim(name: str) -> bool:
+        try:
+            os.close(os.open(folder / f".{name}{CLAIM_SUFFIX}",
+                             os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600))
+        except FileExistsError:
+            return False
+        return True
+
+    return claim
+
+
+def release_claims(outdir: str | os.PathLike) -> None:
+    """Remove the claim files of :func:`claim_in` from ``outdir``."""
+    for name in FIGURES:
+        (Path(outdir) / f".{name}{CLAIM_SUFFIX}").unlink(missing_ok=True)
 
 
 def save_figures(an: Any, outdir: str | os.PathLike, *, dpi: int = 110, skip=(),
