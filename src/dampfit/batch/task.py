@@ -47,9 +47,34 @@ def row_of(summary: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+_FROZEN = False
+
+
+def _settle() -> None:
+    """Once per process: import the stack, then move its objects out of the garbage
+    collector's reach (``gc.freeze``), as the CLI does — JAX, SciPy, arviz and matplotlib are
+    hundreds of thousands of long-lived objects that every full collection would walk again,
+    recording after recording. The recordings' own objects stay collectable."""
+    global _FROZEN
+    if _FROZEN:
+        return
+    import gc
+
+    import dampfit.output.figures  # noqa: F401 - the whole stack a recording needs
+    import dampfit.pipeline  # noqa: F401
+    from dampfit._arviz import arviz
+
+    arviz()
+    gc.collect()
+    gc.freeze()
+    _FROZEN = True
+
+
 def _analyse(job, options: dict[str, Any]):
     from dampfit.io.readers import read
     from dampfit.pipeline import analyze
+
+    _settle()
 
     reading = dict(job.read_options)
     if options.get("window") is not None:
