@@ -42,7 +42,7 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
             progress: bool = False, max_steps: int = 20000, min_ess: float = 1000.0,
             model: str = "auto", amplitude: float | None = None, on_stage=None,
             added_mass: Sequence[float] | None = None,
-            added_mass_sd: float | None = None, max_modes: int = 4,
+            added_mass_sd: float | None = None, max_modes: int = 1,
             mode_of_mass: int | None = None) -> Analysis | CampaignAnalysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording
     (:func:`dampfit.pipeline.analyze`, which documents every option), or jointly from several

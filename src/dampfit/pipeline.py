@@ -45,7 +45,7 @@ def analyze(
     model: str = "auto",
     amplitude: float | None = None,
     on_stage=None,
-    max_modes: int = 4,
+    max_modes: int = 1,
     mode_of_mass: int | None = None,
 ) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
@@ -73,7 +73,9 @@ def analyze(
     recordings.
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
-    looked for in the recording (:func:`modes_stage`; 1: the stage is skipped) and
+    looked for in the recording (:func:`modes_stage`; 1, the default: the stage is skipped —
+    several modes are opt-in, e.g. ``max_modes=4``, until their calibration is complete,
+    paper/modes.md) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
     belongs to: only that mode gets c and k in ``modes``. ``parameters`` stay the one-mode
     analysis of the dominant mode.

@@ -50,7 +50,8 @@ def test_mode_of_mass_beyond_the_modes_found(tmp_path, capsys):
     csv = decay_csv(tmp_path / "d.csv", *decay())
     before = snapshot(tmp_path)
     code, _, err = run(["analyze", csv, "--out", tmp_path / "out", "--mass", "1",
-                        "--mode-of-mass", "2", "--max-steps", "2000", "--no-figures",
+                        "--mode-of-mass", "2", "--max-modes", "4", "--max-steps", "2000",
+                        "--no-figures",
                         "--quiet"], capsys)
     assert_one_line_error(code, err, match="the recording has 1 mode")
     assert_unchanged(before, snapshot(tmp_path))

@@ -72,8 +72,18 @@ def test_save_and_load_give_back_every_mode(two_modes, tmp_path):
     assert back.mode_draws("f_n").shape[1] == 2
 
 
-def test_a_one_mode_recording_is_screened_out(analysed):
-    analysed = analysed[0]
+def test_several_modes_are_looked_for_only_when_asked(analysed):
+    """The default is one mode (several are opt-in until their calibration is complete): the
+    stage is skipped and says so."""
+    s = analysed[0].summary()
+    assert s["n_modes"] == 1 and s["modes_evidence"]["screen"] is None
+    assert "not looked for" in s["modes_evidence"]["reason"]
+    assert s["provenance"]["options"]["max_modes"] == 1
+
+
+def test_a_one_mode_recording_is_screened_out(short_paper):
+    rec, truth = short_paper
+    analysed = analyze(rec, mass=truth["mass"], mass_sd=0.05, seed=1, max_modes=4)
     s = analysed.summary()
     assert s["n_modes"] == 1 and len(s["modes"]) == 1 and s["rayleigh"] is None
     ev = s["modes_evidence"]

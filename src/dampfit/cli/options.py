@@ -23,6 +23,10 @@ SEED_LIMIT = 2**32
 #: :data:`~dampfit.inference.modes.MAX_MODES_LIMIT` (not imported: that module imports JAX,
 #: and the parser is built before the scientific stack; a test checks they agree).
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
+#: --max-modes when not given: 1, one mode. Several modes are looked for only when asked
+#: (``--max-modes 4``) until their calibration is complete (paper/modes.md): on real
+#: recordings the modal posterior can take minutes, and its intervals are not yet calibrated.
+ANALYSIS_MAX_MODES = 1
 #: Largest --max-steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).
 MAX_STEPS = 10**6
 
@@ -106,7 +110,8 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
     a.add_argument("--max-modes", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
                    default=None,
                    help=f"most modes looked for in the recording, 1 to {MAX_MODES_LIMIT} "
-                        f"(default {DEFAULT_MAX_MODES}; 1: one mode only, no modal analysis)")
+                        f"(default {ANALYSIS_MAX_MODES}: one mode only; {DEFAULT_MAX_MODES} to look "
+                        "for several, as paper/modes.md describes)")
     a.add_argument("--mode-of-mass", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
                    default=None,
                    help="the mode (1 = lowest frequency) the --mass belongs to: only it gets "
@@ -118,7 +123,7 @@ def check_analysis_options(args) -> None:
     if args.window is not None and not args.window[0] < args.window[1]:
         raise InputError(f"argument --window: END must come after its start, got "
                          f"{args.window[0]:g} {args.window[1]:g}")
-    max_modes = getattr(args, "max_modes", None) or DEFAULT_MAX_MODES
+    max_modes = getattr(args, "max_modes", None) or ANALYSIS_MAX_MODES
     if getattr(args, "mode_of_mass", None) is not None and args.mode_of_mass > max_modes:
         raise InputError(f"argument --mode-of-mass: mode {args.mode_of_mass} is beyond "
                          f"--max-modes {max_modes}")
@@ -129,7 +134,7 @@ def check_analysis_options(args) -> None:
 
 def modes_options(args) -> dict:
     """``max_modes`` and ``mode_of_mass`` of :func:`dampfit.pipeline.analyze` from ``args``."""
-    return {"max_modes": getattr(args, "max_modes", None) or DEFAULT_MAX_MODES,
+    return {"max_modes": getattr(args, "max_modes", None) or ANALYSIS_MAX_MODES,
             "mode_of_mass": getattr(args, "mode_of_mass", None)}
 
 
