@@ -103,13 +103,15 @@ def test_evidence_pairs_rayleigh_and_the_mass_mode_are_reported(two):
     s = an.summary()
     sec = _section((out / "report.md").read_text(encoding="utf-8"))
     text = re.sub(r"\\(.)", r"\1", sec)
-    rows = {r[0]: r for r in _cells(sec)}
+    evidence = sec[sec.index("### Number of modes"):sec.index("### Close modes")]
+    rows = {r[0]: r for r in _cells(evidence)}
     # P(K) for K = 1 and 2 with the reason K = 1 was rejected
     ev = s["modes_evidence"]["evidence"]
     assert rows["1"][1] == format(ev[0]["probability"], ".3g") and ev[0]["reason"] in rows["1"][5]
     assert rows["2"][1] == format(ev[1]["probability"], ".3g")
     assert "kept" in rows["2"][5]
-    assert "1 and 2" in rows and rows["1 and 2"][-1] == "no"
+    pairs = {r[0]: r for r in _cells(sec[sec.index("### Close modes"):])}
+    assert pairs["1 and 2"][-1] == "no"
     ray = s["rayleigh"]
     assert f"α = {_shown(ray['alpha'])} 1/s" in text and f"β = {_shown(ray['beta'])} s" in text
     assert ray["statement"] in text
