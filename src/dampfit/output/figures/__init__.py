@@ -17,15 +17,16 @@ name (PNG stem)    function                         what
 ``posterior``      :func:`posterior_figure`         corner plot of (c, k, u₀) or (ζ, f_n, u₀)
 ``trace``          :func:`trace_figure`             walker traces and marginal densities
 ``amplitude``      :func:`amplitude_of`             ζ(A) and the f(A) backbone (damping laws)
+``modes``          :func:`modes_figure`             spectrum with each mode's f_n and ζ marked
 =================  ===============================  ==========================================
 
 Each function takes an analysis or its ``FigureData`` and returns a
 :class:`matplotlib.figure.Figure` built with the object API (no pyplot, no global state), or
 None where the figure does not apply (no envelope-pipeline baseline; no damping-law
-assessment). :data:`NEEDS` names the data each figure is drawn from, so the figure process
+assessment; one mode). :data:`NEEDS` names the data each figure is drawn from, so the figure process
 draws each one as soon as its stage has delivered them. The modules: ``layout`` (the layout
 engine), ``data``, one per figure family (``recording``, ``fit``, ``posterior``,
-``amplitude``, ``campaign``: the forest and added-mass figures of a campaign) and ``png`` (the
+``amplitude``, ``modes``, ``campaign``: the forest and added-mass figures of a campaign) and ``png`` (the
 PNG harness). matplotlib is imported inside the functions only: the numeric core never needs
 it.
 """
@@ -41,12 +42,13 @@ from collections.abc import Callable
 from dampfit.output.figures.amplitude import amplitude_figure, amplitude_of
 from dampfit.output.figures.data import FigureData, MissingData, as_data
 from dampfit.output.figures.fit import displacement_figure, fit_figure
+from dampfit.output.figures.modes import modes_figure
 from dampfit.output.figures.png import drawing, save_png, write_png
 from dampfit.output.figures.posterior import posterior_figure, trace_figure
 from dampfit.output.figures.recording import signal_figure, spectrum_figure
 
 __all__ = ["FIGURES", "FigureData", "MissingData", "NEEDS", "Redrawn", "amplitude_figure",
-           "amplitude_of", "displacement_figure", "drawing", "fit_figure", "posterior_figure",
+           "amplitude_of", "displacement_figure", "drawing", "fit_figure", "modes_figure", "posterior_figure",
            "redraw_missing", "render", "save_figures", "save_png", "signal_figure",
            "spectrum_figure", "trace_figure", "write_png"]
 
@@ -59,13 +61,15 @@ FIGURES: dict[str, Callable[[Any], Any]] = {
     "posterior": posterior_figure,
     "trace": trace_figure,
     "amplitude": amplitude_of,
+    "modes": modes_figure,
 }
 
 #: The data keys (:data:`~dampfit.output.figures.data.DATA_KEYS`: ``signals``, ``posterior``,
 #: ``summary.<section>``) each figure is drawn from: a figure can be drawn as soon as its
 #: stage has delivered them — the signals and the fit's summary sections after the fit
 #: (:func:`dampfit.stages.fit_summary`), the posterior and the sampler's diagnostics after
-#: sampling (:func:`dampfit.stages.sampling_summary`), the amplitude curve with the summary.
+#: sampling (:func:`dampfit.stages.sampling_summary`), the amplitude curve and the modes with the
+#: summary.
 NEEDS: dict[str, frozenset[str]] = {
     "signal": frozenset({"signals", "summary.input", "summary.window",
                          "summary.dominant_frequency_hz", "summary.preprocessing"}),
@@ -77,6 +81,7 @@ NEEDS: dict[str, frozenset[str]] = {
     "posterior": frozenset({"posterior", "summary.least_squares", "summary.mass"}),
     "trace": frozenset({"posterior", "summary.diagnostics"}),
     "amplitude": frozenset({"signals", "summary.amplitude_curve"}),
+    "modes": frozenset({"signals", "summary.input", "summary.n_modes", "summary.modes"}),
 }
 
 

@@ -41,7 +41,8 @@ _STAGE_SECTIONS = ("input", "window", "band", "dominant_frequency_hz", "mass", "
                    "noise_model", "fit", "preprocessing", "diagnostics")
 #: Every data key a figure may need (:data:`dampfit.output.figures.NEEDS`): the signals, the
 #: posterior and ``summary.<section>`` for each summary section.
-DATA_KEYS = frozenset({"signals", "posterior", "summary.amplitude_curve",
+DATA_KEYS = frozenset({"signals", "posterior", "summary.amplitude_curve", "summary.n_modes",
+                       "summary.modes",
                        *(f"summary.{s}" for s in _STAGE_SECTIONS)})
 
 

@@ -22,6 +22,8 @@ The modules, by concern:
   formatter :mod:`dampfit.output.format`), labels, units, generic tables;
 * :mod:`~dampfit.output.report.single` and :mod:`~dampfit.output.report.checks` — the report
   of one recording (its model checks apart);
+* :mod:`~dampfit.output.report.modes` — the section on several modes (one row per mode in
+  every damping convention, P(K), close pairs, Rayleigh α, β);
 * :mod:`~dampfit.output.report.campaign` — the report of a campaign folder;
 * :mod:`~dampfit.output.report.reproduce` — the command that re-creates the folder;
 * :mod:`~dampfit.output.report.build` — reading the folder, choosing the report, writing it;

@@ -30,6 +30,7 @@ from typing import Any
 from dampfit.files.folder import DEMO_MARKER
 from dampfit.output.document import Block
 from dampfit.output.report.checks import amplitude, model_checks
+from dampfit.output.report.modes import modes_blocks
 from dampfit.output.report.reproduce import is_demo, not_computed, reproduce_blocks
 from dampfit.output.report.values import (DERIVED, MAIN, NAMES, UNITS, baseline_value, bracket,
                                           estimate, figure, finite, generic, get, isnum,
@@ -48,7 +49,7 @@ def build_single(data: dict[str, Any], directory: Path, now: str) -> tuple[str, 
     """(title, blocks) of the report of a single-recording folder (:func:`dampfit.output.
     report.build.load`'s ``data``): status box, headline, result table, methods, provenance,
     figures, noise model, diagnostics, model checks, amplitude dependence, verification,
-    how to reproduce and cite."""
+    how to reproduce and cite; with several modes, the modes after the methods."""
     s = data["summary"]
     path = get(s, "input", "path")
     title = f"dampfit damping report — {Path(path).name if isinstance(path, str) else directory.name}"
@@ -65,6 +66,7 @@ def build_single(data: dict[str, Any], directory: Path, now: str) -> tuple[str, 
     else:
         b += [("h4", "Cramér–Rao lower bound")] + not_computed("crlb", s, directory)
     b += [("h3", "Methods compared")] + _methods(s, directory)
+    b += modes_blocks(s)  # several modes only: nothing for one
 
     b += [("h2", "Inputs and provenance")] + _provenance(s, directory, now)
     b += [("h2", "Recorded signal"), figure("signal")]

@@ -71,6 +71,9 @@ FIGURES = {
                  "band, each damping law's ζ_eq(a) and the chosen law's 90 % posterior band. "
                  "Bottom, f(A): the backbone curve, windowed damped frequency against amplitude "
                  "with its 90 % band and the constant frequency the fit assumes.",
+    "modes": "Amplitude spectrum of the selected signal in dB re its peak with each identified "
+             "mode marked: f_n at its posterior median (dashed) and its 90 % interval (band), "
+             "labelled with f_n and ζ (median [90 % interval]).",
     "verify": "OpenSees verification: simulated response of the identified system against the "
               "measurement.",
     **CAMPAIGN_FIGURES,
