@@ -14,18 +14,11 @@ import math
 import time
 
 from dampfit import physics
-from dampfit._arviz import arviz
 from dampfit import stages
 from dampfit.analysis import Analysis, Modes
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 from dampfit.signal import prepare
-
-# arviz (with xarray and matplotlib, ≈ 0.4 s) is imported with the pipeline rather than inside
-# the first analysis: a script pays its imports at ``from dampfit import analyze``, and its
-# first analyze() then costs a later one's time plus loading the compiled kernels
-# (paper/benchmark.py; the CLI imports this module for every analysis anyway)
-arviz()
 
 __all__ = ["analyze", "modes_stage"]
 
