@@ -64,7 +64,7 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
     """
     if isinstance(recording, (list, tuple)):
         given = {"model": model != "auto", "amplitude": amplitude is not None,
-                 "on_stage": on_stage is not None, "max_modes": max_modes != 4,
+                 "on_stage": on_stage is not None, "max_modes": max_modes != 1,
                  "mode_of_mass": mode_of_mass is not None}
         wrong = [name for name in SINGLE_ONLY if given[name]]
         if wrong:
