@@ -31,7 +31,7 @@ os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
                                    "intra_op_parallelism_threads=1")
 os.environ.setdefault("MPLBACKEND", "Agg")
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
 #: Second/first bending frequency of a uniform clamped–free beam (Euler–Bernoulli) [1].
@@ -196,14 +196,21 @@ def main(argv=None) -> int:
         rows.append(row)
         print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()},
               flush=True)
+        write(rows, Path(a.out))  # after every recording: a long run keeps what it has
+    return 0
+
+
+def write(rows: list[dict], out: Path) -> None:
+    """The CSV of ``rows`` (columns: the union of their keys, in first-seen order)."""
     keys: list[str] = []
     for r in rows:
         keys += [k for k in r if k not in keys]
-    with open(a.out, "w", newline="") as fh:
+    tmp = out.with_suffix(".tmp")
+    with open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=keys)
         w.writeheader()
         w.writerows(rows)
-    return 0
+    tmp.replace(out)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ import warnings
 import pytest
 
 import dampfit
-
 from tests._support.requirements import REAL, require
 
 pytestmark = pytest.mark.slow
@@ -32,7 +31,8 @@ pytestmark = pytest.mark.slow
 ADXL = REAL / "cantilever-adxl357-demirkaya"
 TWO_MODES = ADXL / ("tests_for_comparing_1st_nfreq/50cm_adxl/08-12_11-47-32_adxl6cmfromtip2cmID/"
                     "accelerometer_data.npy")
-ONE_MODE = ADXL / "LSM_accelerometer/emptybox5cm/08-05_14-36-57_50cm_acc_7cm_ID2cm/accelerometer_data.npy"
+ONE_MODE = ADXL / ("LSM_accelerometer/emptybox5cm/08-05_14-36-57_50cm_acc_7cm_ID2cm/"
+                   "accelerometer_data.npy")
 #: f₂/f₁ measured on the three 50 cm runs (paper/results/modes_real.csv) [1].
 RATIO_50CM = 6.45
 
