@@ -167,7 +167,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="paper/results/modes_real.csv")
     ap.add_argument("--figures", default="paper/results",
                     help="folder for the spectrum figures (modes_real_<recording>.png)")
-    ap.add_argument("--only", default="", help="analyse only paths containing this text")
+    ap.add_argument("--only", action="append", default=[],
+                    help="analyse only paths containing this text (repeatable); the rows of "
+                         "the other recordings already in --out are kept")
     ap.add_argument("--cache", default="",
                     help="folder to keep each spectrum in (npz), so --replot can redraw")
     ap.add_argument("--replot", action="store_true",
@@ -175,11 +177,15 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     if a.replot:
         return replot(Path(a.out), Path(a.cache), Path(a.figures))
-    paths = [p for p in files() if a.only in str(p)]
+    paths = [p for p in files() if not a.only or any(o in str(p) for o in a.only)]
     if not paths:
         print(f"no cantilever recordings under {REAL}", file=sys.stderr)
         return 1
     rows = []
+    if a.only and Path(a.out).is_file():
+        names = {str(p.relative_to(REAL)) for p in paths}
+        with open(a.out, newline="") as fh:
+            rows = [r for r in csv.DictReader(fh) if r["recording"] not in names]
     for path in paths:
         try:
             row, an = run(path)
@@ -196,6 +202,7 @@ def main(argv=None) -> int:
         rows.append(row)
         print({k: (f"{v:.4g}" if isinstance(v, float) else v) for k, v in row.items()},
               flush=True)
+        rows.sort(key=lambda r: r["recording"])
         write(rows, Path(a.out))  # after every recording: a long run keeps what it has
     return 0
 
