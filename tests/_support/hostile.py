@@ -28,7 +28,7 @@ import pytest
 
 from dampfit.cli import main
 
-__all__ = ["run", "run_subprocess", "snapshot", "assert_unchanged", "assert_one_line_error",
+__all__ = ["ctrl_c_default", "run", "run_subprocess", "snapshot", "assert_unchanged", "assert_one_line_error",
            "one_error_line", "no_compile_cache", "fails", "decay", "decay_csv", "F_TRUE", "LONG"]
 
 F_TRUE = 5.0  # [Hz] natural frequency of the simulated decay (ζ ≈ 0.01: f_d ≈ f_n)
@@ -135,3 +135,13 @@ def decay_csv(path: Path, t: np.ndarray, a: np.ndarray) -> Path:
     rows = "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in zip(t, a))
     path.write_text('"Time (s)","acc z (m/s^2)"\n' + rows)
     return path
+
+
+def ctrl_c_default() -> None:
+    """``preexec_fn`` of a child that a test sends Ctrl-C: SIGINT at its default and SIGINT,
+    SIGTERM unblocked, whatever this test process has (a child inherits an ignored SIGINT and
+    the signal mask; see ``tests/conftest.py``)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})

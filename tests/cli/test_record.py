@@ -26,7 +26,7 @@ from dampfit import simulate as sim
 from dampfit.files.folder import MARKER
 from dampfit.io.readers import read
 from tests._support.fake_phyphox import FakePhone, Quirks
-from tests._support.hostile import assert_one_line_error, run
+from tests._support.hostile import assert_one_line_error, ctrl_c_default, run
 
 ROOT = Path(__file__).resolve().parents[2]
 FAST = ["--quiet", "--no-analyze", "--timeout", "2"]
@@ -286,7 +286,8 @@ def _subprocess(url: str, out: Path) -> subprocess.Popen:
                                                         os.environ.get("PYTHONPATH", "")])}
     return subprocess.Popen([sys.executable, "-m", "dampfit", "record", url, "--out", str(out),
                              "--no-analyze", "--duration", "60"], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=ctrl_c_default)
 
 
 @pytest.mark.parametrize("sig,code,stopped", [(signal.SIGINT, 0, "interrupted"),

@@ -29,7 +29,7 @@ import pytest
 
 from dampfit.files.folder import MARKER, ResultFolder
 
-from tests._support.hostile import assert_one_line_error, run
+from tests._support.hostile import assert_one_line_error, ctrl_c_default, run
 
 CHILD = r"""
 import os, signal, sys, threading
@@ -122,7 +122,8 @@ def _run_child(target: Path, mode: str, stop: str, sig: int) -> tuple[int, str]:
             pytest.skip("renameat2 is not available here: only the two-rename swap is used")
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
     proc = subprocess.Popen([sys.executable, "-c", CHILD, str(target), mode], env=env,
-                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=ctrl_c_default)
     lines = []
     try:
         while True:
