@@ -67,6 +67,7 @@ SCENARIOS = {
     "white": ((F1, 1.5 * F1, 4.1 * F1), (0.01, 0.01256, 0.03), (0.3, 0.3), WHITE, True),
 }
 DURATION, RATE, MAX_MODES, MIN_ESS = 45.0, 100.0, 4, 400.0
+Z90 = 1.6448536269514722  # two-sided 90 % normal quantile
 
 
 def _config(name: str, rep: int):
@@ -111,6 +112,45 @@ def _crlb(cfg, truth, modes, prep, window, degree) -> list[float]:
     return [o["zeta"]["sd"] for o in out]
 
 
+def _least_squares(sel, modes) -> dict:
+    """The K-mode least squares at the chosen K: its optimum and 90 % normal intervals from
+    the tempered Laplace covariance of θ = (ln p_i, ln ω_d,i) (eq. MS3), by the delta method
+    in the logs: ∂ln ζ/∂(ln p, ln ω_d) = (1 − ζ², −(1 − ζ²)), ∂ln f_n/∂(ln p, ln ω_d) =
+    (ζ², 1 − ζ²)."""
+    from dampfit import physics
+
+    fit, cov, out = sel.chosen.fit, sel.chosen.cov, {}
+    for i, (mode, p, w) in enumerate(zip(modes, fit.p, fit.omega_d), start=1):
+        d = physics.quantities(p, w)
+        z2 = float(d["zeta"]) ** 2
+        c = cov[2 * i - 2:2 * i, 2 * i - 2:2 * i]
+        for q, grad in (("zeta", (1 - z2, -(1 - z2))), ("f_n", (z2, 1 - z2))):
+            g = np.asarray(grad)
+            sd_ln = float(np.sqrt(max(g @ c @ g, 0.0)))
+            v = float(d[q])
+            lo, hi = v * math.exp(-Z90 * sd_ln), v * math.exp(Z90 * sd_ln)
+            out[f"m{i}_{q}_ls"] = v
+            out[f"m{i}_{q}_ls_covered"] = bool(lo <= mode[q] <= hi)
+    return out
+
+
+def _pencil(prep, modes) -> dict:
+    """The subspace baseline (:func:`dampfit.estimators.subspace.subspace_modes`, its own
+    order rule): its K, and per mode its f_n and ζ when it found the true K."""
+    from dampfit.errors import InputError
+    from dampfit.estimators.subspace import subspace_modes
+
+    try:
+        est = subspace_modes(prep, max_modes=MAX_MODES)
+    except InputError:
+        return {"pencil_k": 0}
+    out: dict = {"pencil_k": len(est)}
+    if len(est) == len(modes):
+        for i, e in enumerate(est, start=1):
+            out[f"m{i}_f_n_pencil"], out[f"m{i}_zeta_pencil"] = e.f_n, e.zeta
+    return out
+
+
 def one(job: tuple[str, int]) -> dict:
     name, rep = job
     from dampfit import physics_modal as pm
@@ -134,12 +174,14 @@ def one(job: tuple[str, int]) -> dict:
                if len(modes) <= MAX_MODES else 0.0, psd_ratio=sel.psd_ratio,
                select_s=time.perf_counter() - t0,
                f_found=" ".join(f"{f:.5g}" for f in sel.chosen.fit.f_d))
+    row.update(_pencil(prep, modes))
     if not (SCENARIOS[name][4] and sel.n_modes == len(modes)):
         return row
     t1 = time.perf_counter()
     post = MP.sample(sel, mass=MASS, seed=rep, min_ess=MIN_ESS)
     row.update(posterior_s=time.perf_counter() - t1, converged=post.converged,
                max_r_hat=post.max_r_hat)
+    row.update(_least_squares(sel, modes))
     from dampfit.inference.modes import modal_window
 
     crlb_sd = _crlb(cfg, truth, modes, prep, modal_window(prep, sel.band)[0],
@@ -189,38 +231,86 @@ def _read(path: Path) -> list[dict]:
         return list(csv.DictReader(fh))
 
 
-def summary(path: Path) -> None:
+def _true_share(col) -> float:
+    return float((col.dropna().astype(str).str.lower() == "true").mean())
+
+
+def _rmse_crlb(post, i: int, est: str) -> float:
+    """RMSE of ζ of mode ``i`` over the replicates, in units of the RMS CRLB sd [1]."""
+    col = f"m{i}_zeta_q50" if est == "posterior" else f"m{i}_zeta_{est}"
+    crl = f"m{i}_zeta_crlb"
+    if col not in post or crl not in post:
+        return float("nan")
+    ok = post[[col, f"m{i}_zeta_true", crl]].dropna()
+    if ok.empty:
+        return float("nan")
+    rmse = float(np.sqrt(np.mean((ok.iloc[:, 0] - ok.iloc[:, 1]) ** 2)))
+    return rmse / float(np.sqrt(np.mean(ok[crl] ** 2)))
+
+
+def tables(path: Path):
+    """(order table, per-mode table) of the CSV: per scenario the share of replicates whose
+    K is right (the evidence and the pencil's own rule), P(K true), Rayleigh coverage; per
+    scenario and mode the 90 % coverage of f_n and ζ (posterior, least squares) and RMSE/CRLB
+    of ζ (posterior median, least squares, pencil)."""
     import pandas as pd
 
     df = pd.read_csv(path)
-    out = []
+    order, per_mode = [], []
     for name, g in df.groupby("scenario", sort=False):
-        row = {"scenario": name, "n": len(g), "k_true": int(g.k_true.iloc[0]),
-               "k_right": float(np.mean(g.k_found == g.k_true))}
-        post = g[g.k_found == g.k_true]
-        for i in range(1, 4):
-            for q in ("f_n", "zeta"):
-                col = f"m{i}_{q}_covered"
-                if col in post and post[col].notna().any():
-                    c = post[col].dropna().astype(str).str.lower() == "true"
-                    row[f"m{i}_{q}_cov"] = float(c.mean())
-                    row["n_post"] = int(c.size)
-            crl = f"m{i}_zeta_crlb"
-            if crl in post and post[crl].notna().any():
-                ok = post[[f"m{i}_zeta_q50", f"m{i}_zeta_true", crl]].dropna()
-                rmse = float(np.sqrt(np.mean((ok.iloc[:, 0] - ok.iloc[:, 1]) ** 2)))
-                row[f"m{i}_zeta_rmse_crlb"] = rmse / float(np.sqrt(np.mean(ok[crl] ** 2)))
+        post = g[(g.k_found == g.k_true) & g.get("converged", pd.Series(dtype=object)).notna()]
+        row = {"scenario": name, "n": len(g), "K true": int(g.k_true.iloc[0]),
+               "K right": float(np.mean(g.k_found == g.k_true)),
+               "median P(K true)": float(g.p_k_true.median())}
+        if "pencil_k" in g and g.pencil_k.notna().any():
+            pk = g[g.pencil_k.notna()]
+            row["pencil K right"] = float(np.mean(pk.pencil_k == pk.k_true))
         for q in ("alpha", "beta"):
-            col = f"{q}_covered"
-            if col in post and post[col].notna().any():
-                row[f"{q}_cov"] = float((post[col].dropna().astype(str).str.lower()
-                                         == "true").mean())
+            if f"{q}_covered" in post and post[f"{q}_covered"].notna().any():
+                row[f"{q} cov"] = _true_share(post[f"{q}_covered"])
         if "rayleigh_zeta_covered" in post and post["rayleigh_zeta_covered"].notna().any():
-            row["rayleigh_zeta_cov"] = float((post["rayleigh_zeta_covered"].dropna()
-                                              .astype(str).str.lower() == "true").mean())
-        out.append(row)
-    table = pd.DataFrame(out).set_index("scenario")
-    print(table.to_string(float_format=lambda x: f"{x:.3g}"))
+            row["Rayleigh ζ_i cov"] = _true_share(post["rayleigh_zeta_covered"])
+        order.append(row)
+        for i in range(1, 4):
+            if f"m{i}_zeta_covered" not in post or post[f"m{i}_zeta_covered"].isna().all():
+                continue
+            m = {"scenario": name, "mode": i, "n post": int(post[f"m{i}_zeta_covered"]
+                                                              .notna().sum())}
+            for q, lab in (("f_n", "f"), ("zeta", "ζ")):
+                m[f"{lab} cov post"] = _true_share(post[f"m{i}_{q}_covered"])
+                if f"m{i}_{q}_ls_covered" in post:
+                    m[f"{lab} cov LS"] = _true_share(post[f"m{i}_{q}_ls_covered"])
+            for est, lab in (("posterior", "post"), ("ls", "LS"), ("pencil", "pencil")):
+                m[f"ζ RMSE/CRLB {lab}"] = _rmse_crlb(post, i, est)
+            per_mode.append(m)
+    return (pd.DataFrame(order).set_index("scenario"),
+            pd.DataFrame(per_mode).set_index(["scenario", "mode"]))
+
+
+def _markdown(df) -> str:
+    """A pipe table of ``df`` (numbers to 3 significant digits, NaN blank)."""
+    def cell(v) -> str:
+        if isinstance(v, float):
+            return "" if math.isnan(v) else f"{v:.3g}"
+        return str(v)
+
+    lines = ["| " + " | ".join(map(str, df.columns)) + " |",
+             "|" + "---|" * len(df.columns)]
+    lines += ["| " + " | ".join(cell(v) for v in row) + " |" for row in df.itertuples(index=False)]
+    return "\n".join(lines)
+
+
+def summary(path: Path, markdown: Path | None = None) -> None:
+    """Print the two tables of :func:`tables`; with ``markdown`` also write them there."""
+    order, per_mode = tables(path)
+    fmt = lambda x: f"{x:.3g}"  # noqa: E731
+    print(order.to_string(float_format=fmt))
+    print(per_mode.to_string(float_format=fmt))
+    if markdown is not None:
+        text = (f"<!-- written by paper/modes_calibration.py --summary {path} -->\n\n"
+                + _markdown(order.reset_index()) + "\n\n"
+                + _markdown(per_mode.reset_index()) + "\n")
+        markdown.write_text(text, encoding="utf-8")
 
 
 def main(argv=None) -> int:
@@ -230,10 +320,11 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
     ap.add_argument("--out", default="paper/results/modes_calibration.csv")
-    ap.add_argument("--summary", default=None, help="only print the table of this CSV")
+    ap.add_argument("--summary", default=None, help="only print the tables of this CSV")
+    ap.add_argument("--markdown", default=None, help="also write the tables there (Markdown)")
     a = ap.parse_args(argv)
     if a.summary:
-        summary(Path(a.summary))
+        summary(Path(a.summary), Path(a.markdown) if a.markdown else None)
         return 0
     out = Path(a.out)
     cache = None
@@ -245,7 +336,7 @@ def main(argv=None) -> int:
     finally:
         if cache:
             shutil.rmtree(cache, ignore_errors=True)
-    summary(out)
+    summary(out, Path(a.markdown) if a.markdown else None)
     return 0
 
 

@@ -39,7 +39,7 @@ __all__ = ["Analysis", "CampaignAnalysis", "analyze", "analyze_campaign", "analy
            "read"]
 
 #: Options of :func:`analyze` that only apply to one recording.
-SINGLE_ONLY = ("model", "amplitude", "on_stage", "max_modes", "mode_of_mass")
+SINGLE_ONLY = ("model", "amplitude", "on_stage", "mode_of_mass")
 
 
 def analyze(recording: Recording | Sequence[Recording], mass: float | None = None,
@@ -57,14 +57,15 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
     which documents ``added_mass`` [kg] per recording and ``added_mass_sd`` [kg]; ``window``
     and ``band`` may then be one per recording).
 
-    ``model``, ``amplitude``, ``on_stage``, ``max_modes`` and ``mode_of_mass`` (several
-    modes in one recording) apply to one recording and ``added_mass``,
+    ``model``, ``amplitude``, ``on_stage`` and ``mode_of_mass`` apply to one recording
+    (a campaign pools the mode its ``band`` isolates; ``max_modes`` > 1 lists every test's
+    other modes, :mod:`dampfit.campaign.modes`) and ``added_mass``,
     ``added_mass_sd`` to several: giving one where it does not apply is a one-line
     :class:`~dampfit.errors.InputError`, never silently ignored.
     """
     if isinstance(recording, (list, tuple)):
         given = {"model": model != "auto", "amplitude": amplitude is not None,
-                 "on_stage": on_stage is not None, "max_modes": max_modes != 1,
+                 "on_stage": on_stage is not None,
                  "mode_of_mass": mode_of_mass is not None}
         wrong = [name for name in SINGLE_ONLY if given[name]]
         if wrong:
@@ -73,7 +74,8 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
         return analyze_campaign(recording, mass, mass_sd, added_mass=added_mass,
                                 added_mass_sd=0.0 if added_mass_sd is None else added_mass_sd,
                                 axis=axis, window=window, band=band, seed=seed,
-                                progress=progress, max_steps=max_steps, min_ess=min_ess)
+                                progress=progress, max_steps=max_steps, min_ess=min_ess,
+                                max_modes=max_modes)
     if added_mass is not None or added_mass_sd is not None:
         raise InputError("added_mass applies to several recordings (one per added mass), got "
                          "one recording")

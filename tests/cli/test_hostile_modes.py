@@ -1,5 +1,6 @@
 """Bad several-modes options of ``dampfit analyze`` (issue 21): ``--max-modes`` 0, 100, not a
-number; ``--mode-of-mass`` out of range or beyond ``--max-modes``; either with a campaign;
+number; ``--mode-of-mass`` out of range or beyond ``--max-modes``; ``--mode-of-mass`` or a bad
+``--max-modes`` with a campaign (which pools the mode its band isolates);
 ``--mode-of-mass 2`` on a one-mode recording. Each: exit 2, one line, nothing written. And
 the validating reader refuses an edited ``modes`` section in one line."""
 
@@ -36,7 +37,8 @@ def test_bad_modes_options_are_one_line(tmp_path, capsys, argv, match):
     assert_unchanged(before, snapshot(tmp_path))
 
 
-@pytest.mark.parametrize("argv", [["--max-modes", "2"], ["--mode-of-mass", "1"]])
+@pytest.mark.parametrize("argv", [["--mode-of-mass", "1"], ["--max-modes", "0"],
+                                  ["--max-modes", "100"]])
 def test_modes_options_are_refused_for_a_campaign(tmp_path, capsys, argv):
     a = decay_csv(tmp_path / "a.csv", *decay())
     b = decay_csv(tmp_path / "b.csv", *decay(fs=120.0))

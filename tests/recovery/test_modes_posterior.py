@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 
 from dampfit import physics_modal as pm
-from dampfit import simulate as sim
 from dampfit import stages
 from dampfit._json import jsonable
 from dampfit.errors import InputError
@@ -16,14 +15,14 @@ from dampfit.estimators.subspace import subspace_modes
 from dampfit.inference import modes_posterior as MP
 from dampfit.signal import prepare as pp
 
+from tests._support.modes import two_mode_recording
+
 MASS = 0.8
 
 
 @pytest.fixture(scope="module")
 def two_mode_posterior():
-    cfg = sim.from_modal(MASS, 3.3, 0.006, u0=0.004, duration=40.0, sample_rate=100.0,
-                         noise_density=300.0, modes=[(8.91, 0.012, 0.25, 0.5)], seed=21)
-    rec, truth = sim.recording(cfg)
+    rec, truth = two_mode_recording(MASS)
     prep = pp.prepare(rec)
     stage = stages.modes_stage(prep, max_modes=2, mass=MASS, seed=2, min_ess=400)
     return prep, truth, stage.selection, stage.posterior, stage

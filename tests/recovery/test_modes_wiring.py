@@ -18,14 +18,14 @@ from dampfit.inference import modes_gate
 from dampfit.signal import prepare as pp
 from dampfit import stages
 
+from tests._support.modes import two_mode_recording
+
 MASS = 0.8
 
 
 @pytest.fixture(scope="module")
 def two_modes():
-    cfg = sim.from_modal(MASS, 3.3, 0.006, u0=0.004, duration=40.0, sample_rate=100.0,
-                         noise_density=300.0, modes=[(8.91, 0.012, 0.25, 0.5)], seed=21)
-    rec, truth = sim.recording(cfg)
+    rec, truth = two_mode_recording(MASS)
     return analyze(rec, mass=MASS, mass_sd=0.01, max_modes=2, min_ess=400, seed=3), truth
 
 

@@ -37,6 +37,9 @@ Stages
 6. **Checks** (:mod:`dampfit.campaign.verdict`, the statistics of
    :mod:`dampfit.campaign.checks`): spread consistent with zero, outliers, amplitude explains
    the scatter, and a one-sentence verdict — made once here, stored on the result.
+7. **Several modes per test** (only with ``max_modes`` > 1, :mod:`dampfit.campaign.modes`):
+   each test on its own through :func:`dampfit.stages.modes_stage`; its modes are listed with
+   the pooled one marked, the pooling above unchanged.
 
 The summary's schema is ``summary.json`` of kind "campaign" (schema_version 1).
 """
@@ -61,7 +64,7 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
                      max_steps: int = 20000, min_ess: float = 1000.0,
                      window: tuple[float, float] | Sequence | None = None,
                      band: tuple[float, float] | Sequence | None = None,
-                     axis: str = "auto") -> CampaignAnalysis:
+                     axis: str = "auto", max_modes: int = 1) -> CampaignAnalysis:
     """Joint hierarchical analysis of several recordings of one damper.
 
     ``recordings`` (≥ 2 :class:`~dampfit.io.recording.Recording`). Either ``mass`` [kg] (sd
@@ -70,15 +73,19 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     sd ``added_mass_sd`` [kg] — the "added-mass" design, which estimates m₀ and k itself.
     ``window`` (start, end) [s] and ``band`` (low, high) [Hz] apply to every recording, or
     give one per recording (a list of pairs or None). ``seed`` makes the run reproducible;
-    ``max_steps`` and ``min_ess`` bound the sampler. Bad inputs raise a one-line
+    ``max_steps`` and ``min_ess`` bound the sampler. ``max_modes`` > 1 also analyses every
+    test for up to that many modes and lists them per test; the campaign pools the mode each
+    test's band isolates (:mod:`dampfit.campaign.modes`). Bad inputs raise a one-line
     :class:`~dampfit.errors.InputError` before any sampling.
     """
-    from dampfit.campaign import checks, sampling, tests, verdict
+    from dampfit.campaign import checks, modes, sampling, tests, verdict
+    from dampfit.inference.modes import check_max_modes
 
     recs, m, sd, dm, dm_sd = checks.check_design(recordings, mass, mass_sd, added_mass,
                                                  added_mass_sd)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"seed must be a non-negative integer, got {seed!r}")
+    max_modes = check_max_modes(max_modes)
     windows = _per_test_option("window", window, len(recs))
     bands = _per_test_option("band", band, len(recs))
     fits = [tests.fit_test(i, r, axis, windows[i], bands[i], m, None if dm is None else dm[i])
@@ -95,8 +102,13 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     sampled = replace(sampled, seconds=float(time.monotonic() - started))
     warns.extend(sampled.warnings)
     found = verdict.assess_sampled(fits, sampled.idata.posterior, dm is not None, dm_sd)
+    if max_modes > 1:
+        warns.extend(modes.per_test_modes(fits, max_modes, seed=int(seed), min_ess=min_ess,
+                                      max_steps=max_steps, progress=progress))
     options = {"axis": axis, "window": _jsonable_option(window), "band": _jsonable_option(band),
                "max_steps": max_steps, "min_ess": min_ess, **_reading_options(recs)}
+    if max_modes > 1:  # absent for one mode: one-mode summaries unchanged
+        options["max_modes"] = max_modes
     return CampaignAnalysis(tests=fits, sampling=sampled, checks=found, warnings=warns, mass=m,
                             mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=int(seed),
                             options=options)

@@ -123,6 +123,8 @@ def _tests(a: Campaign, m0_draws: np.ndarray | None) -> list[dict[str, Any]]:
             "noise_psd_ratio": t.noise.psd_ratio,
             "damping_verdict": t.damping_verdict,
             "own": own, "pooled": pooled, "outlier": t.index in outliers})
+        if t.modes is not None:  # max_modes > 1 (dampfit.campaign.modes)
+            out[-1]["modes"] = t.modes
     return out
 
 

@@ -47,6 +47,9 @@ class TestFit:
     #: this test's damping-law verdict (:mod:`dampfit.damping`: "adequate" when one viscous c
     #: describes its decay; "amplitude-dependent", "misfit", …), None if it could not be made
     damping_verdict: str | None = None
+    #: several modes of this test (:mod:`dampfit.campaign.modes`), None unless the campaign
+    #: asked for them (``max_modes`` > 1)
+    modes: dict | None = None
 
     @property
     def name(self) -> str:

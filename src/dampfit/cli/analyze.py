@@ -17,10 +17,10 @@ of a single analysis (``--out`` may not be or hold the folder of any of them).
 Refused before any work, one line, exit 2, nothing written: ``--added-mass`` with a count other
 than the number of files, ``--added-mass`` together with ``--mass`` (the added-mass method
 estimates the effective mass m₀ itself), ``--added-mass-sd`` without ``--added-mass``, a file
-given twice, ``--model``/``--amplitude``/``--max-modes``/``--mode-of-mass`` (single-recording
-options); a file that cannot be read
-is named in its one error line. ``--window``/``--band``/``--axis`` apply to every file;
-``--max-modes``/``--mode-of-mass`` (several modes in one recording) are refused for a campaign.
+given twice, ``--model``/``--amplitude``/``--mode-of-mass`` (single-recording options); a
+file that cannot be read is named in its one error line. ``--window``/``--band``/``--axis``
+apply to every file; the campaign pools the mode the band isolates, and ``--max-modes N``
+(N > 1) lists every test's other modes (:mod:`dampfit.campaign.modes`).
 """
 
 from __future__ import annotations
@@ -204,7 +204,6 @@ def _check_campaign_options(args, files: list[str]) -> None:
         raise InputError("argument --mass-sd: a mass standard deviation without --mass")
     single = [name for name, given in (("--model", args.model != "auto"),
                                        ("--amplitude", args.amplitude is not None),
-                                       ("--max-modes", args.max_modes is not None),
                                        ("--mode-of-mass", args.mode_of_mass is not None))
               if given]
     if single:
@@ -266,7 +265,8 @@ def campaign_command(args, files: list[str]) -> int:
                               window=tuple(args.window) if args.window else None,
                               band=tuple(args.band) if args.band else None, seed=args.seed,
                               progress=not args.quiet and sys.stderr.isatty(),
-                              max_steps=args.max_steps, **kw)
+                              max_steps=args.max_steps,
+                              max_modes=modes_options(args)["max_modes"], **kw)
         an.save(folder, figures=not args.no_figures)
         folder.publish()
         if args.report:

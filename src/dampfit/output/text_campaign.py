@@ -100,7 +100,7 @@ def text(s: dict[str, Any]) -> str:
     model = design.get("model") or "hierarchical"
     lines = [f"dampfit {s.get('dampfit_version', '?')} — campaign of {n} tests "
              f"({model} model)", _mass_line(s, design)]
-    lines += [""] + _population_lines(s) + _test_lines(s)
+    lines += [""] + _population_lines(s) + _test_lines(s) + _modes_lines(s)
     am_res = s.get("added_mass") if isinstance(s.get("added_mass"), dict) else None
     if am_res is not None:
         lines += ["", f"  added mass      1/omega_n^2 = (m0 + dm)/k: m0 = {_iv(am_res.get('m0'))} kg, "
@@ -194,3 +194,37 @@ def _test_lines(s: dict) -> list[str]:
                                for j, (c, w) in enumerate(zip(cells, widths))).rstrip()
 
     return ["", row(head)] + [row(r) for r in rows]
+
+
+#: Longest reason shown for a test whose modes were not analysed [characters].
+_REASON_CHARS = 160
+
+
+def _modes_lines(s: dict) -> list[str]:
+    """With ``max_modes`` > 1: every test's modes (f_n, ζ with 90 % intervals), the pooled
+    one marked ``*``, or why its modes were not analysed. Nothing for a one-mode campaign."""
+    entries = tests(s)
+    blocks = [(name, t["modes"]) for t, name in zip(entries, labels(entries))
+              if isinstance(t.get("modes"), dict)]
+    if not blocks:
+        return []
+    rows = []
+    for i, (name, m) in enumerate(blocks):
+        label = f"{i + 1:>2d} {name}"
+        modes = [r for r in m.get("modes") or [] if isinstance(r, dict)] \
+            if isinstance(m.get("modes"), list) else []
+        if not modes:
+            reason = m.get("reason") if isinstance(m.get("reason"), str) else "no modes"
+            reason = " ".join(reason.split())[:_REASON_CHARS]
+            rows.append([label, "", f"not analysed: {reason}", ""])
+            continue
+        for j, r in enumerate(modes):
+            star = " *" if r.get("pooled") is True else ""
+            rows.append([label if j == 0 else "", f"mode {j + 1}{star}",
+                         _iv(r.get("f_n")), _iv(r.get("zeta"))])
+    head = ["test", "mode", "f_n [Hz]", "zeta"]
+    widths = [max(len(r[j]) for r in [head, *rows]) for j in range(len(head))]
+    out = ["", "  modes of each test (* = the pooled mode; the others are this test's own)"]
+    for r in [head, *rows]:
+        out.append("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    return out

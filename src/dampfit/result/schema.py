@@ -123,7 +123,11 @@ Top-level keys of a campaign's summary (several recordings of one damper,
              "spread_consistent_with_zero"},   # predictive: a new test of this damper
      "tests": [{"index", "input", "window", "band", "dominant_frequency_hz",
              "added_mass_kg", "amplitude_m", "noise_psd_ratio", "damping_verdict",
-             "own", "pooled", "outlier"}],
+             "own", "pooled", "outlier",
+             "modes"}],   # only with max_modes > 1 (dampfit.campaign.modes):
+             # {"max_modes", "n_modes", "pooled_mode", "modes": [{"index", "f_n", "f_d",
+             #  "zeta", "eta", "delta", "Q", "p", "crlb_sd", "pooled"}], "modes_evidence",
+             #  "rayleigh", "converged", "warnings", "reason"}
      "checks": {"verdict", "text", "tau_over_within", "heterogeneity_p_value",
              "outliers", "amplitude", "within_test_inadequate", …},
      "added_mass": null | {"m0", "k", "points", "line"},
@@ -303,7 +307,7 @@ def _check_modes(summary: dict[str, Any], path: Path) -> None:
 #: Sections of a campaign summary (``"kind": "campaign"``) that are objects (or null/absent).
 CAMPAIGN_SECTIONS = ("design", "population", "checks", "added_mass", "diagnostics")
 #: Sections of each test of a campaign that are objects (or null/absent).
-CAMPAIGN_TEST_SECTIONS = ("input", "window", "own", "pooled")
+CAMPAIGN_TEST_SECTIONS = ("input", "window", "own", "pooled", "modes")
 
 
 def _check_campaign(summary: dict[str, Any], path: Path) -> None:

@@ -1,0 +1,69 @@
+"""A campaign of several-mode recordings (issue 21 item 8): the campaign pools the damper's
+mode (the one each test's band isolates) and, with ``max_modes`` > 1, lists every test's
+modes with the pooled one marked; summary.json, the text table and ``dampfit.load`` carry
+them; a one-mode campaign's summary is unchanged (no ``modes``, no ``max_modes`` option)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import dampfit
+from dampfit.errors import InputError
+from dampfit.output import text_campaign
+from tests._support.modes import SECOND_MODE, two_mode_recording
+
+MASS = 0.8
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    recs = [two_mode_recording(MASS, seed=s)[0] for s in (21, 22)]
+    return dampfit.analyze(recs, mass=MASS, mass_sd=0.01, max_modes=3, min_ess=300, seed=4)
+
+
+def test_each_test_lists_its_modes_with_the_pooled_one_marked(campaign):
+    s = campaign.summary()
+    assert s["provenance"]["options"]["max_modes"] == 3
+    f2 = SECOND_MODE[0]
+    for t in s["tests"]:
+        m = t["modes"]
+        assert m["n_modes"] == 2 and m["pooled_mode"] == 1 and m["reason"] is None
+        low, high = m["modes"]
+        assert low["pooled"] is True and high["pooled"] is False
+        assert low["f_n"]["q05"] < 3.3 < low["f_n"]["q95"]
+        assert high["f_n"]["q50"] == pytest.approx(f2, rel=0.01)
+        assert high["zeta"]["q05"] < high["zeta"]["q95"]
+        assert "c" not in high and "k" not in high  # no modal mass is invented
+        assert m["rayleigh"] is not None and m["modes_evidence"]["n_modes"] == 2
+    # the pooling is the damper's mode: c = 2·m·ζ·ω_n of the 3.3 Hz, ζ 0.006 mode
+    c_true = 2 * MASS * 0.006 * 2 * 3.141592653589793 * 3.3
+    c = s["parameters"]["c"]
+    assert c["q05"] < c_true < c["q95"]
+
+
+def test_the_table_shows_the_modes_and_load_reads_them_back(campaign, tmp_path):
+    text = campaign.report()
+    assert "modes of each test" in text and "mode 1 *" in text and "mode 2" in text
+    campaign.save(tmp_path / "c.dampfit", figures=False)
+    back = dampfit.load(tmp_path / "c.dampfit")
+    assert back.summary()["tests"][1]["modes"] == json.loads(json.dumps(
+        campaign.summary()["tests"][1]["modes"]))
+    assert text_campaign.text(back.summary()) == text
+
+
+def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign):
+    s = json.loads(json.dumps(campaign.summary()))
+    s["tests"][0]["modes"] = {"modes": [], "reason": "too short\nfor 2 modes " + "x" * 400}
+    s["tests"][1]["modes"] = {"modes": [3, "a", {"f_n": "x"}]}
+    text = text_campaign.text(s)
+    assert "not analysed: too short for 2 modes" in text and "x" * 200 not in text
+
+
+def test_mode_of_mass_is_refused_for_a_campaign():
+    recs = [two_mode_recording(MASS, seed=s, duration=10.0)[0] for s in (1, 2)]
+    with pytest.raises(InputError, match="mode_of_mass apply to a single recording"):
+        dampfit.analyze(recs, mass=MASS, max_modes=3, mode_of_mass=2)
+    with pytest.raises(InputError, match="max modes must be from 1"):
+        dampfit.analyze(recs, mass=MASS, max_modes=0)
