@@ -29,7 +29,7 @@ SHOWN_ROWS = 25
 
 def add_arguments(a: argparse.ArgumentParser) -> None:
     """Options of ``dampfit batch``."""
-    from dampfit.cli.study import MAX_WORKERS, positive_int
+    from dampfit.cli.options import add_cluster_options
 
     a.description = ("Analyse many independent recordings (each as 'dampfit analyze' would, "
                      "same options and seed) into one folder with one results table. "
@@ -50,14 +50,9 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
     a.add_argument("--summaries-only", action="store_true",
                    help="write summary.json alone in each run folder (no posterior, signals, "
                         "figures)")
-    a.add_argument("--workers", type=positive_int, metavar="N", default=None,
-                   help=f"local Dask worker processes, 1 to {MAX_WORKERS} (default: the number "
-                        "of CPUs; 1: in this process)")
-    a.add_argument("--scheduler", metavar="ADDRESS",
-                   help="use an existing Dask scheduler, e.g. tcp://host:8786 (the workers must "
-                        "see DIR at the same path)")
-    a.add_argument("--force", action="store_true",
-                   help="discard the rows stored in DIR by a batch with other options")
+    add_cluster_options(a, workers_note="1: in this process",
+                        force_help="discard the rows stored in DIR by a batch with other "
+                                   "options")
 
 
 def _options(args) -> tuple[dict, dict, dict]:

@@ -14,7 +14,7 @@ import math
 from dampfit.errors import InputError
 from dampfit.physics import MAX_MASS
 
-__all__ = ["MAX_STEPS", "modes_options", "SEED_LIMIT", "Parser", "add_analysis_options",
+__all__ = ["MAX_WORKERS", "add_cluster_options", "positive_int", "MAX_STEPS", "modes_options", "SEED_LIMIT", "Parser", "add_analysis_options",
            "check_analysis_options", "float_arg", "seed_arg"]
 
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
@@ -154,3 +154,34 @@ def add_reading_options(a: argparse.ArgumentParser) -> None:
                    help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
     g.add_argument("--row", type=integer_arg(0, 1023), metavar="N",
                    help="MATLAB .mat: 0-based row of that array holding the acceleration")
+
+
+#: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
+MAX_WORKERS = 256
+
+
+def positive_int(text: str) -> int:
+    """A worker count: an integer from 1 to :data:`MAX_WORKERS` (argparse type)."""
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    if v > MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_WORKERS}, got {v}")
+    return v
+
+
+def add_cluster_options(parser, *, workers_note: str, force_help: str) -> None:
+    """``--workers N``, ``--scheduler ADDRESS`` and ``--force`` of the commands that run on
+    Dask (``study``, ``batch``; :mod:`dampfit.cluster`): ``workers_note`` ends the help of
+    ``--workers``, ``force_help`` is the help of ``--force``."""
+    parser.add_argument("--workers", type=positive_int, metavar="N", default=None,
+                        help=f"local Dask worker processes, 1 to {MAX_WORKERS} (default: the "
+                             f"number of CPUs; {workers_note})")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (tls:// with "
+                             "Dask's TLS settings; the workers must see the output folder at "
+                             "the same path; ignores --workers)")
+    parser.add_argument("--force", action="store_true", help=force_help)

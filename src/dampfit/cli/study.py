@@ -7,27 +7,12 @@ import argparse
 import os
 from pathlib import Path
 
-__all__ = ["MAX_WORKERS", "add_arguments", "command", "positive_int"]
-
-#: Most local worker processes ``--workers`` may start (each is a Python process with JAX).
-MAX_WORKERS = 256
-
-
-def positive_int(text: str) -> int:
-    """A worker count: an integer from 1 to :data:`MAX_WORKERS` (argparse type)."""
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
-    if v > MAX_WORKERS:
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_WORKERS}, got {v}")
-    return v
-
+__all__ = ["add_arguments", "command"]
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit study``."""
+    from dampfit.cli.options import add_cluster_options
+
     parser.description = (
         "Simulate every scenario of CONFIG.toml's grid, run the chosen estimators on each "
         "recording and compare them with the truth and the Cramér–Rao bound. Runs execute on "
@@ -40,14 +25,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
     parser.add_argument("--out", metavar="DIR",
                         help="study folder (default: CONFIG's name + '.study'); reused to resume")
-    parser.add_argument("--workers", type=positive_int, metavar="N", default=None,
-                        help=f"local worker processes, 1 to {MAX_WORKERS} (default: the number "
-                             "of CPUs; never more than the runs still to do)")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
-                        help="use an existing Dask scheduler, e.g. tcp://host:8786 (tls:// with Dask's "
-                             "TLS settings; ignores --workers)")
-    parser.add_argument("--force", action="store_true",
-                        help="discard stored runs in DIR (even of another configuration) and restart")
+    add_cluster_options(parser, workers_note="never more than the runs still to do",
+                        force_help="discard stored runs in DIR (even of another configuration) "
+                                   "and restart")
     parser.add_argument("--quiet", action="store_true", help="no progress bar or status lines")
     parser.add_argument("--no-figures", action="store_true",
                         help="skip ranking.png and coverage.png (a campaign study: coverage.png)")
