@@ -325,3 +325,7 @@ def test_mat_and_sheet_options_reach_the_recreate_command(tmp_path, capsys):
         shlex.split(report.campaign_reproduce_command(c, tmp_path))[1:])
     assert (args.file, args.more_files, args.run, args.time_unit) == (
         "/d/a.csv", ["/d/b c.csv"], "Run #1", "ms")
+    c["provenance"]["options"]["max_modes"] = 3  # a campaign listing each test's modes
+    args = cli.get_parser().parse_args(
+        shlex.split(report.campaign_reproduce_command(c, tmp_path))[1:])
+    assert args.max_modes == 3 and args.mode_of_mass is None

@@ -202,6 +202,15 @@ def test_reproduce_command_parses_back_to_the_options(folder, summary):
     assert (args.seed, args.max_steps, args.out) == (7, 5000, "/tmp/out dir")
     s["mass"] = {"value": None, "sd": None, "unit": "kg"}
     assert "--mass" not in report.reproduce_command(s, "x")
+    # several modes come back as they were asked for; edited values are left out
+    s["provenance"]["options"].update({"max_modes": 4, "mode_of_mass": 2})
+    args = cli.get_parser().parse_args(shlex.split(report.reproduce_command(s, "x"))[1:])
+    assert (args.max_modes, args.mode_of_mass) == (4, 2)
+    s["provenance"]["options"].update({"max_modes": "4; rm -rf ~", "mode_of_mass": True})
+    cmd = report.reproduce_command(s, "x")
+    assert "--max-modes" not in cmd and "--mode-of-mass" not in cmd
+    s["provenance"]["options"].update({"max_modes": 1, "mode_of_mass": None})
+    assert "--max-modes" not in report.reproduce_command(s, "x")
 
 
 # ----------------------------------------------------------------------------- synthetic

@@ -51,6 +51,13 @@ def test_the_table_shows_the_modes_and_load_reads_them_back(campaign, tmp_path):
     assert back.summary()["tests"][1]["modes"] == json.loads(json.dumps(
         campaign.summary()["tests"][1]["modes"]))
     assert text_campaign.text(back.summary()) == text
+    # the report lists every test's modes, and re-creating the folder asks for them again
+    from dampfit.cli import main
+
+    assert main(["report", str(tmp_path / "c.dampfit"), "--no-redraw"]) == 0
+    md = (tmp_path / "c.dampfit" / "report.md").read_text()
+    assert "Modes of each test" in md and "1 (pooled)" in md and "Rayleigh α" in md
+    assert "--max-modes 3" in md
 
 
 def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign):

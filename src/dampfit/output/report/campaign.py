@@ -3,7 +3,9 @@
 :func:`build_campaign` gives the title and blocks: the status box (every warning once), the
 design and input files, the population table with the predictive interval for a new test and
 the between-test spread, the verdict, the per-test table (alone and pooled) with the forest
-plot, and in added-mass mode m₀, k and the 1/ω_n²–Δm figure; then how to reproduce and cite.
+plot, with several modes (``max_modes`` > 1) each test's modes in every damping convention
+(the pooled one marked) and its Rayleigh α, β, and in added-mass mode m₀, k and the
+1/ω_n²–Δm figure; then how to reproduce and cite.
 The tests carry the names of the campaign table (:func:`dampfit.output.text_campaign.labels`)
 and every number with an interval the digits of :mod:`dampfit.output.format`.
 """
@@ -16,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from dampfit.output.document import Block
+from dampfit.output.report.modes import CONVENTIONS, inverse_q
 from dampfit.output.report.reproduce import campaign_reproduce_command
 from dampfit.output.report.values import (NAMES, UNITS, bracket, figure, finite, get, median,
                                           more_warnings, number, spec, with_interval)
@@ -150,6 +153,46 @@ def _tests(s: dict) -> list[Block]:
                    "much as the spread between the tests allows."])]
 
 
+def _test_modes(s: dict) -> list[Block]:
+    """Each test's modes (``tests[i].modes``, :mod:`dampfit.campaign.modes`): f_n and every
+    damping convention with 90 % intervals, the pooled mode marked, the test's Rayleigh α, β;
+    [] for a one-mode campaign."""
+    tests = [t for t in (s.get("tests") or []) if isinstance(t, dict)]
+    entries = [(i, name, t["modes"]) for i, (t, name) in enumerate(zip(tests, labels(tests)))
+               if isinstance(t.get("modes"), dict)]
+    if not entries:
+        return []
+    head = ["test", "mode", "f_n, natural frequency [Hz]"] + [h for _, h in CONVENTIONS]
+    rows, rayleigh = [], []
+    for i, name, m in entries:
+        modes = [r for r in m.get("modes") or [] if isinstance(r, dict)] \
+            if isinstance(m.get("modes"), list) else []
+        if not modes:
+            rows.append([f"{i + 1} {name}", "—", f"not analysed: {number(m.get('reason'))}"]
+                        + ["—"] * len(CONVENTIONS))
+        for j, r in enumerate(modes):
+            qs = {k: r.get(k) for k, _ in CONVENTIONS}
+            qs["Q_inv"] = inverse_q(r.get("Q"))
+            mark = " (pooled)" if r.get("pooled") is True else ""
+            rows.append([f"{i + 1} {name}" if j == 0 else "", f"{j + 1}{mark}",
+                         with_interval(r.get("f_n"))]
+                        + [with_interval(qs[k]) for k, _ in CONVENTIONS])
+        ray = m.get("rayleigh")
+        if isinstance(ray, dict) and isinstance(ray.get("alpha"), dict):
+            rayleigh.append([f"{i + 1} {name}", with_interval(ray.get("alpha"), "1/s"),
+                             with_interval(ray.get("beta"), "s"), number(ray.get("statement"))])
+    out: list[Block] = [
+        ("h2", "Modes of each test"),
+        ("p", ["The campaign pools the mode each test's band isolates (marked “pooled”); "
+               "every test was also analysed for several modes on its own (posterior median "
+               "and 90 % interval; η = 2ζ, Λ = 2πζ/√(1−ζ²), Q⁻¹ = 2ζ). The other modes "
+               "report ζ and f_n only: no modal mass is invented for them."]),
+        ("table", head, rows)]
+    if rayleigh:
+        out.append(("table", ["test", "Rayleigh α [1/s]", "Rayleigh β [s]", "fit"], rayleigh))
+    return out
+
+
 def _verdict(s: dict) -> list[Block]:
     checks = s.get("checks") if isinstance(s.get("checks"), dict) else {}
     if not checks:
@@ -208,6 +251,7 @@ def build_campaign(data: dict[str, Any], directory: Path, now: str) -> tuple[str
     b += [("h2", "Population: the damper")] + _population(s)
     b += [("h2", "Verdict")] + _verdict(s)
     b += [("h2", "Each test")] + _tests(s) + [figure("forest")]
+    b += _test_modes(s)
     b += _added_mass(s)
     here = shlex.quote(os.path.abspath(directory))
     b += [("h2", "How to reproduce and cite"),

@@ -56,6 +56,21 @@ def _signal_flags(opts: dict) -> list[str]:
     return parts
 
 
+def _whole(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= 1
+
+
+def _modes_flags(opts: dict) -> list[str]:
+    """``--max-modes N`` (N > 1) and ``--mode-of-mass N`` as recorded; other values (an edited
+    summary) are left out."""
+    parts = []
+    if _whole(opts.get("max_modes")) and opts["max_modes"] > 1:
+        parts += ["--max-modes", str(opts["max_modes"])]
+    if _whole(opts.get("mode_of_mass")):
+        parts += ["--mode-of-mass", str(opts["mode_of_mass"])]
+    return parts
+
+
 #: The reading options recorded in ``provenance.options`` (:data:`dampfit.io.readers.READ_OPTIONS`)
 #: and what each value may be to become a flag again.
 _READ_FLAGS = {"time_column": "one", "accel_columns": "many", "time_unit": "one",
@@ -116,6 +131,7 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
     path = str(own) if own is not None else get(s, "input", "path")
     parts = ["dampfit", "analyze", _input_arg(path)]
     parts += _mass_flags(s.get("mass")) + _signal_flags(opts) + _read_flags(opts)
+    parts += _modes_flags(opts)
     if isinstance(opts.get("model"), str) and opts["model"] != "auto":
         parts += ["--model", q(opts["model"])]
     if finite(opts.get("amplitude")):
@@ -234,7 +250,7 @@ def campaign_reproduce_command(s: dict, directory: str | os.PathLike) -> str:
         parts += _mass_flags(m)
     opts = get(s, "provenance", "options")
     opts = opts if isinstance(opts, dict) else {}
-    parts += _signal_flags(opts) + _read_flags(opts)
+    parts += _signal_flags(opts) + _read_flags(opts) + _modes_flags(opts)
     seed = get(s, "provenance", "seed")
     seed = seed if isinstance(seed, int) and not isinstance(seed, bool) else 0
     inside = any(isinstance(p, str) and _inside(p, directory) for p in paths)
