@@ -73,6 +73,7 @@ def test_a_batch_has_one_row_per_recording_and_refused_ones_are_rows(done):
     assert np.allclose(ok["c_q50"].astype(float), 2 * 0.5 * 0.3, rtol=0.01)  # c = 2 m p
     assert (ok["c_q05"].astype(float) < ok["c_q50"].astype(float)).all()
     assert set(ok["converged"]) == {"True"} and all(len(h) == 64 for h in table["sha256"])
+    assert set(ok["n_modes"]) == {"1"} and set(ok["modes_f_n_hz"]) == {""}  # one mode each
     md = (done / "summary.md").read_text()
     assert "3 analysed, 1 refused, 0 failed" in md and "broken.csv" in md
     import dampfit
@@ -288,3 +289,15 @@ def test_local_workers_run_xla_on_one_thread_each(monkeypatch):
     assert len(flags) == 2 and set(flags.values()) == {cluster.ONE_THREAD_XLA}
     monkeypatch.setenv("XLA_FLAGS", "--mine")
     assert cluster.worker_env(2) == {}
+
+
+def test_a_row_names_the_modes_of_a_several_mode_summary():
+    from dampfit.batch.task import row_of
+
+    mode = lambda f: {"f_n": {"q50": f}}  # noqa: E731
+    row = row_of({"n_modes": 2, "modes": [mode(3.3), mode(8.91)],
+                  "parameters": {"c": {"q05": 1, "q50": 2, "q95": 3}}})
+    assert (row["n_modes"], row["modes_f_n_hz"], row["c_q50"]) == (2, "3.3 8.91", 2.0)
+    # an edited summary: wrong types give empty cells, never an error
+    row = row_of({"n_modes": True, "modes": [mode("x"), 5, None]})
+    assert row["n_modes"] is None and row["modes_f_n_hz"] is None

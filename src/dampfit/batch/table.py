@@ -6,7 +6,8 @@ given), ``name`` (its folder under ``runs/``), ``sha256``, ``status`` (ok / refu
 and ``message`` (the one-line reason, or the analysis's first warning), ``mass_kg``, f_n [Hz],
 ζ [1], c [N·s/m] and k [N/m] each as ``q05``, ``q50``, ``q95`` (the 90 % interval and the
 median; c and k empty without a mass), the damping-law ``verdict``, ``converged``,
-``seconds`` (wall time of that recording's analysis and outputs) and ``folder``.
+``n_modes`` and ``modes_f_n_hz`` (the modes' median f_n [Hz] when ``--max-modes`` found
+several; the quantities above are then the mass's mode), ``seconds`` (wall time of that recording's analysis and outputs) and ``folder``.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ __all__ = ["COLUMNS", "comparison_figure", "frame", "summary_md", "write_outputs
 
 COLUMNS = ("file", "name", "sha256", "status", "message", "mass_kg",
            *(f"{q}_{lv}" for q in QUANTITIES for lv in ("q05", "q50", "q95")),
-           "verdict", "converged", "seconds", "folder")
+           "verdict", "converged", "n_modes", "modes_f_n_hz", "seconds", "folder")
 _UNITS = {"c": "N s/m", "zeta": "1", "f_n": "Hz", "k": "N/m"}
 
 
@@ -33,6 +34,7 @@ def frame(rows: Sequence[dict[str, Any]]):
 
     df = pd.DataFrame([{c: r.get(c) for c in COLUMNS} for r in rows], columns=list(COLUMNS))
     df["converged"] = df["converged"].astype("boolean")
+    df["n_modes"] = pd.to_numeric(df["n_modes"], errors="coerce").astype("Int64")
     return df
 
 

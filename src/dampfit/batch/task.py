@@ -32,7 +32,8 @@ STATUSES = ("ok", "refused", "failed")
 
 def row_of(summary: dict[str, Any]) -> dict[str, Any]:
     """The quantities, verdict and convergence of a summary.json, as a row's columns
-    (``c_q50`` …; None where the summary has no value)."""
+    (``c_q50`` …; None where the summary has no value), its number of modes ``n_modes`` and,
+    for several, their median natural frequencies [Hz] ``modes_f_n_hz`` ("3.3 8.91")."""
     params = summary.get("parameters") or {}
     out: dict[str, Any] = {}
     for q in QUANTITIES:
@@ -44,6 +45,12 @@ def row_of(summary: dict[str, Any]) -> dict[str, Any]:
     diag = summary.get("diagnostics") or {}
     out["verdict"] = checks.get("verdict") if isinstance(checks.get("verdict"), str) else None
     out["converged"] = diag.get("converged") if isinstance(diag.get("converged"), bool) else None
+    n = summary.get("n_modes")
+    out["n_modes"] = n if isinstance(n, int) and not isinstance(n, bool) else None
+    modes = summary.get("modes") if isinstance(summary.get("modes"), list) else []
+    f = [m["f_n"]["q50"] for m in modes if isinstance(m, dict) and isinstance(m.get("f_n"), dict)
+         and isinstance(m["f_n"].get("q50"), (int, float))]
+    out["modes_f_n_hz"] = " ".join(f"{v:.6g}" for v in f) if len(f) >= 2 else None
     return out
 
 
