@@ -56,15 +56,29 @@ def _legend(ax) -> None:
         ax.legend(fontsize=8, title="scenario", title_fontsize=8, loc="best")
 
 
+def _per_mode(agg: pd.DataFrame, rank: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """``agg`` and the x order of the estimators; with several modes each estimator × mode is
+    one column of points, labelled "estimator · mode k", in the ranking's order."""
+    if "mode" not in agg or agg["mode"].nunique() < 2:
+        return agg, list(dict.fromkeys(rank["estimator"]))
+
+    def label(est, mode) -> str:
+        return f"{est} · mode {int(mode)}"
+
+    agg = agg.assign(estimator=[label(e, m) for e, m in zip(agg["estimator"], agg["mode"])])
+    return agg, [label(e, m) for e, m in zip(rank["estimator"], rank["mode"])]
+
+
 def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, title: str) -> list[Path]:
-    """Write ``ranking.png`` (RMSE/CRLB, log scale) and ``coverage.png`` into ``out``."""
+    """Write ``ranking.png`` (RMSE/CRLB, log scale) and ``coverage.png`` into ``out`` (with
+    several modes one column per estimator and mode)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     out = Path(out)
-    order = list(rank["estimator"])
+    agg, order = _per_mode(agg, rank)
     quantity = str(agg["quantity"].iloc[0]) if len(agg) else "c"
     paths = []
 
