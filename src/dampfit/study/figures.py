@@ -20,12 +20,13 @@ def _save(fig, path: Path) -> None:
 
 
 def _wilson(k: np.ndarray, n: np.ndarray, z: float = 1.96) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval (95 %) of a binomial proportion k/n: (lower, upper)."""
+    """Wilson score interval (95 %) of a binomial proportion k/n: (lower, upper), widened by
+    rounding error so it always holds k/n (at k = n the upper end is 1 − ε in floating point)."""
     n = np.maximum(n, 1)
     p = k / n
     centre = (p + z**2 / (2 * n)) / (1 + z**2 / n)
     half = z / (1 + z**2 / n) * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
-    return centre - half, centre + half
+    return np.minimum(centre - half, p), np.maximum(centre + half, p)
 
 
 def _strip(ax, agg: pd.DataFrame, order: list[str], column: str, wilson: bool = False):

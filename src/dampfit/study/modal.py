@@ -55,17 +55,18 @@ DEFAULT_MAX_MODES = 3
 
 class Shared:
     """What the several-mode estimators of one recording share: the order selection of
-    ``prep`` up to ``max_modes`` modes, computed on first use (or its error, re-raised), and
-    the wall time [s] it took (``seconds``)."""
+    ``prep`` up to ``max_modes`` modes, computed on first use (or its error, re-raised), the
+    wall time [s] it took (``seconds``) and how often it was asked for (``calls``)."""
 
     def __init__(self, prep: Prepared, max_modes: int):
         self.prep, self.max_modes = prep, max_modes
-        self.seconds = 0.0
+        self.seconds, self.calls = 0.0, 0
         self._selection = None
         self._error: Exception | None = None
 
     def selection(self):
         """The :class:`~dampfit.inference.modes_select.ModeSelection` of ``prep``."""
+        self.calls += 1
         if self._selection is None and self._error is None:
             from dampfit.inference import modes_select
 
@@ -80,23 +81,34 @@ class Shared:
         return self._selection
 
 
+class _Clock:
+    """Wall time [s] of one estimator from now: its own, plus the shared selection's if it
+    asked for the selection (whichever estimator happened to compute it)."""
+
+    def __init__(self, shared: Shared):
+        self.shared, self.t0 = shared, time.perf_counter()
+        self.before, self.calls = shared.seconds, shared.calls
+
+    def seconds(self) -> float:
+        s = self.shared
+        own = time.perf_counter() - self.t0 - (s.seconds - self.before)
+        return own + (s.seconds if s.calls > self.calls else 0.0)
+
+
 #: name -> estimator(prep, mass, *, seed, shared) -> list[Estimate] (by frequency)
 MODE_ESTIMATORS: dict[str, Callable[..., list[Estimate]]] = {}
 
 
 def _estimator(name: str):
     """Register ``fn`` under ``name``; every estimate's ``runtime_s`` [s] is the estimator's own
-    wall time plus the shared selection's."""
+    wall time plus, if it used it, the shared selection's."""
 
     def wrap(fn):
         @functools.wraps(fn)
         def timed(prep: Prepared, mass: float | None, *, seed: int, shared: Shared) -> list[Estimate]:
-            t0, before = time.perf_counter(), shared.seconds
-            try:
-                out = fn(prep, mass, seed=seed, shared=shared)
-            finally:
-                own = time.perf_counter() - t0 - (shared.seconds - before)
-            return [replace(e, runtime_s=own + shared.seconds) for e in out]
+            clock = _Clock(shared)
+            out = fn(prep, mass, seed=seed, shared=shared)
+            return [replace(e, runtime_s=clock.seconds()) for e in out]
 
         MODE_ESTIMATORS[name] = timed
         return timed
@@ -181,13 +193,12 @@ def run(names: Iterable[str], recording: Recording, mass: float | None = None, *
     shared = Shared(prepare.prepare(recording), check_max_modes(max_modes))
     out = []
     for name in names:
-        t0, before = time.perf_counter(), shared.seconds
+        clock = _Clock(shared)
         try:
             out.append(MODE_ESTIMATORS[name](shared.prep, mass, seed=seed, shared=shared))
         except Exception as exc:  # noqa: BLE001 - failure is data in a comparison study
-            own = time.perf_counter() - t0 - (shared.seconds - before)
             msg = f"{type(exc).__name__}: {exc}".strip()
-            out.append([failed_estimate(name, msg, own + shared.seconds)])
+            out.append([failed_estimate(name, msg, clock.seconds())])
     return out
 
 
