@@ -223,3 +223,18 @@ def test_aggregate_and_ranking_per_mode():
     assert list(zip(rank["rank"], rank["estimator"], rank["mode"])) == [
         (1, "s", 1), (2, "m", 1), (1, "m", 2)]
     assert rank.loc[2, "failed"] == pytest.approx(0.5)
+
+
+def test_figures_label_modes_and_take_a_full_coverage(tmp_path):
+    """Several modes: one column per estimator and mode; a coverage of 6/6 (whose Wilson upper
+    end is 1 − ε in floating point) is drawn, not refused for a negative error bar."""
+    from dampfit.study.figures import _per_mode, save_figures
+
+    agg = pd.DataFrame([{"scenario": "A", "label": "all", "estimator": e, "mode": m,
+                         "quantity": "zeta", "rmse_crlb": 1.2, "coverage": 1.0, "n_intervals": 6}
+                        for e in ("a", "b") for m in (1, 2)])
+    rank = tables.ranking(agg.assign(n=6, n_failed=0, rel_bias=0.0, median_runtime_s=1.0))
+    _, order = _per_mode(agg, rank)
+    assert order == ["a · mode 1", "b · mode 1", "a · mode 2", "b · mode 2"]
+    paths = save_figures(agg, rank, tmp_path, "t")
+    assert all(p.stat().st_size > 0 for p in paths)
