@@ -22,6 +22,9 @@ Every estimator reports the decay rate p [1/s] and the natural frequency f_n [Hz
 ``half_power``         half-power bandwidth of the power spectrum;
 ``matrix_pencil``      Hua & Sarkar's total-least-squares matrix pencil on the
                        low-passed, decimated window.
+
+The estimators that report every mode they find (several modes) are in
+:mod:`dampfit.study.modal`.
 """
 
 from __future__ import annotations
