@@ -3,9 +3,9 @@ study file, and a base table with ``table__key=value`` overrides."""
 
 from __future__ import annotations
 
-from dampfit.study import registry
+from dampfit.study import modal, registry
 
-AVAILABLE = list(registry.ESTIMATORS)
+AVAILABLE = list(registry.ESTIMATORS) + list(modal.MODE_ESTIMATORS)
 
 # A small, fast study: 4 scenarios x 4 replicates x 3 cheap estimators on 8 s records.
 SMALL = """

@@ -1,7 +1,8 @@
 """A resumable simulation study comparing damping estimators (``dampfit study CONFIG.toml``).
 
 Every scenario of a TOML grid (:mod:`dampfit.study.config`) is simulated ``replicates`` times;
-each recording goes through every estimator of :mod:`dampfit.study.registry` and is compared with
+each recording goes through every estimator of :mod:`dampfit.study.registry` (and the
+several-mode ones of :mod:`dampfit.study.modal`, compared mode by mode) and is compared with
 the truth and with the Cramér–Rao lower bound (:mod:`dampfit.inference.crlb`). Runs execute on Dask
 ``distributed`` (:mod:`dampfit.study.runner`: a local cluster, or ``scheduler=ADDRESS``),
 are stored as they finish (:mod:`dampfit.study.store`) so an interrupted study resumes, and
@@ -30,13 +31,14 @@ __all__ = ["load", "run_study"]
 
 def load(path, available=None):
     """Read and validate a study file (see :func:`dampfit.study.config.load`); estimator names
-    are checked against ``available`` (default: :data:`dampfit.study.registry.ESTIMATORS`)."""
+    are checked against ``available`` (default: :data:`dampfit.study.registry.ESTIMATORS` and
+    the several-mode :data:`dampfit.study.modal.MODE_ESTIMATORS`)."""
     from dampfit.study.config import load as _load
 
     if available is None:
-        from dampfit.study import registry
+        from dampfit.study import modal, registry
 
-        available = list(registry.ESTIMATORS)
+        available = list(registry.ESTIMATORS) + list(modal.MODE_ESTIMATORS)
     return _load(path, available)
 
 

@@ -20,12 +20,13 @@ def _save(fig, path: Path) -> None:
 
 
 def _wilson(k: np.ndarray, n: np.ndarray, z: float = 1.96) -> tuple[np.ndarray, np.ndarray]:
-    """Wilson score interval (95 %) of a binomial proportion k/n: (lower, upper)."""
+    """Wilson score interval (95 %) of a binomial proportion k/n: (lower, upper), widened by
+    rounding error so it always holds k/n (at k = n the upper end is 1 − ε in floating point)."""
     n = np.maximum(n, 1)
     p = k / n
     centre = (p + z**2 / (2 * n)) / (1 + z**2 / n)
     half = z / (1 + z**2 / n) * np.sqrt(p * (1 - p) / n + z**2 / (4 * n**2))
-    return centre - half, centre + half
+    return np.minimum(centre - half, p), np.maximum(centre + half, p)
 
 
 def _strip(ax, agg: pd.DataFrame, order: list[str], column: str, wilson: bool = False):
@@ -56,15 +57,29 @@ def _legend(ax) -> None:
         ax.legend(fontsize=8, title="scenario", title_fontsize=8, loc="best")
 
 
+def _per_mode(agg: pd.DataFrame, rank: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
+    """``agg`` and the x order of the estimators; with several modes each estimator × mode is
+    one column of points, labelled "estimator · mode k", in the ranking's order."""
+    if "mode" not in agg or agg["mode"].nunique() < 2:
+        return agg, list(dict.fromkeys(rank["estimator"]))
+
+    def label(est, mode) -> str:
+        return f"{est} · mode {int(mode)}"
+
+    agg = agg.assign(estimator=[label(e, m) for e, m in zip(agg["estimator"], agg["mode"])])
+    return agg, [label(e, m) for e, m in zip(rank["estimator"], rank["mode"])]
+
+
 def save_figures(agg: pd.DataFrame, rank: pd.DataFrame, out: str | os.PathLike, title: str) -> list[Path]:
-    """Write ``ranking.png`` (RMSE/CRLB, log scale) and ``coverage.png`` into ``out``."""
+    """Write ``ranking.png`` (RMSE/CRLB, log scale) and ``coverage.png`` into ``out`` (with
+    several modes one column per estimator and mode)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
     out = Path(out)
-    order = list(rank["estimator"])
+    agg, order = _per_mode(agg, rank)
     quantity = str(agg["quantity"].iloc[0]) if len(agg) else "c"
     paths = []
 

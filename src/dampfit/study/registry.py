@@ -22,6 +22,9 @@ Every estimator reports the decay rate p [1/s] and the natural frequency f_n [Hz
 ``half_power``         half-power bandwidth of the power spectrum;
 ``matrix_pencil``      Hua & Sarkar's total-least-squares matrix pencil on the
                        low-passed, decimated window.
+
+The estimators that report every mode they find (several modes) are in
+:mod:`dampfit.study.modal`.
 """
 
 from __future__ import annotations
@@ -43,7 +46,8 @@ from dampfit import physics
 from dampfit.signal.prepare import Prepared
 from dampfit.io.recording import Recording
 
-__all__ = ["Estimate", "ESTIMATORS", "run", "BAYES_MIN_ESS", "Z90"]
+__all__ = ["Estimate", "ESTIMATORS", "run", "BAYES_MIN_ESS", "Z90", "estimate_from",
+           "failed_estimate"]
 
 #: Bulk ESS the "bayes" estimator asks for (the CLI default is 1000; 400 keeps studies fast).
 BAYES_MIN_ESS = 400.0
@@ -85,13 +89,17 @@ class Estimate:
         return out
 
 
-def _failed(name: str, message: str, runtime: float = 0.0) -> Estimate:
+def failed_estimate(name: str, message: str, runtime: float = 0.0) -> Estimate:
+    """An ``ok=False`` estimate of ``name`` with no numbers, ``message`` saying why, and the
+    wall time ``runtime`` [s] it took to fail."""
     nan = float("nan")
     return Estimate(name, nan, nan, nan, None, None, None, None, None, False, message, runtime)
 
 
-def _result(name, p, f_d, mass, *, p_int=None, zeta_int=None, ok=True, message="") -> Estimate:
-    """Estimate from p [1/s] and the damped frequency f_d [Hz]; ``p_int`` a 90 % interval of p."""
+def estimate_from(name, p, f_d, mass, *, p_int=None, zeta_int=None, ok=True, message="") -> Estimate:
+    """Estimate from p [1/s] and the damped frequency f_d [Hz] (mass [kg] or None for c);
+    ``p_int`` a 90 % interval of p [1/s], ``zeta_int`` one of ζ [1]. A non-positive or
+    non-finite p is ``ok=False`` ("no decay found")."""
     d = physics.quantities(p, 2 * np.pi * f_d, mass)
     p, f_n, zeta = float(p), float(d["f_n"]), float(d["zeta"])
     if ok and not (math.isfinite(p) and math.isfinite(f_n) and p > 0):
@@ -176,7 +184,7 @@ def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     try:
         st = stages.fit_stages(prep, mass)
     except InputError as exc:
-        return _failed("least_squares", str(exc))
+        return failed_estimate("least_squares", str(exc))
     ls = st.least_squares
     s = stages.ls_summary(ls, mass, st.noise.psd_ratio)
     p, zeta = s["p"], s["zeta"]
@@ -184,7 +192,7 @@ def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     sd_lnp = s["p_sd"] / p if "p_sd" in s and p > 0 else nan
     sd_lnz = s["zeta_sd"] / zeta if "zeta_sd" in s and zeta > 0 else nan
     ok, msg = ls.converged, ("" if ls.converged else ls.message)
-    return _result(
+    return estimate_from(
         "least_squares", p, ls.omega_d / (2 * np.pi), mass, ok=ok, message=msg,
         p_int=(p * (1 - Z90 * sd_lnp), p * (1 + Z90 * sd_lnp)),
         zeta_int=(zeta * (1 - Z90 * sd_lnz), zeta * (1 + Z90 * sd_lnz)),
@@ -199,7 +207,7 @@ def log_decrement(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     """
     t, y = _window(prep)
     b = baselines.log_decrement(t, y, prep.fs, prep.band)
-    return _result("log_decrement", b.p, b.f_d, mass)
+    return estimate_from("log_decrement", b.p, b.f_d, mass)
 
 
 @_estimator("envelope_pipeline")
@@ -210,7 +218,7 @@ def envelope_pipeline(prep: Prepared, mass: float | None, *, seed: int = 0) -> E
     """
     t, y = _window(prep)
     b = baselines.envelope_pipeline(t, y, prep.fs, prep.band)
-    return _result("envelope_pipeline", b.p, b.f_d, mass)
+    return estimate_from("envelope_pipeline", b.p, b.f_d, mass)
 
 
 def _hilbert_fit(prep: Prepared) -> tuple[float, float]:
@@ -249,7 +257,7 @@ def hilbert(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     Free vibration analysis method 'FREEVIB'", Mech. Syst. Signal Process. 8(2), 1994.
     """
     p, f_d = _hilbert_fit(prep)
-    return _result("hilbert", p, f_d, mass)
+    return estimate_from("hilbert", p, f_d, mass)
 
 
 def _half_power_width(f: np.ndarray, pw: np.ndarray) -> tuple[float, float]:
@@ -290,7 +298,7 @@ def half_power(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate
     spec = signal.zoom_fft(y, [lo, hi], m=m, fs=prep.fs, endpoint=True)
     f = np.linspace(lo, hi, m)
     f_pk, width = _half_power_width(f, np.abs(spec) ** 2)
-    return _result("half_power", np.pi * width, f_pk, mass)
+    return estimate_from("half_power", np.pi * width, f_pk, mass)
 
 
 def _pencil_poles(x: np.ndarray, order: int) -> np.ndarray:
@@ -334,7 +342,7 @@ def matrix_pencil(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     if not s.size:
         raise InputError("the matrix pencil found no oscillating pole")
     best = s[np.argmin(np.abs(s.imag - 2 * np.pi * prep.f0))]
-    return _result("matrix_pencil", -best.real, best.imag / (2 * np.pi), mass)
+    return estimate_from("matrix_pencil", -best.real, best.imag / (2 * np.pi), mass)
 
 
 # --------------------------------------------------------------------------- runner
@@ -362,5 +370,5 @@ def run(names: Iterable[str] | str, recording: Recording, mass: float | None = N
             out.append(ESTIMATORS[name](prep, mass, seed=seed))
         except Exception as exc:  # noqa: BLE001 - failure is data in a comparison study
             msg = f"{type(exc).__name__}: {exc}".strip()
-            out.append(_failed(name, msg, time.perf_counter() - t0))
+            out.append(failed_estimate(name, msg, time.perf_counter() - t0))
     return out

@@ -64,13 +64,14 @@ def _execute(client, todo: list[Task], store: Store, total: int, done: int, cfg:
 
 
 def _finished(store: Store, tasks: list[Task]) -> dict[tuple[str, int], dict[str, Any]]:
-    """Stored records that match a task of this configuration (seed and estimators)."""
+    """Stored records that match a task of this configuration (seed and estimators; a
+    several-mode estimator has one row per mode)."""
     want = {t.key: t for t in tasks}
     out = {}
     for rec in store.records():
         t = want.get((rec["scenario"], rec["replicate"]))
         if t is not None and rec.get("seed") == t.seed and \
-                [r.get("estimator") for r in rec["rows"]] == list(t.estimators):
+                list(dict.fromkeys(r.get("estimator") for r in rec["rows"])) == list(t.estimators):
             out[t.key] = rec
     return out
 
@@ -176,7 +177,7 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
     q = cfg.target
     mass = (f"the mass m = {cfg.mass:g} kg is known exactly to the estimators" if cfg.mass
             else "no mass is given, so the estimators report ζ (not c)")
-    scen_cols = ["label", "estimator", "n", "n_failed", "true", "bias", "rel_bias", "rmse", "crlb",
+    scen_cols = ["label", "estimator", "mode", "n", "n_failed", "true", "bias", "rel_bias", "rmse", "crlb",
                  "rmse_crlb", "coverage", "median_runtime_s"]
     parts = [
         f"# Simulation study: {tables.md_escape(cfg.name)}\n",
@@ -189,6 +190,7 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
          "truth (– when the estimator reports none); `failed` the fraction of runs without an "
          "estimate.\n"),
         tables.markdown(rank),
+        *_modes_md(cfg),
         "## Per scenario\n",
         tables.markdown(agg[[c for c in scen_cols if c in agg.columns]]),
         "## Definitions\n",
@@ -204,6 +206,20 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
         parts.append("![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n")
     parts += _configuration_md(cfg)
     return "\n".join(parts)
+
+
+def _modes_md(cfg: StudyConfig) -> list[str]:
+    """The paragraph on several modes (nothing for a one-mode study)."""
+    if not cfg.has_modes:
+        return []
+    return [("Several modes: `mode` numbers the simulated modes by frequency (1 = lowest). The "
+             "several-mode estimators (`modes_*`, K = 1 … "
+             f"{cfg.max_modes} tried) are compared on every mode, their modes paired one to one "
+             "with the true ones by nearest frequency; a true mode not found counts as a failed "
+             "run of that mode (`failed`). A one-mode estimator is compared on the mass's mode "
+             "only. Each mode's CRLB is the several-mode bound (`dampfit.inference.crlb."
+             "bound_modes`), the other modes unknown; ζ is compared because c belongs to the "
+             "mass's mode only. Ranks are within each mode.\n")]
 
 
 def _configuration_md(cfg: StudyConfig) -> list[str]:

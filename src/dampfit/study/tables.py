@@ -12,6 +12,11 @@ in ``n_failed`` and left out of the error statistics. The ranking pools the scen
 estimator: geometric mean and worst RMSE/CRLB, median relative bias, pooled coverage,
 failure fraction and median runtime, sorted by the geometric mean.
 
+Several modes: every statistic is per scenario × estimator × true ``mode`` (1-based by
+frequency; a true mode an estimator did not find counts as a failed run of that mode), and the
+ranking per estimator × mode, ranked within each mode (mode 1 first). A one-mode study has
+``mode`` = 1 throughout and otherwise the same tables.
+
 A campaign study (:mod:`dampfit.study.campaign`) has no bound and one "estimator", the joint
 analysis: :func:`campaign_aggregate` gives per scenario (and pooled over all of them, in the
 place of the ranking) the number of runs ``n``, refused (``n_refused``), crashed
@@ -56,8 +61,9 @@ def runs_frame(cfg: StudyConfig, records: list[dict[str, Any]]) -> pd.DataFrame:
     """Tidy table: one row per scenario × replicate × estimator, in config order.
 
     Columns: ``scenario``, ``label``, the scenario's fields, ``mass`` (simulated) [kg], ``replicate``,
-    ``seed``, ``estimator``, then the record rows' columns (see
-    :func:`dampfit.study.task.run_task`).
+    ``seed``, ``estimator``, ``mode``, then the record rows' columns (see
+    :func:`dampfit.study.task.run_task`; a stored row without ``mode``, from before several
+    modes, is mode 1). Sorted by scenario (config order), replicate, estimator, mode.
     """
     scen = dict(cfg.scenarios())
     order = {sid: i for i, sid in enumerate(scen)}
@@ -76,12 +82,16 @@ def runs_frame(cfg: StudyConfig, records: list[dict[str, Any]]) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     if df.empty:
         return df
+    if not cfg.is_campaign:
+        df["mode"] = (df["mode"] if "mode" in df else pd.Series(1, index=df.index)) \
+            .fillna(1).astype(int)
     keys = pd.DataFrame({"s": df["scenario"].map(order), "r": df["replicate"],
-                         "e": df["estimator"].map(lambda e: est_order.get(e, len(est_order)))})
-    df = df.loc[keys.sort_values(["s", "r", "e"], kind="stable").index].reset_index(drop=True)
+                         "e": df["estimator"].map(lambda e: est_order.get(e, len(est_order))),
+                         "m": df["mode"] if "mode" in df else 1})
+    df = df.loc[keys.sort_values(["s", "r", "e", "m"], kind="stable").index].reset_index(drop=True)
     for col in df.columns:  # None → NaN in numeric columns; booleans with gaps stay objects
         if col.startswith(("est_", "true_", "crlb_", "err_", "spread_q")) \
-                or col.endswith(("_lo", "_hi")) or col == "runtime_s":
+                or col.endswith(("_lo", "_hi")) or col in ("runtime_s", "n_modes"):
             df[col] = pd.to_numeric(df[col], errors="coerce").astype(float)
     return df
 
@@ -113,36 +123,42 @@ def _stats(g: pd.DataFrame, q: str) -> pd.Series:
 
 
 def aggregate(runs: pd.DataFrame, target: str, keys: list[str] | None = None) -> pd.DataFrame:
-    """Per scenario × estimator statistics of ``target`` (``"c"``, ``"zeta"``, ``"p"`` or ``"f_n"``).
+    """Per scenario × estimator (× mode) statistics of ``target`` (``"c"``, ``"zeta"``, ``"p"``
+    or ``"f_n"``).
 
     ``keys`` are extra per-scenario columns to carry along (e.g. the varying grid fields).
-    Columns: ``scenario``, ``label``, keys…, ``estimator``, ``quantity``, ``n``, ``n_failed``,
+    Columns: ``scenario``, ``label``, keys…, ``estimator``, ``mode`` (when the runs have it),
+    ``quantity``, ``n``, ``n_failed``,
     ``true``, ``bias``, ``rel_bias``, ``rmse``, ``crlb``, ``rmse_crlb``, ``coverage``,
     ``n_intervals``, ``median_runtime_s`` (module docstring).
     """
-    keys = [k for k in (keys or []) if k in runs.columns and k not in ("scenario", "label")]
-    group = ["scenario", "label", *keys, "estimator"]
+    keys = [k for k in (keys or []) if k in runs.columns and k not in ("scenario", "label", "mode")]
+    group = ["scenario", "label", *keys, "estimator", *(["mode"] if "mode" in runs else [])]
     parts = []
     for name, g in runs.groupby(group, sort=False, dropna=False):
         s = _stats(g, target)
         parts.append({**dict(zip(group, name)), "quantity": target, **s.to_dict()})
     out = pd.DataFrame(parts)
-    for col in ("n", "n_failed", "n_intervals"):
+    for col in ("mode", "n", "n_failed", "n_intervals"):
         if col in out:
             out[col] = out[col].astype(int)
     return out
 
 
 def ranking(agg: pd.DataFrame) -> pd.DataFrame:
-    """Per estimator over all scenarios, best first (module docstring)."""
+    """Per estimator (× mode) over all scenarios, best first (within each mode; module
+    docstring). Columns: ``rank``, ``estimator``, ``mode`` (when ``agg`` has it),
+    ``scenarios``, ``rmse_crlb_gmean``, ``rmse_crlb_worst``, ``rel_bias_median``,
+    ``coverage``, ``failed``, ``median_runtime_s``."""
     rows = []
-    for est, g in agg.groupby("estimator", sort=False):
+    by = ["estimator", *(["mode"] if "mode" in agg else [])]
+    for key, g in agg.groupby(by, sort=False):
         ratio = g["rmse_crlb"].astype(float)
         ratio = ratio[np.isfinite(ratio) & (ratio > 0)]
         n_int = int(g["n_intervals"].sum())
         covered = float((g["coverage"].fillna(0) * g["n_intervals"]).sum())
         rows.append({
-            "estimator": est,
+            **dict(zip(by, key)),
             "scenarios": len(g),
             "rmse_crlb_gmean": float(np.exp(np.log(ratio).mean())) if len(ratio) else math.nan,
             "rmse_crlb_worst": float(ratio.max()) if len(ratio) else math.nan,
@@ -154,8 +170,14 @@ def ranking(agg: pd.DataFrame) -> pd.DataFrame:
     out = pd.DataFrame(rows)
     if out.empty:
         return out
-    out = out.sort_values("rmse_crlb_gmean", na_position="last", kind="stable").reset_index(drop=True)
-    out.insert(0, "rank", np.arange(1, len(out) + 1))
+    if "mode" not in out:
+        out = out.sort_values("rmse_crlb_gmean", na_position="last", kind="stable")
+        out.insert(0, "rank", np.arange(1, len(out) + 1))
+        return out.reset_index(drop=True)
+    out["mode"] = out["mode"].astype(int)
+    out = out.sort_values(["mode", "rmse_crlb_gmean"], na_position="last",
+                          kind="stable").reset_index(drop=True)
+    out.insert(0, "rank", out.groupby("mode").cumcount() + 1)
     return out
 
 

@@ -14,6 +14,7 @@ A study file has three tables (and an optional fourth, ``[campaign]``, below)::
     estimators = ["bayes", "least_squares", "log_decrement"]   # see dampfit.study.registry
     mass = 5.3                  # [kg]; known exactly to the estimators. Omit it to study ζ (no c)
     max_replicates = { bayes = 5 }   # optional: an expensive estimator on the first 5 only
+    max_modes = 3               # optional: largest K the several-mode estimators try (default 3)
 
     [grid]                      # lists; the scenarios are their cartesian product
     f_n = [2.0]                 # natural frequency [Hz]
@@ -22,6 +23,7 @@ A study file has three tables (and an optional fourth, ``[campaign]``, below)::
 
     [fixed]                     # single values shared by every scenario
     noise_density = 150         # [µg/√Hz]
+    modes = [[8.91, 0.012, 0.25, 0.5]]   # optional extra modes [f_n Hz, zeta, amplitude ratio, phase rad]
 
 A fourth, optional table makes it a *campaign study*: each run simulates a test campaign
 (several recordings of one damper, :func:`dampfit.simulate.campaign`) and analyses it jointly
@@ -54,6 +56,14 @@ the simulator's k and c follow from them and the mass, see
 :func:`dampfit.simulate.from_modal`) and the :class:`~dampfit.simulate.SimulationConfig`
 options except ``mass`` (set in ``[study]``), ``k``, ``c`` and ``seed`` (set per run). Fields
 not given keep the simulator's defaults (60 s at 500 Hz, 150 µg/√Hz, u0 = 4 cm, no drift…).
+
+Several modes: ``modes`` adds extra modes to the simulated decay besides the mass's (f_n, zeta)
+one (:mod:`dampfit.study.config.fields`; in [grid] a list of such lists, ``[]`` the one-mode
+scenario, whose id is that of a study without the field). Every run then gives one row per
+estimator and true mode (:mod:`dampfit.study.task`); the several-mode estimators
+(``modes_bayes``, ``modes_least_squares``, ``modes_pencil``, :mod:`dampfit.study.modal`) try
+K = 1 … ``max_modes``; the ranking compares ζ (c is the mass's mode's only). A campaign study
+has no extra modes.
 
 Size: a study may have at most :data:`MAX_RUNS` = 100,000 runs (scenarios × replicates).
 The count is the product of the [grid] list lengths times ``replicates``, computed before any

@@ -26,14 +26,18 @@ from dampfit.study.config.fields import check_field, field_value
 __all__ = ["MAX_RUNS", "StudyConfig", "Task", "load", "parse", "run_seed", "scenario_id",
            "sim_config"]
 
-_STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates"}
+_STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates", "max_modes"}
 _DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
+#: Largest number of modes the several-mode estimators try when [study] max_modes is omitted.
+DEFAULT_MAX_MODES = 3
 #: Most runs (scenarios × replicates) one study may have; see the module docstring.
 MAX_RUNS = 100_000
 #: Largest study file [bytes] read (a real one is a few hundred bytes).
 MAX_CONFIG_BYTES = 1 << 20
 #: Longest [study] name [characters]; it must be one printable line (it titles summary.md).
 MAX_NAME = 200
+#: Names of the several-mode estimators (:mod:`dampfit.study.modal`) start with this.
+MODE_ESTIMATOR_PREFIX = "modes_"
 
 
 @dataclass(frozen=True)
@@ -52,6 +56,8 @@ class Task:
     mass_known: bool
     #: a campaign study's analysis settings (:data:`CAMPAIGN_SETTINGS`), else None
     campaign: dict[str, Any] | None = None
+    #: the largest K the several-mode estimators (:mod:`dampfit.study.modal`) try
+    max_modes: int = DEFAULT_MAX_MODES
 
     @property
     def key(self) -> tuple[str, int]:
@@ -73,6 +79,8 @@ class StudyConfig:
     source: str = ""
     #: a campaign study: its design constants and analysis settings (validated), else None
     campaign: dict[str, Any] | None = None
+    #: the largest number of modes K the several-mode estimators try ([study] max_modes)
+    max_modes: int = DEFAULT_MAX_MODES
 
     @property
     def is_campaign(self) -> bool:
@@ -116,9 +124,17 @@ class StudyConfig:
         return self.mass if self.mass is not None else _DEFAULT_MASS
 
     @property
+    def has_modes(self) -> bool:
+        """Whether some scenario simulates extra modes (a ``modes`` field that is not empty)."""
+        return bool(self.fixed.get("modes")) or any(self.grid.get("modes", []))
+
+    @property
     def target(self) -> str:
         """The quantity the ranking is about: ``"c"`` with a mass (or added masses), else
-        ``"zeta"``."""
+        ``"zeta"``; ``"zeta"`` too when a scenario has several modes (c belongs to the mass's
+        mode only, ζ to every mode)."""
+        if self.has_modes:
+            return "zeta"
         return "c" if self.mass is not None or self.added_mass_design else "zeta"
 
     @property
@@ -147,6 +163,8 @@ class StudyConfig:
         design = self._design()
         for values in itertools.product(*(self.grid[k] for k in keys)):
             params = {**self.fixed, **design, **dict(zip(keys, values))}
+            if params.get("modes") == []:  # no extra mode: the one-mode scenario and its id
+                del params["modes"]
             out.append((scenario_id(params), params))
         return out
 
@@ -158,18 +176,20 @@ class StudyConfig:
             names = tuple(e for e in self.estimators if rep < self.max_replicates.get(e, rep + 1))
             for sid, params in scen:
                 out.append(Task(sid, rep, run_seed(self.seed, sid, rep), params, names,
-                                self.sim_mass, self.mass_known, self.settings()))
+                                self.sim_mass, self.mass_known, self.settings(), self.max_modes))
         return out
 
     def fingerprint(self) -> str:
         """Hash of what determines the runs' numbers: seed, estimators, mass and the set of
         scenarios (not their order, nor name, replicates or max_replicates, which only add or
-        drop runs), and a campaign study's analysis settings. A stored study with another
-        fingerprint is not resumed with this one."""
+        drop runs), a campaign study's analysis settings and ``max_modes`` when a several-mode
+        estimator uses it. A stored study with another fingerprint is not resumed with this one."""
         core = {"seed": self.seed, "estimators": list(self.estimators), "mass": self.mass,
                 "scenarios": sorted(sid for sid, _ in self.scenarios())}
         if self.campaign is not None:  # (absent otherwise: older studies keep their fingerprint)
             core["campaign"] = self.settings()
+        if any(e.startswith(MODE_ESTIMATOR_PREFIX) for e in self.estimators):
+            core["max_modes"] = self.max_modes
         return hashlib.sha256(_canonical(core).encode()).hexdigest()[:16]
 
     def as_dict(self) -> dict[str, Any]:
@@ -267,6 +287,7 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
         raise InputError(f"[study] mass must be a positive number of kilograms (at most "
                          f"{MAX_MASS:g}), got {mass!r}")
     max_rep = _max_replicates(study.get("max_replicates", {}), estimators)
+    max_modes = _max_modes(study, estimators)
 
     norm_grid = _grid(grid)
     norm_fixed = _fixed(fixed, norm_grid)
@@ -275,9 +296,11 @@ def parse(data: dict, available: list[str] | None = None, *, default_name: str =
             raise InputError(f"{key} is missing; give it in [grid] (a list) or [fixed]")
 
     mass = None if mass is None else float(mass)
+    if is_campaign and ("modes" in norm_grid or "modes" in norm_fixed):
+        raise InputError("modes (extra modes) cannot be simulated in a campaign study; remove it")
     norm_campaign = campaign_table(campaign, norm_grid, norm_fixed, mass) if is_campaign else None
     cfg = StudyConfig(name.strip(), replicates, seed, estimators, mass, max_rep, norm_grid,
-                      norm_fixed, source, norm_campaign)
+                      norm_fixed, source, norm_campaign, max_modes)
     _check_size(cfg)
     _check_scenarios(cfg)
     return cfg
@@ -368,6 +391,23 @@ def _max_replicates(value: Any, estimators: tuple[str, ...]) -> dict[str, int]:
     return dict(value)
 
 
+def _max_modes(study: dict, estimators: tuple[str, ...]) -> int:
+    """[study] max_modes: an integer from 1 to the modes analysis' limit, only with a several-mode
+    estimator (``modes_…``) that uses it; :data:`DEFAULT_MAX_MODES` when omitted."""
+    if "max_modes" not in study:
+        return DEFAULT_MAX_MODES
+    if not any(e.startswith(MODE_ESTIMATOR_PREFIX) for e in estimators):
+        raise InputError("[study] max_modes is used only by the several-mode estimators "
+                         "(modes_bayes, modes_least_squares, modes_pencil); remove it or add one")
+    from dampfit.inference.modes import MAX_MODES_LIMIT
+
+    value = study["max_modes"]
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= MAX_MODES_LIMIT:
+        raise InputError(f"[study] max_modes must be an integer from 1 to {MAX_MODES_LIMIT}, "
+                         f"got {value!r}")
+    return value
+
+
 def _check_size(cfg: StudyConfig) -> None:
     """Refuse a study of more than :data:`MAX_RUNS` runs (or, for a campaign study, simulated
     recordings), from the list lengths alone."""
@@ -401,7 +441,8 @@ def _check_scenarios(cfg: StudyConfig) -> None:
 
 def sim_config(params: dict[str, Any], mass: float, seed: int):
     """The :class:`~dampfit.simulate.SimulationConfig` of one run (of a campaign: its base,
-    the bare system; :func:`dampfit.simulate.campaign` varies mass, c and u0 per test)."""
+    the bare system; :func:`dampfit.simulate.campaign` varies mass, c and u0 per test); a
+    ``modes`` field becomes the simulator's extra modes."""
     from dampfit import simulate as sim
 
     fields = {k: v for k, v in params.items() if k not in CAMPAIGN_KEYS}  # a campaign's design
