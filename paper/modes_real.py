@@ -91,7 +91,10 @@ def run(path: Path) -> tuple[dict, object]:
     row["modes_reason"] = ev.get("reason", "")
     row["screen_reason"] = screen.get("reason", "")
     row["spectrum_peaks_hz"] = " ".join(f"{f:.4g}" for f in ev.get("spectrum_peaks_hz", []))
-    row["warnings"] = " | ".join(s.get("warnings", []))
+    row["warnings"] = " | ".join((s.get("diagnostics") or {}).get("warnings") or [])
+    run = ev.get("sampling") or {}
+    row["modes_posterior"] = (f"{run['stop_reason']}, {run['n_steps']} steps, "
+                              f"{run['wall_time_s']:.1f} s" if run.get("stop_reason") else "")
     row["runtime_s"] = time.perf_counter() - t0
     return row, an
 

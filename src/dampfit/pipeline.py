@@ -100,7 +100,8 @@ def analyze(
                                        max_steps, min_ess, warns, post.n_steps, viscous_seconds)
     warns.extend(_noise_warning(nm, assessment))
     modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
-                        seed=seed, min_ess=min_ess, max_steps=max_steps)
+                        seed=seed, min_ess=min_ess, max_steps=max_steps,
+                        viscous_seconds=viscous_seconds)
     warns.extend(modes.warnings)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
@@ -152,7 +153,7 @@ def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
 
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                 mode_of_mass: int | None, seed: int, min_ess: float,
-                max_steps: int) -> Modes:
+                max_steps: int, viscous_seconds: float | None = None) -> Modes:
     """Several modes in the recording (issue 21), after the one-mode analysis.
 
     ``max_modes`` 1: nothing is done (``n_modes`` 1, "not looked for"). Otherwise the cheap
@@ -163,10 +164,13 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
     selection). Else the number of modes is chosen by evidence
     (:func:`dampfit.inference.modes_select.select`); for K ≥ 2 every mode's posterior is
     sampled (:func:`dampfit.inference.modes_posterior.sample`, ``mass``, ``mass_sd`` [kg] for
-    the mode ``mode_of_mass``) and summarised with its bound, close pairs and Rayleigh α, β
-    (:func:`~dampfit.inference.modes_posterior.modal_summary`). K = 1 — by the screen or the
-    evidence — is the one-mode posterior of ``parameters`` (the same model, so no second
-    sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
+    the mode ``mode_of_mass``; within the work budget
+    :func:`dampfit.inference.modes_posterior.budget` of K and ``viscous_seconds``, the
+    one-mode posterior's wall time [s]: a run it stops is reported not converged, with a
+    warning, in ``modes_evidence["sampling"]``) and summarised with its bound, close pairs
+    and Rayleigh α, β (:func:`~dampfit.inference.modes_posterior.modal_summary`). K = 1 —
+    by the screen or the evidence — is the one-mode posterior of ``parameters`` (the same
+    model, so no second sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
     gives one mode with the reason as a warning. ``mode_of_mass`` beyond the modes found is
     a one-line :class:`~dampfit.errors.InputError`.
     """
@@ -198,13 +202,11 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
         evidence["reason"] = "one mode by evidence"
         return one(evidence, tuple(sel.warnings))
     post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
-                                  seed=seed, min_ess=min_ess, max_steps=max_steps)
+                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
+                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
     out = modes_posterior.modal_summary(sel, post)
     evidence.update(reason=f"{sel.n_modes} modes by evidence", pairs=out["pairs"],
-                    notes=out["notes"], max_modes=max_modes,
-                    sampling={"converged": post.converged, "max_r_hat": post.max_r_hat,
-                              "min_ess_bulk": post.min_ess_bulk, "n_steps": post.n_steps,
-                              "n_walkers": int(post.idata.posterior.sizes["chain"])},
+                    notes=out["notes"], max_modes=max_modes, sampling=post.sampling(),
                     seconds=time.perf_counter() - start)
     warns = list(out["warnings"])
     f1 = ls.omega_d / (2 * math.pi)

@@ -514,13 +514,16 @@ class ModesStage:
 def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | None = None,
                 band: tuple[float, float] | None = None, mass: float | None = None,
                 mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = 0,
-                min_ess: float = 1000.0, max_steps: int = 20000) -> ModesStage:
+                min_ess: float = 1000.0, max_steps: int = 20000,
+                viscous_seconds: float | None = None) -> ModesStage:
     """Several modes in the window of ``prep`` (the one-mode path's prepared signal): the
     number of modes K = 1 … ``max_modes`` chosen by evidence (or fixed by ``n_modes``;
     :func:`dampfit.inference.modes_select.select`, modal ``band`` [Hz] by default (MS1)),
     then the posterior of every mode (:func:`dampfit.inference.modes_posterior.sample`;
     ``mass``, ``mass_sd`` [kg] for c [N·s/m] and k [N/m] of the mode ``mode_of_mass``
-    (1-based; default the dominant one)).
+    (1-based; default the dominant one)), within the work budget
+    :func:`dampfit.inference.modes_posterior.budget` of K (and ``viscous_seconds``, a
+    one-mode posterior's wall time [s], if known).
 
     ``summary`` (JSON-safe, :func:`dampfit.inference.modes_posterior.modal_summary`):
     ``n_modes``; ``modes`` — one row per mode by frequency with f_n, f_d [Hz], ζ, η = 2ζ,
@@ -529,7 +532,8 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     ``modes_evidence`` — P(K), ln Z and the reason of every K tried; ``pairs`` — separation
     and CRLB inflation of every pair, ``flagged`` when close; ``rayleigh`` — α [1/s], β [s]
     with intervals and the misfit statement (None for one mode); ``mode_of_mass``;
-    ``sampling`` — convergence, max R-hat, min ESS, steps; ``warnings`` and ``notes``.
+    ``sampling`` — convergence, max R-hat, min ESS, steps, wall time, why the run stopped
+    and its budget; ``warnings`` and ``notes``.
     Bad options raise :class:`~dampfit.errors.InputError` before any fit (``mode_of_mass``
     beyond the K found: after the selection).
     """
@@ -542,11 +546,9 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     mass, mass_sd = physics.check_mass(mass, mass_sd)
     sel = modes_select.select(prep, max_modes=limit, band=band, n_modes=n_modes)
     post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
-                                  seed=seed, min_ess=min_ess, max_steps=max_steps)
+                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
+                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
     out = modes_posterior.modal_summary(sel, post)
-    out["sampling"] = {"posterior_converged": post.converged, "max_r_hat": post.max_r_hat,
-                       "min_ess_bulk": post.min_ess_bulk, "n_steps": post.n_steps,
-                       "burn_in": post.burn_in, "thin": post.thin,
-                       "acceptance_fraction": post.acceptance}
+    out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
     return ModesStage(summary=jsonable(out), selection=sel, posterior=post,
                       seconds=time.perf_counter() - start)

@@ -127,3 +127,43 @@ def test_the_modes_stage_gives_plain_data_for_every_mode(two_mode_posterior):
     assert ray["alpha"]["q05"] < ray["alpha"]["q95"] and ray["beta"]["unit"] == "s"
     assert out["sampling"]["posterior_converged"] and out["sampling"]["max_r_hat"] < 1.05
     assert stage.seconds > 0
+    # an analysis's modal posterior runs within its work budget, recorded with the run
+    assert out["sampling"]["stop_reason"] == "converged"
+    assert out["sampling"]["budget"]["max_steps"] == 2 * MP.STEPS_PER_MODE
+    assert out["sampling"]["n_steps"] <= out["sampling"]["budget"]["max_steps"]
+
+
+def test_a_step_budget_stops_the_modal_posterior_and_says_so(two_mode_posterior):
+    """A budget the run cannot converge in (100 steps, one first block) stops it: not
+    converged, the reason and the budget in ``sampling()``, a warning that the intervals are
+    not reliable, and the summary carries the warning."""
+    from dampfit.inference.law_sampler import Budget
+
+    sel = two_mode_posterior[2]
+    tiny = Budget(max_steps=100, basis="a test budget")
+    post = MP.sample(sel, mass=MASS, seed=5, min_ess=400, budget=tiny)
+    assert not post.converged and post.n_steps == 100
+    assert post.stop_reason == "step budget reached (100 steps = a test budget)"
+    (warning,) = post.warnings
+    assert warning.startswith("modal posterior NOT converged after 100 steps (step budget "
+                              "reached (100 steps = a test budget)")
+    assert warning.endswith("the intervals of the 2 modes are not reliable")
+    facts = post.sampling()
+    assert facts["converged"] is False and facts["n_steps"] == 100
+    assert facts["budget"] == {"max_steps": 100, "max_seconds": None,
+                               "basis": "a test budget"}
+    assert facts["wall_time_s"] > 0 and facts["n_walkers"] == 64
+    assert warning in MP.modal_summary(sel, post)["warnings"]
+    assert all(np.isfinite(row["zeta"]["q50"]) for row in post.summary())
+
+
+def test_a_wall_time_budget_stops_the_modal_posterior_after_a_block(two_mode_posterior):
+    from dampfit.inference.law_sampler import Budget
+
+    sel = two_mode_posterior[2]
+    spent = Budget(max_steps=20000, max_seconds=0.0, basis="no time at all")
+    post = MP.sample(sel, seed=5, min_ess=400, budget=spent)
+    assert not post.converged and post.n_steps == 100  # the first block, then the deadline
+    assert post.stop_reason.startswith("wall-time budget reached (")
+    assert post.stop_reason.endswith("> 0 s = no time at all)")
+    assert "wall-time budget reached" in post.warnings[0]

@@ -27,11 +27,29 @@ walkers, or 32·K if more), started in a ball from the Laplace covariance of the
 run by :func:`dampfit.inference.posterior.run_adaptive` (≥ 50 autocorrelation times, R-hat
 < 1.01, bulk ESS ≥ ``min_ess`` over the 2K dimensions). R-hat and bulk ESS of every reported
 quantity of every mode come from arviz (walkers as chains).
+
+Bounded work
+------------
+In an analysis the run gets a :class:`~dampfit.inference.law_sampler.Budget`
+(:func:`budget`): at most :data:`STEPS_PER_MODE` × K steps, and — when the one-mode (viscous)
+posterior of the same recording was timed — at most :data:`TIME_FACTOR` × its wall time +
+:data:`TIME_ALLOWANCE_S` [s] (the K-mode likelihood is compiled inside the run). A run stopped
+by its budget is returned as it is: ``converged`` False, ``stop_reason`` "step budget
+reached …" or "wall-time budget reached …", and a warning that the modes' intervals are not
+reliable. A run that converges inside the budget is unchanged (the budget only stops a run
+between two blocks). What it stops: the 40 cm cantilever run 11-41-04 (paper/modes.md),
+whose first mode the selection splits into a weak pair — the least squares put the weak
+component at 9.14 Hz, the walkers drift to ≈ 9.36 Hz with ζ down to its prior bound, a
+posterior with more than one mode: after 3000 steps τ ≈ 37 steps and ESS 1335 passed, but
+R-hat stayed 1.05, so the run went on in 50-step blocks towards ``max_steps`` (776 s). A
+wall-time stop depends on the machine's speed; the step budget does not. Without a budget (``budget=None``, the default of :func:`sample`) only
+``max_steps`` bounds the run.
 """
 
 from __future__ import annotations
 
 import math
+import time
 import warnings as _warnings
 from dataclasses import dataclass, field
 
@@ -43,14 +61,22 @@ from dampfit import physics
 from dampfit._arviz import arviz
 from dampfit.inference import posterior as _post
 from dampfit.inference.executables import kernel
+from dampfit.inference.law_sampler import Budget
 from dampfit.inference.least_squares import amplitude_gain
 from dampfit.inference.modes import check_mode_of_mass, padded_arrays
 from dampfit.inference.modes_select import psd_ratios
 from dampfit.model import modes as mm
 from dampfit.model import profile
 
-__all__ = ["ModalPosterior", "sample", "modal_summary", "mode_of_mass_default", "PER_MODE",
-           "MASS_MODE"]
+__all__ = ["ModalPosterior", "sample", "budget", "modal_summary", "mode_of_mass_default",
+           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE", "TIME_FACTOR", "TIME_ALLOWANCE_S"]
+
+#: Step budget of the modal posterior per mode [steps] (K modes: K × this).
+STEPS_PER_MODE = 4000
+#: Wall-time budget: this many times the one-mode (viscous) posterior's wall time …
+TIME_FACTOR = 10.0
+#: … plus this allowance [s] (compiling the K-mode likelihood, the selection's leftovers).
+TIME_ALLOWANCE_S = 60.0
 
 #: Quantities reported for every mode, and for the mode of the mass only.
 PER_MODE = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "accel_amplitude")
@@ -81,6 +107,23 @@ class ModalPosterior:
     min_ess_bulk: float
     diagnostics: dict
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    wall_time_s: float = float("nan")  # of the emcee run [s]
+    stop_reason: str = ""  # "converged", "step budget reached …", "wall-time budget …", …
+    budget: Budget | None = None
+
+    def sampling(self) -> dict:
+        """JSON-safe facts about the run: ``converged``, ``max_r_hat`` [1], ``min_ess_bulk``
+        [draws], ``n_steps``, ``burn_in``, ``thin`` [steps], ``n_walkers``,
+        ``acceptance_fraction`` [1], ``wall_time_s`` [s], ``stop_reason`` and ``budget``
+        (:meth:`~dampfit.inference.law_sampler.Budget.summary`, None without one)."""
+        return {"converged": bool(self.converged), "max_r_hat": self.max_r_hat,
+                "min_ess_bulk": self.min_ess_bulk, "n_steps": int(self.n_steps),
+                "burn_in": int(self.burn_in), "thin": int(self.thin),
+                "n_walkers": int(self.idata.posterior.sizes["chain"]),
+                "acceptance_fraction": self.acceptance,
+                "wall_time_s": self.wall_time_s if math.isfinite(self.wall_time_s) else None,
+                "stop_reason": self.stop_reason or None,
+                "budget": None if self.budget is None else self.budget.summary()}
 
     def draws(self, name: str) -> np.ndarray:
         """Flattened draws of ``name``: (n, K) for a per-mode quantity, (n,) otherwise."""
@@ -172,15 +215,32 @@ def _start(theta, cov, lw, rng, n_walkers) -> np.ndarray:
     return out[:n_walkers]
 
 
+def budget(n_modes: int, viscous_seconds: float | None = None) -> Budget:
+    """The modal posterior's budget of the module docstring for ``n_modes`` modes:
+    :data:`STEPS_PER_MODE` × K steps and, if ``viscous_seconds`` (the one-mode posterior's
+    wall time [s]) is known, :data:`TIME_FACTOR` × it + :data:`TIME_ALLOWANCE_S` [s]."""
+    k = int(n_modes)
+    basis = f"{STEPS_PER_MODE} steps per mode x {k} modes"
+    sec = None
+    if viscous_seconds is not None and math.isfinite(viscous_seconds) and viscous_seconds >= 0:
+        sec = TIME_FACTOR * float(viscous_seconds) + TIME_ALLOWANCE_S
+        basis += (f"; {TIME_FACTOR:g} x the one-mode posterior's wall time "
+                  f"{float(viscous_seconds):.3g} s + {TIME_ALLOWANCE_S:g} s")
+    return Budget(max_steps=STEPS_PER_MODE * k, max_seconds=sec, basis=basis)
+
+
 def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
            mode_of_mass: int | None = None, seed: int = 0, min_ess: float = 1000.0,
-           max_steps: int = 20000, block: int = 500) -> ModalPosterior:
+           max_steps: int = 20000, block: int = 500,
+           budget: Budget | None = None) -> ModalPosterior:
     """Sample the posterior of the chosen K of ``sel`` (a
     :class:`~dampfit.inference.modes_select.ModeSelection`); see the module docstring.
 
     ``mass``, ``mass_sd`` [kg] (checked by :func:`dampfit.physics.check_mass`);
     ``mode_of_mass`` the 1-based mode the mass belongs to (None: the dominant one;
     :class:`~dampfit.errors.InputError` if out of range); ``seed`` makes the run reproducible.
+    ``budget`` (:func:`budget`; None: none) bounds the run together with ``max_steps``
+    [steps]; a run it stops has ``converged`` False, its ``stop_reason`` and a warning.
     """
     mass, mass_sd = physics.check_mass(mass, mass_sd)
     res, fd = sel.chosen, sel.fit_data
@@ -194,12 +254,21 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
     lw = np.log(2 * np.pi * np.asarray(sel.band, dtype=float))
     cov = res.cov / (res.psd_ratio * temper)  # the Laplace covariance (∝ r) at this r
     start = _start(res.fit.theta, cov, lw, rng, n_walkers)
+    t_start = time.monotonic()
+    steps_allowed = int(max_steps if budget is None else min(max_steps, budget.max_steps))
+    deadline = None if budget is None or budget.max_seconds is None else \
+        t_start + budget.max_seconds
     sampler = _post.ensemble(2 * k, _make_log_prob(k, fd, sel.band, temper), rng, n_walkers)
-    run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
-                             block=block, x64=True)
+    run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
+                             block=block, x64=True, deadline=deadline)
+    wall = time.monotonic() - t_start
+    stop = _stop_reason(run, wall, budget, steps_allowed, max_steps)
     warns = [] if run.converged else [
-        f"modal posterior NOT converged after {run.steps} steps: {run.reason}"]
+        f"modal posterior NOT converged after {run.steps} steps ({stop}"
+        + (f"; {run.reason}" if run.reason else "") + "): the intervals of the "
+        f"{k} modes are not reliable"]
     burn, thin = _post.burn_thin(run.tau)
+    burn = min(burn, max(run.steps - 8, 0))  # a run stopped early keeps its last draws
     chain = sampler.get_chain(discard=burn, thin=thin)
     blobs = sampler.get_blobs(discard=burn, thin=thin)
     idata = _to_idata(chain, blobs, sampler.get_log_prob(discard=burn, thin=thin), fd, res.fit,
@@ -213,7 +282,22 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
         n_steps=run.steps, burn_in=burn, thin=thin, autocorr_time=np.asarray(run.tau),
         acceptance=float(np.mean(sampler.acceptance_fraction)),
         max_r_hat=max(rh, default=math.nan), min_ess_bulk=min(es, default=math.nan),
-        diagnostics=diag, warnings=tuple(warns))
+        diagnostics=diag, warnings=tuple(warns), wall_time_s=wall, stop_reason=stop,
+        budget=budget)
+
+
+def _stop_reason(run, wall: float, budget: Budget | None, steps_allowed: int,
+                 max_steps: int) -> str:
+    """Why the run of ``run`` (:class:`~dampfit.inference.posterior.AdaptiveRun`) stopped;
+    ``wall`` its wall time [s]."""
+    if run.converged:
+        return "converged"
+    if run.out_of_time:
+        return (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
+                f"{budget.basis})")
+    if budget is not None and steps_allowed < max_steps and run.steps >= steps_allowed:
+        return f"step budget reached ({run.steps} steps = {budget.basis})"
+    return f"max_steps reached ({run.steps} steps)"
 
 
 def _to_idata(chain, blobs, lp, fd, fit, i_mass, mass, mass_sd, temper, rng):

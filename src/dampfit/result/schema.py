@@ -93,7 +93,10 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "evidence": [{"n_modes", "ln_evidence", "probability", "admissible",
                    "reason", "f_d_hz", "amplitude_z"}],   # every K tried, P(K)
              "band_hz", "window_s", "psd_ratio", "pairs": [{…, "flagged"}],
-             "sampling", …},                     # only when more modes were fitted
+             "sampling": {"converged", "max_r_hat", "min_ess_bulk", "n_steps",
+                   "burn_in", "thin", "n_walkers", "acceptance_fraction",
+                   "wall_time_s", "stop_reason", "budget": null | {"max_steps",
+                   "max_seconds", "basis"}}, …},  # only when more modes were fitted
      "rayleigh": null | {"alpha": {"unit": "1/s", …}, "beta": {"unit": "s", …},
              "zeta_fitted", "zeta_measured", "chi2", "dof", "p_value",
              "max_relative_misfit", "statement", "warnings"},  # K ≥ 2
