@@ -301,3 +301,20 @@ def test_a_row_names_the_modes_of_a_several_mode_summary():
     # an edited summary: wrong types give empty cells, never an error
     row = row_of({"n_modes": True, "modes": [mode("x"), 5, None]})
     assert row["n_modes"] is None and row["modes_f_n_hz"] is None
+
+
+def test_recordings_of_one_name_get_folders_that_tell_them_apart(tmp_path):
+    from dampfit.batch.inputs import jobs, labels
+
+    for run in ("run1", "run2", "deep/run1"):
+        (tmp_path / run).mkdir(parents=True)
+        (tmp_path / run / "accelerometer_data.npy").write_bytes(run.encode())
+    (tmp_path / "solo.csv").write_text("t,a\n")
+    files = [str(tmp_path / r / "accelerometer_data.npy") for r in ("run1", "run2", "deep/run1")]
+    names = [j.name for j in jobs([*files, str(tmp_path / "solo.csv")])]
+    assert names == [f"{tmp_path.name}_run1_accelerometer_data.npy",
+                     "run2_accelerometer_data.npy", "deep_run1_accelerometer_data.npy",
+                     "solo.csv"]
+    # at most four path parts, and still unique when those are shared
+    assert labels(["/a/b/c/d/e/f.csv", "/z/b/c/d/e/f.csv"]) == ["c/d/e/f.csv"] * 2
+    assert [j.name for j in jobs([str(tmp_path / "solo.csv")])] == ["solo.csv"]

@@ -35,7 +35,8 @@ from dampfit.io.bounded import read_regular
 from dampfit.io.readers import READ_OPTIONS
 from dampfit.physics import check_mass
 
-__all__ = ["Job", "MAX_LIST_BYTES", "SUFFIXES", "expand", "jobs", "read_masses"]
+__all__ = ["Job", "MAX_LIST_BYTES", "SUFFIXES", "expand", "jobs", "labels", "read_masses",
+           "run_name"]
 
 #: File suffixes a folder is searched for (the formats :func:`dampfit.io.readers.read` knows).
 SUFFIXES = (".csv", ".txt", ".tsv", ".dat", ".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz",
@@ -194,14 +195,34 @@ def _sha256(path: str) -> str:
     return h.hexdigest()
 
 
-def run_name(file: str, taken: set[str]) -> str:
-    """A folder name for ``file``'s results: its name with anything but letters, digits,
-    ``.``, ``-`` and ``_`` replaced (a hostile name cannot leave ``runs/`` or hide), at most
-    80 characters, made unique in the batch with a number."""
+def labels(files: Sequence[str], deepest: int = 4) -> list[str]:
+    """Each file's shortest path suffix (its name, then with as many parent folders as it
+    takes, at most ``deepest`` parts) that no other file of the batch shares: recordings that
+    all have one name (``run1/accelerometer_data.npy``, ``run2/accelerometer_data.npy``) get
+    folders that tell them apart."""
+    from collections import Counter
+
+    parts = [Path(f).parts or (f,) for f in files]
+    suffix = lambda p, d: "/".join(p[-d:]).lower()  # noqa: E731
+    counts = [Counter(suffix(p, d) for p in parts) for d in range(1, deepest + 1)]
+    out = []
+    for p in parts:  # one pass per depth: linear in the number of files
+        depth = 1
+        while depth < min(len(p), deepest) and counts[depth - 1][suffix(p, depth)] > 1:
+            depth += 1
+        out.append("/".join(p[-depth:]))
+    return out
+
+
+def run_name(label: str, taken: set[str]) -> str:
+    """A folder name for a recording's results from its :func:`labels` entry: anything but
+    letters, digits, ``.``, ``-`` and ``_`` replaced by ``_`` (a hostile name cannot leave
+    ``runs/`` or hide), at most 80 characters (the end kept: the file name), made unique in
+    the batch with a number."""
     import re
 
-    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", Path(file).name).strip("._") or "recording"
-    stem = stem[:80]
+    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("._") or "recording"
+    stem = stem[-80:].lstrip("._") or "recording"
     name, n = stem, 2
     while name.lower() in taken:
         name, n = f"{stem}-{n}", n + 1
@@ -226,6 +247,7 @@ def jobs(paths: Sequence[str], *, list_file: str | None = None, mass: float | No
     default = check_mass(mass, mass_sd) if mass is not None or mass_sd is not None else None
     rows = _match(read_masses(masses), files, Path(masses).parent, masses) if masses else {}
     taken: set[str] = set()
+    names = labels(files)
     out = []
     for i, f in enumerate(files):
         row = rows.get(i)
@@ -241,6 +263,6 @@ def jobs(paths: Sequence[str], *, list_file: str | None = None, mass: float | No
         else:
             m, sd = default if default is not None else (None, 0.0)
             opts = dict(read_options or {})
-        out.append(Job(file=f, path=os.path.realpath(f), name=run_name(f, taken),
+        out.append(Job(file=f, path=os.path.realpath(f), name=run_name(names[i], taken),
                        sha256=_sha256(f), mass=m, mass_sd=sd, read_options=opts))
     return out
