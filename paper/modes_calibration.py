@@ -151,8 +151,10 @@ def _pencil(prep, modes) -> dict:
     return out
 
 
-def one(job: tuple[str, int]) -> dict:
-    name, rep = job
+def one(job: tuple) -> dict:
+    """One replicate: ``job`` = (scenario, replicate[, posterior]); ``posterior`` False skips
+    the posterior (the order selection and the pencil only: recovery rates)."""
+    name, rep, with_posterior = (*job, True)[:3]
     from dampfit import physics_modal as pm
     from dampfit import simulate as sim
     from dampfit.inference import modes_posterior as MP
@@ -175,7 +177,7 @@ def one(job: tuple[str, int]) -> dict:
                select_s=time.perf_counter() - t0,
                f_found=" ".join(f"{f:.5g}" for f in sel.chosen.fit.f_d))
     row.update(_pencil(prep, modes))
-    if not (SCENARIOS[name][4] and sel.n_modes == len(modes)):
+    if not (SCENARIOS[name][4] and sel.n_modes == len(modes) and with_posterior):
         return row
     t1 = time.perf_counter()
     post = MP.sample(sel, mass=MASS, seed=rep, min_ess=MIN_ESS)
@@ -319,6 +321,10 @@ def main(argv=None) -> int:
     ap.add_argument("--start", type=int, default=0, help="first replicate number")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--scenarios", nargs="+", default=list(SCENARIOS))
+    ap.add_argument("--posterior-replicates", type=int, default=None,
+                    help="run the posterior on replicates below this number only (the order "
+                         "selection on all): recovery rates from every replicate, coverage "
+                         "from the first ones")
     ap.add_argument("--out", default="paper/results/modes_calibration.csv")
     ap.add_argument("--summary", default=None, help="only print the tables of this CSV")
     ap.add_argument("--markdown", default=None, help="also write the tables there (Markdown)")
@@ -343,7 +349,9 @@ def main(argv=None) -> int:
 def _run(a, out: Path) -> None:
     rows = _read(out)
     done = {(r["scenario"], int(r["replicate"])) for r in rows}
-    jobs = [(s, r) for r in range(a.start, a.start + a.replicates) for s in a.scenarios
+    limit = a.posterior_replicates
+    jobs = [(s, r, limit is None or r < limit)
+            for r in range(a.start, a.start + a.replicates) for s in a.scenarios
             if (s, r) not in done]
     print(f"{len(jobs)} jobs ({len(done)} already in {out})", file=sys.stderr, flush=True)
     with cf.ProcessPoolExecutor(a.workers) as ex:

@@ -306,9 +306,9 @@ def test_a_row_names_the_modes_of_a_several_mode_summary():
 def test_recordings_of_one_name_get_folders_that_tell_them_apart(tmp_path):
     from dampfit.batch.inputs import jobs, labels
 
-    for run in ("run1", "run2", "deep/run1"):
-        (tmp_path / run).mkdir(parents=True)
-        (tmp_path / run / "accelerometer_data.npy").write_bytes(run.encode())
+    for folder in ("run1", "run2", "deep/run1"):
+        (tmp_path / folder).mkdir(parents=True)
+        (tmp_path / folder / "accelerometer_data.npy").write_bytes(folder.encode())
     (tmp_path / "solo.csv").write_text("t,a\n")
     files = [str(tmp_path / r / "accelerometer_data.npy") for r in ("run1", "run2", "deep/run1")]
     names = [j.name for j in jobs([*files, str(tmp_path / "solo.csv")])]
