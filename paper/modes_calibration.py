@@ -68,6 +68,9 @@ SCENARIOS = {
 }
 DURATION, RATE, MAX_MODES, MIN_ESS = 45.0, 100.0, 4, 400.0
 Z90 = 1.6448536269514722  # two-sided 90 % normal quantile
+#: The order selection's refusal when no K could be fitted: the analysis then reports one mode
+#: with this reason as a warning (:func:`dampfit.pipeline.modes_stage`), so it counts as K = 1.
+MODAL_FAILURE = "no mode could be fitted"
 
 
 def _config(name: str, rep: int):
@@ -149,6 +152,31 @@ def _pencil(prep, modes) -> dict:
         for i, e in enumerate(est, start=1):
             out[f"m{i}_f_n_pencil"], out[f"m{i}_zeta_pencil"] = e.f_n, e.zeta
     return out
+
+
+def screen_one(job: tuple) -> dict:
+    """The pipeline's cheap screen (:func:`dampfit.inference.modes_gate.screen` on the one-mode
+    least squares, as :func:`dampfit.pipeline.modes_stage` runs it before any selection) on
+    the replicate ``job`` = (scenario, replicate): ``screen_passed`` False means the analysis
+    reports one mode without running the selection."""
+    from dampfit import simulate as sim
+    from dampfit import stages
+    from dampfit.inference import modes_gate
+    from dampfit.signal import prepare as pp
+
+    name, rep = job[:2]
+    cfg, seed = _config(name, rep)
+    rec, _ = sim.recording(cfg)
+    row: dict = {"scenario": name, "replicate": rep, "seed": seed}
+    try:
+        prep = pp.prepare(rec)
+        ls = stages.fit_stages(prep, None).least_squares
+        gate = modes_gate.screen(prep, ls.p, ls.omega_d)
+    except Exception as exc:  # noqa: BLE001 - a failure is a row, not a crash
+        row["screen_error"] = f"{type(exc).__name__}: {exc}"[:200]
+        return row
+    row.update(screen_passed=bool(gate.passed), screen_f_hz=gate.f_hz)
+    return row
 
 
 def one(job: tuple) -> dict:
@@ -250,20 +278,47 @@ def _rmse_crlb(post, i: int, est: str) -> float:
     return rmse / float(np.sqrt(np.mean(ok[crl] ** 2)))
 
 
+def _with_screen(fit, k_found) -> float:
+    """Share of right K as the analysis gives it: one mode where the screen did not pass,
+    else the evidence's K (NaN without the screen's side CSV)."""
+    if "screen_passed" not in fit or fit.screen_passed.isna().all():
+        return float("nan")
+    known = fit.screen_passed.notna()
+    passed = fit.screen_passed[known].astype(str).str.lower() == "true"
+    k = k_found[known].where(passed, 1)
+    return float(np.mean(k == fit.k_true[known]))
+
+
 def tables(path: Path):
-    """(order table, per-mode table) of the CSV: per scenario the share of replicates whose
-    K is right (the evidence and the pencil's own rule), P(K true), Rayleigh coverage; per
+    """(order table, per-mode table) of the CSV: per scenario the replicates the analysis
+    refused (``error``: e.g. no resolvable oscillation), and among the others the share whose
+    K is right and whose K is too many (the evidence; the pencil's own rule), the median
+    P(K true), Rayleigh coverage; per
     scenario and mode the 90 % coverage of f_n and ζ (posterior, least squares) and RMSE/CRLB
     of ζ (posterior median, least squares, pencil)."""
     import pandas as pd
 
     df = pd.read_csv(path)
+    side = screen_path(path)
+    if side.exists():  # the pipeline's screen per replicate (--screen)
+        scr = pd.read_csv(side)[["scenario", "replicate", "screen_passed"]]
+        df = df.merge(scr, on=["scenario", "replicate"], how="left")
     order, per_mode = [], []
     for name, g in df.groupby("scenario", sort=False):
         post = g[(g.k_found == g.k_true) & g.get("converged", pd.Series(dtype=object)).notna()]
+        err = g["error"].fillna("").astype(str) if "error" in g else pd.Series("", index=g.index)
+        # the modal selection failing is not a refusal: the analysis reports one mode and
+        # says why (pipeline.modes_stage); a failed preparation refuses the recording
+        no_fit = err.str.contains(MODAL_FAILURE, regex=False)
+        refused = (err != "") & ~no_fit
+        fit = g[~refused]
+        k_found = fit.k_found.where(~no_fit[~refused], 1)
         row = {"scenario": name, "n": len(g), "K true": int(g.k_true.iloc[0]),
-               "K right": float(np.mean(g.k_found == g.k_true)),
-               "median P(K true)": float(g.p_k_true.median())}
+               "refused": int(refused.sum()), "modal fit failed → 1": int(no_fit.sum()),
+               "K right": float(np.mean(k_found == fit.k_true)),
+               "K too many": float(np.mean(k_found > fit.k_true)),
+               "K right (screen + evidence)": _with_screen(fit, k_found),
+               "median P(K true)": float(fit.p_k_true.median())}
         if "pencil_k" in g and g.pencil_k.notna().any():
             pk = g[g.pencil_k.notna()]
             row["pencil K right"] = float(np.mean(pk.pencil_k == pk.k_true))
@@ -287,6 +342,11 @@ def tables(path: Path):
             per_mode.append(m)
     return (pd.DataFrame(order).set_index("scenario"),
             pd.DataFrame(per_mode).set_index(["scenario", "mode"]))
+
+
+def screen_path(out: Path) -> Path:
+    """The side CSV of ``--screen`` next to the calibration CSV ``out``."""
+    return out.with_name(out.stem + "_screen.csv")
 
 
 def _markdown(df) -> str:
@@ -328,6 +388,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="paper/results/modes_calibration.csv")
     ap.add_argument("--summary", default=None, help="only print the tables of this CSV")
     ap.add_argument("--markdown", default=None, help="also write the tables there (Markdown)")
+    ap.add_argument("--screen", action="store_true",
+                    help="run only the pipeline's screen on every replicate, into "
+                         "OUT with .csv replaced by _screen.csv (merged by --summary)")
     a = ap.parse_args(argv)
     if a.summary:
         summary(Path(a.summary), Path(a.markdown) if a.markdown else None)
@@ -338,7 +401,7 @@ def main(argv=None) -> int:
         cache = tempfile.mkdtemp(prefix="dampfit-modes-kernels-")  # mode 0700
         os.environ[CACHE_ENV] = cache
     try:
-        _run(a, out)
+        _run(a, screen_path(out) if a.screen else out)
     finally:
         if cache:
             shutil.rmtree(cache, ignore_errors=True)
@@ -355,13 +418,14 @@ def _run(a, out: Path) -> None:
             if (s, r) not in done]
     print(f"{len(jobs)} jobs ({len(done)} already in {out})", file=sys.stderr, flush=True)
     with cf.ProcessPoolExecutor(a.workers) as ex:
-        futures = [ex.submit(one, job) for job in jobs]
+        futures = [ex.submit(screen_one if a.screen else one, job) for job in jobs]
         for i, fut in enumerate(cf.as_completed(futures)):
             row = fut.result()
             rows.append(row)
             _write(out, rows)
             print(f"{i + 1}/{len(jobs)} {row['scenario']} {row['replicate']}: "
-                  f"K {row.get('k_found')}/{row['k_true']}", file=sys.stderr, flush=True)
+                  f"K {row.get('k_found')}/{row.get('k_true')} screen "
+                  f"{row.get('screen_passed')}", file=sys.stderr, flush=True)
 
 
 if __name__ == "__main__":
