@@ -20,8 +20,11 @@ same path (a shared file system) and run the same dampfit version (checked).
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import uuid
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Sequence, TextIO
 
@@ -106,8 +109,9 @@ def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
         with progress_bar(len(jobs), "batch", unit="recording", initial=len(jobs) - len(todo),
                           file=err, enabled=not quiet and err.isatty(), leave=True) as bar:
             def on_row(row):
-                store.append(row)
-                rows[row["key"]] = row
+                with _signals_held():  # the row is in rows.jsonl and in the table, or neither
+                    rows[row["key"]] = row
+                    store.append(row)
                 bar.update(1)
 
             try:
@@ -124,6 +128,23 @@ def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
     finally:
         store.close()
     return table
+
+
+@contextmanager
+def _signals_held():
+    """Ctrl-C and SIGTERM wait until the block is done (delivered right after it): a row
+    appended to rows.jsonl is then also in the tables written on the interrupt. Without it a
+    signal between the append (an fsync) and the in-memory update left results.csv one row
+    short of rows.jsonl. POSIX only; elsewhere the block runs as is."""
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = mask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, old)
 
 
 def _run(todo, cfg: BatchConfig, runs: Path, on_row, ready, client, workers: int,
