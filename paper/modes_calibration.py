@@ -116,22 +116,13 @@ def _crlb(cfg, truth, modes, prep, window, degree) -> list[float]:
 
 
 def _least_squares(sel, modes) -> dict:
-    """The K-mode least squares at the chosen K: its optimum and 90 % normal intervals from
-    the tempered Laplace covariance of θ = (ln p_i, ln ω_d,i) (eq. MS3), by the delta method
-    in the logs: ∂ln ζ/∂(ln p, ln ω_d) = (1 − ζ², −(1 − ζ²)), ∂ln f_n/∂(ln p, ln ω_d) =
-    (ζ², 1 − ζ²)."""
-    from dampfit import physics
-
-    fit, cov, out = sel.chosen.fit, sel.chosen.cov, {}
-    for i, (mode, p, w) in enumerate(zip(modes, fit.p, fit.omega_d), start=1):
-        d = physics.quantities(p, w)
-        z2 = float(d["zeta"]) ** 2
-        c = cov[2 * i - 2:2 * i, 2 * i - 2:2 * i]
-        for q, grad in (("zeta", (1 - z2, -(1 - z2))), ("f_n", (z2, 1 - z2))):
-            g = np.asarray(grad)
-            sd_ln = float(np.sqrt(max(g @ c @ g, 0.0)))
-            v = float(d[q])
-            lo, hi = v * math.exp(-Z90 * sd_ln), v * math.exp(Z90 * sd_ln)
+    """The K-mode least squares at the chosen K: its optimum and 90 % normal intervals in the
+    logs (:meth:`dampfit.inference.modes_select.KResult.laplace_intervals`, the study's
+    ``modes_least_squares``), each against the true mode of the same rank in frequency."""
+    out = {}
+    for i, (mode, est) in enumerate(zip(modes, sel.chosen.laplace_intervals(Z90)), start=1):
+        for q in ("zeta", "f_n"):
+            v, lo, hi = est[q]
             out[f"m{i}_{q}_ls"] = v
             out[f"m{i}_{q}_ls_covered"] = bool(lo <= mode[q] <= hi)
     return out

@@ -87,3 +87,35 @@ def test_evidence_is_the_chain_of_bayes_factors_at_each_new_modes_noise(two_mode
     ok = [not r.reason for r in sel.results]
     lz = np.array([r.ln_evidence if good else -np.inf for r, good in zip(sel.results, ok)])
     np.testing.assert_allclose(sel.probabilities, np.exp(lz - lz.max()) / np.exp(lz - lz.max()).sum())
+
+
+def test_least_squares_intervals_are_the_delta_method_of_the_laplace_covariance(two_modes):
+    """The K-mode least squares' 90 % intervals (studies' ``modes_least_squares`` and the
+    calibration's baseline): by frequency, centred in the logs on the optimum, their half-width
+    1.645·sd from the Laplace covariance carried through ln p, ln f_n, ln ζ (θ) by numerical
+    derivatives here (their coverage is measured in paper/modes_calibration.py)."""
+    from dampfit import physics
+
+    _, _, sel = two_modes
+    res = sel.chosen
+    got = res.laplace_intervals()
+    fit = res.fit
+    order = np.argsort(fit.omega_d)
+    assert [m["omega_d"] for m in got] == list(fit.omega_d[order])
+    for m, i in zip(got, order):
+        theta = np.log([fit.p[i], fit.omega_d[i]])
+        cov = res.cov[2 * i:2 * i + 2, 2 * i:2 * i + 2]
+        for q in ("p", "f_n", "zeta"):
+            def ln_q(t):
+                return np.log(float(physics.quantities(np.exp(t[0]), np.exp(t[1]))[q]))
+            h = 1e-6
+            grad = np.array([(ln_q(theta + h * e) - ln_q(theta - h * e)) / (2 * h)
+                             for e in np.eye(2)])
+            sd = np.sqrt(grad @ cov @ grad)
+            v, lo, hi = m[q]
+            assert v == pytest.approx(float(physics.quantities(fit.p[i], fit.omega_d[i])[q]))
+            assert np.log(hi / v) == pytest.approx(1.6448536269514722 * sd, rel=1e-5)
+            assert np.log(v / lo) == pytest.approx(np.log(hi / v), rel=1e-9)
+    empty = MS.KResult(3, None, float("nan"), np.array([]), np.empty((0, 0)), "not tried")
+    with pytest.raises(ValueError, match="no 3-mode least-squares fit: not tried"):
+        empty.laplace_intervals()

@@ -71,6 +71,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import gammaln
 
+from dampfit import physics
 from dampfit.errors import InputError
 from dampfit.inference import noise as _noise
 from dampfit.inference.modes import (
@@ -97,6 +98,10 @@ MAX_CANDIDATES = 6
 HARMONIC_TOLERANCE = 0.02
 
 
+#: Two-sided 90 % standard normal quantile (the 95 % point), for the Laplace intervals.
+Z90 = 1.6448536269514722
+
+
 @dataclass(frozen=True)
 class Tried:
     """One K of the greedy fits: its ``fit``, or None and ``why`` it was not tried."""
@@ -119,6 +124,39 @@ class KResult:
     cov: np.ndarray
     reason: str = ""
     psd_ratio: float = float("nan")
+
+    def laplace_intervals(self, z: float = Z90) -> list[dict]:
+        r"""The K-mode least squares' own intervals, mode by mode in order of frequency: per
+        mode ``p`` [1/s], ``f_n`` [Hz] and ``zeta`` [1] as (optimum, lower, upper), the normal
+        interval ±``z``·sd in the logs (``z`` = 1.645: 90 %) from the tempered Laplace
+        covariance ``cov`` of θ = (ln p_i, ln ω_d,i) (eq. MS3) by the delta method. With
+        ζ = p/ω_n and ω_n² = p² + ω_d² (:func:`dampfit.physics.quantities`),
+
+        .. math::  \frac{∂\ln ζ}{∂(\ln p, \ln ω_d)} = (1 − ζ^2, −(1 − ζ^2)),\quad
+                   \frac{∂\ln f_n}{∂(\ln p, \ln ω_d)} = (ζ^2, 1 − ζ^2),\quad
+                   \frac{∂\ln p}{∂(\ln p, \ln ω_d)} = (1, 0).
+
+        The baseline beside the posterior in studies and in the calibration
+        (``paper/modes_calibration.py``). Each mode also carries its optimum ``omega_d``
+        [rad/s] (a float). Raises ValueError when this K has no fit."""
+        if self.fit is None:
+            raise ValueError(f"no {self.n_modes}-mode least-squares fit: {self.reason}")
+        fit, cov = self.fit, np.asarray(self.cov, dtype=float)
+        out = []
+        for i in np.argsort(fit.omega_d):
+            p, w = float(fit.p[i]), float(fit.omega_d[i])
+            d = physics.quantities(p, w)
+            z2 = float(d["zeta"]) ** 2
+            block = cov[2 * i:2 * i + 2, 2 * i:2 * i + 2]
+            mode: dict = {"omega_d": w}
+            for q, grad in (("p", (1.0, 0.0)), ("f_n", (z2, 1.0 - z2)),
+                            ("zeta", (1.0 - z2, -(1.0 - z2)))):
+                g = np.asarray(grad)
+                sd_ln = math.sqrt(max(float(g @ block @ g), 0.0))
+                v = float(d[q])
+                mode[q] = (v, v * math.exp(-z * sd_ln), v * math.exp(z * sd_ln))
+            out.append(mode)
+        return out
 
 
 def amplitude_prior_radius(fd: FitData) -> float:

@@ -146,21 +146,11 @@ def modes_least_squares(prep: Prepared, mass: float | None, *, seed: int,
     fit = res.fit
     if fit is None:
         raise InputError(f"no {res.n_modes}-mode least-squares fit: {res.reason}")
-    cov = np.asarray(res.cov, dtype=float)
-    out = []
-    for i in np.argsort(fit.omega_d):
-        p, w = float(fit.p[i]), float(fit.omega_d[i])
-        block = cov[2 * i:2 * i + 2, 2 * i:2 * i + 2]
-        zeta = float(physics.quantities(p, w)["zeta"])
-        g = np.array([1.0 - zeta**2, -(1.0 - zeta**2)])
-        sd_lnp = math.sqrt(max(block[0, 0], 0.0))
-        sd_lnz = math.sqrt(max(float(g @ block @ g), 0.0))
-        out.append(estimate_from(
-            "modes_least_squares", p, w / (2 * np.pi), mass, ok=bool(fit.converged),
-            message="" if fit.converged else str(fit.message),
-            p_int=(p * math.exp(-Z90 * sd_lnp), p * math.exp(Z90 * sd_lnp)),
-            zeta_int=(zeta * math.exp(-Z90 * sd_lnz), zeta * math.exp(Z90 * sd_lnz))))
-    return out
+    return [estimate_from("modes_least_squares", m["p"][0], m["omega_d"] / (2 * np.pi), mass,
+                          ok=bool(fit.converged),
+                          message="" if fit.converged else str(fit.message),
+                          p_int=m["p"][1:], zeta_int=m["zeta"][1:])
+            for m in res.laplace_intervals(Z90)]
 
 
 @_estimator("modes_pencil")
