@@ -113,6 +113,18 @@ def test_switched_off_by_the_environment(monkeypatch, tmp_path, rec):
     assert set(p.stem for p in tmp_path.glob("*.png")) == ONE_MODE
 
 
+def test_the_process_imports_neither_arviz_nor_pandas():
+    """The process shares the cores with the analysis while both import: it is sent the
+    posterior as plain arrays (``Draws``), so it needs neither arviz/xarray nor pandas (≈ 1.2 s
+    of imports); the figures it draws equal those drawn here (the first test)."""
+    code = ("import sys; from dampfit.output.figure_process import main; main(); "
+            "print(sorted(m for m in ('arviz', 'xarray', 'pandas', 'jax') if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], input=b"", capture_output=True,
+                          timeout=120, env=dict(os.environ))
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.decode().strip() == "[]"
+
+
 def test_the_process_exits_quietly_when_its_parent_gives_up():
     """Input closed before the finished analysis arrived (the analysis failed): exit 0,
     nothing reported, nothing drawn."""

@@ -16,8 +16,23 @@
   and its validation: monotone time, gap splitting, unit notes.
 """
 
-from dampfit.io.readers import detect_format as detect_format
-from dampfit.io.readers import read as read
+from typing import TYPE_CHECKING
+
 from dampfit.io.recording import Recording as Recording
 
+if TYPE_CHECKING:  # pragma: no cover
+    from dampfit.io.readers import detect_format as detect_format
+    from dampfit.io.readers import read as read
+
 __all__ = ["Recording", "detect_format", "read"]
+
+
+def __getattr__(name: str):
+    """:func:`read` and :func:`detect_format` on first use (PEP 562): the readers import
+    pandas, which what needs only :mod:`~dampfit.io.bounded` (result files, the figure
+    process) should not pay for."""
+    if name in ("read", "detect_format"):
+        from dampfit.io import readers
+
+        return getattr(readers, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

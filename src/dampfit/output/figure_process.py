@@ -11,9 +11,9 @@ posterior — mostly one core — a second Python process draws what is ready on
 
 1. :meth:`FigureProcess.start` starts a Python running :func:`main` before the analysis
    (isolated, with this process's import path minus the working folder:
-   :func:`dampfit._child.command`); it imports matplotlib, the figure modules and arviz (to
-   unpickle the posterior), overlapping this process's own imports, then waits on its
-   standard input;
+   :func:`dampfit._child.command`); it imports matplotlib and the figure modules, overlapping
+   this process's own imports, then waits on its standard input (not arviz: the posterior is
+   sent as plain arrays, :class:`dampfit.output.figures.data.Draws`);
 2. :meth:`FigureProcess.target` names the folder to write into (the result folder's staging
    folder), :meth:`FigureProcess.send` passes each stage's plain data as it appears
    (``dampfit.analyze(..., on_stage=…)``: ``signals`` and ``summary`` sections after the fit,
@@ -179,7 +179,7 @@ class FigureProcess:
         """The plain data the stage ``stage`` produced (the ``on_stage`` callback of
         :func:`dampfit.analyze`): ``signals``, ``posterior`` and ``summary`` sections."""
         self._sent.update(k for k in ("signals", "posterior") if data.get(k) is not None)
-        self._write({"data": dict(data)})
+        self._write({"data": _plain(data)})
 
     def deliver(self, an, outdir: str | os.PathLike) -> None:
         """The finished analysis ``an``: send its summary (and its signals and posterior when
@@ -192,7 +192,8 @@ class FigureProcess:
             data["signals"] = an.signals()
         if "posterior" not in self._sent:
             data["posterior"] = an.posterior
-        self._write({"outdir": str(outdir), "dpi": self._dpi, "data": data, "end": True})
+        self._write({"outdir": str(outdir), "dpi": self._dpi, "data": _plain(data),
+                     "end": True})
         self._delivered = True
 
     def finish(self, an, outdir: str | os.PathLike) -> dict[str, Path]:
@@ -243,6 +244,17 @@ class FigureProcess:
         return written
 
 
+def _plain(data: dict[str, Any]) -> dict[str, Any]:
+    """``data`` with its posterior (InferenceData) as plain arrays
+    (:class:`dampfit.output.figures.data.Draws`): the process then needs neither arviz nor
+    xarray to unpickle it."""
+    if data.get("posterior") is None:
+        return dict(data)
+    from dampfit.output.figures.data import Draws
+
+    return {**data, "posterior": Draws.of(data["posterior"])}
+
+
 # ---------------------------------------------------------------------- the process itself
 def _read(stream) -> dict[str, Any] | None:
     """The next message, or None at the end of the input (the parent closed it or died)."""
@@ -263,12 +275,12 @@ def main() -> int:
     import matplotlib
 
     matplotlib.use("Agg")
-    from dampfit._arviz import arviz
     from dampfit.output import figures
     from dampfit.output.figures import layout
 
     layout.text_width("0")  # font cache and text measurement: first-use costs paid now
-    arviz()  # unpickling the posterior needs arviz and xarray: imported while waiting
+    import scipy.ndimage  # noqa: F401 - the spectrum, fit and posterior figures' (≈ 1 s of
+    import scipy.signal  # noqa: F401 - imports), paid while the analysis imports its stack
     gc.freeze()
     stdin = sys.stdin.buffer
     data = figures.FigureData()

@@ -50,6 +50,35 @@ class MissingData(InputError):
     """A figure cannot be drawn: the data it is drawn from are not there (one line)."""
 
 
+class Draws:
+    """A posterior group as plain NumPy arrays: what the posterior and trace figures read of
+    it (``name in draws``, ``draws[name]`` of shape (walker, draw), ``draws.sizes``) without
+    arviz or xarray. The figure process (:mod:`dampfit.output.figure_process`) is sent this
+    instead of the InferenceData, so it never imports them (≈ 1 s of CPU on the core the
+    analysis shares with it)."""
+
+    def __init__(self, arrays: dict[str, np.ndarray], sizes: dict[str, int]):
+        self._arrays = {str(k): np.asarray(v) for k, v in arrays.items()}
+        self.sizes = {str(k): int(v) for k, v in sizes.items()}
+
+    @classmethod
+    def of(cls, idata: Any) -> "Draws | None":
+        """The posterior group of the InferenceData ``idata`` as plain arrays (None without
+        one; a ``Draws`` is returned as it is)."""
+        if idata is None or isinstance(idata, cls):
+            return idata
+        post = getattr(idata, "posterior", None)
+        if post is None:
+            return None
+        return cls({k: v.values for k, v in post.data_vars.items()}, dict(post.sizes))
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._arrays
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self._arrays[name]
+
+
 class FigureData:
     """The plain data figures are drawn from (module docstring). Each of ``summary``,
     ``signals`` and ``posterior`` is the value or a function returning it, called on first use
@@ -179,9 +208,11 @@ class FigureData:
         return float(np.asarray(sig[key], float).reshape(())) if key in sig else math.nan
 
     def draws(self, figure: str):
-        """The posterior group of the InferenceData; :class:`MissingData` without one."""
+        """The posterior group of the InferenceData (or the :class:`Draws` sent in its
+        place); :class:`MissingData` without one."""
         idata = self.posterior
-        post = getattr(idata, "posterior", None) if idata is not None else None
+        post = idata if isinstance(idata, Draws) else \
+            getattr(idata, "posterior", None) if idata is not None else None
         if post is None:
             why = self._errors.get("posterior")
             raise MissingData(f"{figure}.png cannot be drawn: "
