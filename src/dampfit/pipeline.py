@@ -182,14 +182,16 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
     :func:`dampfit.inference.modes_posterior.budget` of K and ``viscous_seconds``, the
     one-mode posterior's wall time [s]: a run it stops is reported not converged, with a
     warning, in ``modes_evidence["sampling"]``) and summarised with its bound, close pairs
-    and Rayleigh α, β (:func:`~dampfit.inference.modes_posterior.modal_summary`). K = 1 —
+    and Rayleigh α, β (:func:`~dampfit.inference.modes_posterior.modal_summary`); a close
+    pair at the one-mode frequency with very different damping is explained in a warning
+    (:func:`~dampfit.inference.modes_close.split_pair`). K = 1 —
     by the screen or the evidence — is the one-mode posterior of ``parameters`` (the same
     model, so no second sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
     gives one mode with the reason as a warning. ``mode_of_mass`` beyond the modes found is
     a one-line :class:`~dampfit.errors.InputError`.
     """
     from dampfit.errors import InputError
-    from dampfit.inference import modes_gate, modes_posterior, modes_select
+    from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
 
     start = time.perf_counter()
     if max_modes == 1:
@@ -226,6 +228,7 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
     f1 = ls.omega_d / (2 * math.pi)
     nearest = min(range(len(out["modes"])),
                   key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
+    warns.extend(modes_close.split_pair(out["modes"], out["pairs"], nearest))
     if nearest != post.mode_of_mass:
         warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
                      f"(mode {nearest + 1}); the mass belongs to mode {post.mode_of_mass + 1}, "

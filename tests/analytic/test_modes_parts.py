@@ -218,3 +218,28 @@ def test_the_modal_posterior_budget_scales_with_the_modes_and_the_one_mode_time(
         b = MP.budget(2, unknown)
         assert b.max_steps == 2 * MP.STEPS_PER_MODE and b.max_seconds is None
         assert b.basis == f"{MP.STEPS_PER_MODE} steps per mode x 2 modes"
+
+
+def _entry(f, zeta):
+    return {"f_n": {"q50": f}, "zeta": {"q50": zeta}}
+
+
+def test_a_close_pair_with_very_different_damping_at_the_dominant_mode_is_explained():
+    """The real 40 cm cantilever case (9.358 / 9.405 Hz, ζ 0.0008 / 0.0055, a third mode at
+    61.7 Hz): the pair at the one-mode frequency is explained as a possibly split
+    amplitude-dependent mode; a genuine close pair of equal damping, a pair away from the
+    one-mode frequency, or a pair far apart is not."""
+    from dampfit.inference.modes_close import split_pair
+
+    modes = [_entry(9.358, 0.0008), _entry(9.405, 0.0055), _entry(61.7, 0.018)]
+    rows = [{"modes": [1, 2], "separation_half_power": 0.8},
+            {"modes": [1, 3], "separation_half_power": 200.0},
+            {"modes": [2, 3], "separation_half_power": 200.0}]
+    (warning,) = split_pair(modes, rows, dominant=1)
+    assert warning.startswith("modes 1 and 2 (9.358 and 9.405 Hz, 0.8 half-power")
+    assert "6.9x in damping" in warning and "depends on amplitude" in warning
+    assert split_pair(modes, rows, dominant=2) == []  # the pair is not at the one-mode f
+    equal = [_entry(3.3, 0.006), _entry(3.42, 0.006)]
+    assert split_pair(equal, [{"modes": [1, 2], "separation_half_power": 3.0 * 0.99}], 0) == []
+    far = [{"modes": [1, 2], "separation_half_power": 3.5}]
+    assert split_pair(modes[:2], far, 0) == []

@@ -33,10 +33,15 @@ from dampfit import physics
 from dampfit.errors import InputError
 from dampfit.inference import crlb
 
-__all__ = ["pairs", "inflation", "selection_pairs", "selection_bounds", "FLAG_INFLATION"]
+__all__ = ["pairs", "inflation", "selection_pairs", "selection_bounds", "split_pair",
+           "FLAG_INFLATION", "SPLIT_DAMPING_RATIO", "SPLIT_HALF_POWER"]
 
 #: CRLB inflation (C2) above which a pair is flagged in the warnings.
 FLAG_INFLATION = 1.25
+#: A pair at the one-mode frequency closer than this many half-power bandwidths (C1) …
+SPLIT_HALF_POWER = 3.0
+#: … whose damping ratios differ by at least this factor is read as a possibly split mode.
+SPLIT_DAMPING_RATIO = 3.0
 
 
 def inflation(times, modes, drift_degree: int | None = 0) -> list[dict[str, float]]:
@@ -112,3 +117,39 @@ def selection_bounds(sel) -> list[dict]:
     modes = [(fit.p[i], fit.omega_d[i], *amp[i]) for i in range(fit.n_modes)]
     return [crlb.bound_modes(fd.tau, math.sqrt(r * s2), modes, drift_degree=fd.drift_degree)[i]
             for i, r in enumerate(sel.psd_ratios)]
+
+
+def split_pair(modes: list[dict], pair_rows: list[dict], dominant: int) -> list[str]:
+    """Warnings for a close pair that may be one mode split in two.
+
+    A sum of viscous modes fitted to one mode whose damping depends on amplitude (friction,
+    drag: ζ changes over the record) can absorb the non-exponential envelope into a second,
+    close "mode": two modes beat, and a beat can mimic an envelope that is not exponential.
+    The signature is a pair around the one-mode frequency, closer than
+    :data:`SPLIT_HALF_POWER` half-power bandwidths (C1), whose damping ratios differ by
+    :data:`SPLIT_DAMPING_RATIO` or more (seen in a real cantilever recording whose ζ falls by
+    a third over the record: 9.358 / 9.405 Hz, ζ 0.0008 / 0.0055). Such a pair is not refused
+    — two genuine close modes can look the same — but explained: compare the damping-law
+    verdict, and take that mode's damping from the one-mode analysis.
+
+    ``modes`` the summary entries (``f_n``, ``zeta`` with ``q50``), ``pair_rows`` those of
+    :func:`pairs` (``modes`` 1-based), ``dominant`` the 0-based index of the mode at the
+    one-mode frequency.
+    """
+    out = []
+    for row in pair_rows:
+        i, j = (int(k) - 1 for k in row["modes"])
+        if dominant not in (i, j) or not row["separation_half_power"] < SPLIT_HALF_POWER:
+            continue
+        zi, zj = (float(modes[k]["zeta"]["q50"]) for k in (i, j))
+        lo, hi = sorted((zi, zj))
+        if not (lo > 0 and hi / lo >= SPLIT_DAMPING_RATIO):
+            continue
+        fi, fj = (float(modes[k]["f_n"]["q50"]) for k in (i, j))
+        out.append(f"modes {i + 1} and {j + 1} ({fi:.4g} and {fj:.4g} Hz, "
+                   f"{row['separation_half_power']:.2g} half-power bandwidths apart) differ "
+                   f"{hi / lo:.2g}x in damping (zeta {zi:.2g} and {zj:.2g}): they may be one mode "
+                   "whose damping depends on amplitude, split in two by the sum of viscous "
+                   "modes; see the damping-law verdict, and read this mode's damping from the "
+                   "one-mode analysis ('parameters', c_equivalent)")
+    return out
