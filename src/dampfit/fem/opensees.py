@@ -156,6 +156,23 @@ CSV_HEADER = "time,u,v,a"
 #: three commas and a newline — the bound on the output :func:`run_script` reads.
 MAX_ROW_BYTES = 4 * 24 + 3 + 1
 
+#: The transient analysis both runs of a script set up (linear Newmark, average acceleration:
+#: unconditionally stable and without numerical damping).
+_TRANSIENT = """\
+ops.constraints("Plain")
+ops.numberer("Plain")
+ops.system("BandGeneral")
+ops.test("NormDispIncr", 1e-12, 10)
+ops.algorithm("Linear")
+ops.integrator("Newmark", 0.5, 0.25)
+ops.analysis("Transient")
+"""
+
+
+def _indent(text: str) -> str:
+    return "".join(f"    {line}\n" for line in text.splitlines())
+
+
 _TEMPLATE = '''\
 """OpenSeesPy model of an identified spring-damper-mass system (written by dampfit {version}).
 
@@ -234,14 +251,7 @@ if g > 0:
 ops.setNodeDisp(2, 1, args.u_start, "-commit")
 ops.setNodeVel(2, 1, args.v_start, "-commit")
 ops.setNodeAccel(2, 1, (weight - k * args.u_start - c * args.v_start) / m, "-commit")
-ops.constraints("Plain")
-ops.numberer("Plain")
-ops.system("BandGeneral")
-ops.test("NormDispIncr", 1e-12, 10)
-ops.algorithm("Linear")
-ops.integrator("Newmark", 0.5, 0.25)
-ops.analysis("Transient")
-
+{transient}
 with open(args.out, "w") as fh:
     fh.write("{header}\\n")
     fh.write(f"0.0,{{ops.nodeDisp(2, 1)!r}},{{ops.nodeVel(2, 1)!r}},{{ops.nodeAccel(2, 1)!r}}\\n")
@@ -304,14 +314,7 @@ _MODAL_RUN = """if args.modal:  # the measured modes: uncoupled oscillators damp
         ops.setNodeDisp(1 + i, 1, 1.0, "-commit")
         ops.setNodeAccel(1 + i, 1, -k_i, "-commit")  # at rest: no damping force
     ops.rayleigh(alphaM, betaK, 0.0, 0.0)
-    ops.constraints("Plain")
-    ops.numberer("Plain")
-    ops.system("BandGeneral")
-    ops.test("NormDispIncr", 1e-12, 10)
-    ops.algorithm("Linear")
-    ops.integrator("Newmark", 0.5, 0.25)
-    ops.analysis("Transient")
-    nodes = range(2, len(modal_f) + 2)
+""" + _indent(_TRANSIENT) + """    nodes = range(2, len(modal_f) + 2)
     with open(args.out, "w") as fh:
         fh.write("time," + ",".join(f"u{i}" for i in range(1, len(modal_f) + 1)) + "\\n")
         fh.write("0.0," + ",".join(repr(ops.nodeDisp(n, 1)) for n in nodes) + "\\n")
@@ -352,7 +355,8 @@ def _modal_fields(modal: dict[str, Any] | None, units: UnitSystem, duration: flo
             "modal_values": _MODAL_VALUES.format(f=f, zeta=zeta, alpha=alpha, beta=beta,
                                                  modal_dt=modal_dt, modal_every=modal_every,
                                                  T=label("time")),
-            "modal_option": _MODAL_OPTION, "modal_run": _MODAL_RUN}
+            "modal_option": _MODAL_OPTION,
+            "modal_run": _MODAL_RUN}
 
 
 def modal_step(omega_max: float, output_dt: float) -> float:
@@ -406,7 +410,7 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
     for key in ("m", "k", "c", "u0", "g", "duration", "dt"):
         if not math.isfinite(fields[key]):
             raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
-    return _TEMPLATE.format(**fields)
+    return _TEMPLATE.format(transient=_TRANSIENT, **fields)
 
 
 def run_script(text: str, options: Sequence[str], rows: int,

@@ -44,13 +44,12 @@ from dampfit.errors import InputError
 from dampfit.signal import prepare
 from dampfit.signal.prepare import Prepared
 from dampfit.io.recording import Recording
+from dampfit.study.config.study import DEFAULT_MAX_MODES
 from dampfit.study.registry import (BAYES_MIN_ESS, Z90, Estimate, estimate_from,
                                     failed_estimate)
 
 __all__ = ["DEFAULT_MAX_MODES", "MODE_ESTIMATORS", "Shared", "match", "run"]
 
-#: Largest K the study's order selection and pencil try when [study] max_modes is not given.
-DEFAULT_MAX_MODES = 3
 
 
 class Shared:
