@@ -29,8 +29,8 @@ __all__ = ["Recording", "detect_format", "read"]
 
 def __getattr__(name: str):
     """:func:`read` and :func:`detect_format` on first use (PEP 562): the readers import
-    pandas, which what needs only :mod:`~dampfit.io.bounded` (result files, the figure
-    process) should not pay for."""
+    pandas, and code that needs only :mod:`~dampfit.io.bounded` (the result files, the
+    figure process) should not pay for that."""
     if name in ("read", "detect_format"):
         from dampfit.io import readers
 
