@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -204,6 +205,26 @@ def test_emcee_posterior_agrees_with_laplace(cases):
         m_l, s_l = np.mean(la.theta[:, i]), np.std(la.theta[:, i])
         assert abs(m_e - m_l) < 0.25 * s_e and 0.75 < s_l / s_e < 1.33, (i, m_e, m_l, s_e, s_l)
     assert np.median(em.a0) == pytest.approx(np.median(la.a0), rel=0.01)
+
+
+@pytest.mark.parametrize("law", ["coulomb", "quadratic"])
+def test_the_evidence_grid_stops_in_the_tail_without_changing_z(cases, law, monkeypatch):
+    """(L3) marched to the end of the support and with the tail cut-off (TAIL_DROP): the same
+    ln Z to double precision, the same Laplace draws, fewer nodes fitted."""
+    from dampfit.inference import law_fit
+    from dampfit.inference.law_fit import Data
+
+    prep, fd, res = cases[law]
+    mf, data = res.fits[law], Data.from_fit_data(fd)
+    cut = law_fit.laplace(replace(mf, grid=None), data, mf.temper, prep.band)
+    monkeypatch.setattr(law_fit, "TAIL_DROP", np.inf)
+    full = law_fit.laplace(replace(mf, grid=None), data, mf.temper, prep.band)
+    assert np.isfinite(cut.ln_evidence)
+    assert cut.ln_evidence == pytest.approx(full.ln_evidence, rel=1e-13, abs=1e-10)
+    fitted = np.isfinite(cut.grid.log_density).sum()
+    assert fitted < np.isfinite(full.grid.log_density).sum()
+    np.testing.assert_array_equal(sample_laplace(cut, data, seed=3).theta,
+                                  sample_laplace(full, data, seed=3).theta)
 
 
 def test_emcee_draws_depend_on_the_seed_only(cases):
