@@ -115,7 +115,9 @@ def _analyze(recording, mass, mass_sd, *, axis, window, band, seed, progress, ma
     warns.extend(_noise_warning(nm, assessment))
     modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
                         seed=seed, min_ess=min_ess, max_steps=max_steps,
-                        viscous_seconds=viscous_seconds)
+                        viscous_seconds=viscous_seconds,
+                        amplitude_dependent=assessment.verdict_name in ("amplitude-dependent",
+                                                                        "misfit"))
     warns.extend(modes.warnings)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
@@ -167,7 +169,8 @@ def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
 
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                 mode_of_mass: int | None, seed: int, min_ess: float,
-                max_steps: int, viscous_seconds: float | None = None) -> Modes:
+                max_steps: int, viscous_seconds: float | None = None,
+                amplitude_dependent: bool = False) -> Modes:
     """Several modes in the recording (issue 21), after the one-mode analysis.
 
     ``max_modes`` 1: nothing is done (``n_modes`` 1, "not looked for"). Otherwise the cheap
@@ -183,8 +186,9 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
     one-mode posterior's wall time [s]: a run it stops is reported not converged, with a
     warning, in ``modes_evidence["sampling"]``) and summarised with its bound, close pairs
     and Rayleigh α, β (:func:`~dampfit.inference.modes_posterior.modal_summary`); a close
-    pair at the one-mode frequency with very different damping is explained in a warning
-    (:func:`~dampfit.inference.modes_close.split_pair`). K = 1 —
+    pair at the one-mode frequency with very different damping, or any close pair there when
+    ``amplitude_dependent`` (the one-mode damping verdict: amplitude-dependent or misfit), is
+    explained in a warning (:func:`~dampfit.inference.modes_close.split_pair`). K = 1 —
     by the screen or the evidence — is the one-mode posterior of ``parameters`` (the same
     model, so no second sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
     gives one mode with the reason as a warning. ``mode_of_mass`` beyond the modes found is
@@ -228,7 +232,8 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
     f1 = ls.omega_d / (2 * math.pi)
     nearest = min(range(len(out["modes"])),
                   key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
-    warns.extend(modes_close.split_pair(out["modes"], out["pairs"], nearest))
+    warns.extend(modes_close.split_pair(out["modes"], out["pairs"], nearest,
+                                        amplitude_dependent=amplitude_dependent))
     if nearest != post.mode_of_mass:
         warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
                      f"(mode {nearest + 1}); the mass belongs to mode {post.mode_of_mass + 1}, "

@@ -243,3 +243,11 @@ def test_a_close_pair_with_very_different_damping_at_the_dominant_mode_is_explai
     assert split_pair(equal, [{"modes": [1, 2], "separation_half_power": 3.0 * 0.99}], 0) == []
     far = [{"modes": [1, 2], "separation_half_power": 3.5}]
     assert split_pair(modes[:2], far, 0) == []
+    # the real 30 cm run: damping amplitude-dependent by the one-mode verdict, three "modes"
+    # within 3 bandwidths of 16.4 Hz whose zeta are only 2.5x apart
+    near = [_entry(16.36, 0.0038), _entry(16.39, 0.0015)]
+    rows = [{"modes": [1, 2], "separation_half_power": 2.7}]
+    assert split_pair(near, rows, 0) == []
+    (warning,) = split_pair(near, rows, 0, amplitude_dependent=True)
+    assert "not to be one viscous c" in warning and "split in two" in warning
+    assert split_pair(near, far, 0, amplitude_dependent=True) == []
