@@ -53,7 +53,26 @@ def test_both_modes_in_the_summary_with_intervals(two_modes):
     assert run["n_steps"] <= run["budget"]["max_steps"] and run["budget"]["max_seconds"] > 0
     # the one-mode parameters stay, for the damper's (dominant) mode
     assert s["parameters"]["f_n"]["q50"] == pytest.approx(low["f_n"]["q50"], rel=1e-3)
+    # beside each mode's posterior, its least-squares optimum with the Laplace interval
+    for mode in (low, high):
+        for name in ("f_n", "zeta", "p"):
+            ls = mode["least_squares"][name]
+            assert ls["q05"] < ls["value"] < ls["q95"]
+            assert ls["value"] == pytest.approx(mode[name]["q50"], rel=0.05)
+    assert low["least_squares"]["f_n"]["unit"] == "Hz"
     json.dumps(s, allow_nan=False)
+
+
+def test_a_modal_posterior_that_did_not_converge_points_to_the_least_squares():
+    """Stopped long before convergence (60 steps), the modal posterior's quantiles are not to
+    be read: the warnings list each mode's least-squares optimum and Laplace interval."""
+    rec, _ = two_mode_recording(MASS)
+    st = stages.modes_stage(pp.prepare(rec), max_modes=2, n_modes=2, max_steps=60, seed=1)
+    out = st.summary
+    assert out["sampling"]["posterior_converged"] is False
+    (note,) = [w for w in out["warnings"] if "least-squares optima" in w]
+    for mode in out["modes"]:
+        assert f"f_n {mode['least_squares']['f_n']['value']:.5g} Hz" in note
 
 
 def test_the_table_has_one_block_per_mode(two_modes):

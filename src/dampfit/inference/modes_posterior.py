@@ -351,7 +351,10 @@ def modal_summary(sel, post: ModalPosterior) -> dict:
     """Plain data of a multi-mode analysis (for the outputs): ``n_modes``; ``modes_evidence``
     (:meth:`~dampfit.inference.modes_select.ModeSelection.summary`: P(K), the reasons);
     ``modes`` (:meth:`ModalPosterior.summary`, each with ``crlb_sd`` of f_n, ζ, p, ω_d from
-    :func:`dampfit.inference.modes_close.selection_bounds`); ``pairs`` (separation and CRLB
+    :func:`dampfit.inference.modes_close.selection_bounds` and ``least_squares``: the K-mode
+    least-squares f_n [Hz], ζ, p [1/s] with their Laplace 90 % intervals,
+    :meth:`~dampfit.inference.modes_select.KResult.laplace_intervals` — listed in a warning
+    when the posterior did not converge); ``pairs`` (separation and CRLB
     inflation of every pair); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary`
     of the draws, None for one mode); ``mode_of_mass`` (1-based); ``psd_ratio`` r;
     ``warnings`` and ``notes``."""
@@ -361,9 +364,19 @@ def modal_summary(sel, post: ModalPosterior) -> dict:
     modes = post.summary()
     for row, bound in zip(modes, modes_close.selection_bounds(sel)):
         row["crlb_sd"] = {q: bound[q]["sd"] for q in ("f_n", "zeta", "p", "omega_d")}
+    laplace = sel.chosen.laplace_intervals()
+    for row, est in zip(modes, laplace):
+        row["least_squares"] = {q: {"value": est[q][0], "q05": est[q][1], "q95": est[q][2],
+                                    "unit": _UNITS.get(q, "1")} for q in ("f_n", "zeta", "p")}
     pairs, pair_warnings = modes_close.selection_pairs(sel)
     rayleigh = None
     warns = list(sel.warnings) + pair_warnings + list(post.warnings)
+    if not post.converged:
+        listed = "; ".join(f"mode {i} f_n {m['f_n'][0]:.5g} Hz [{m['f_n'][1]:.5g}, "
+                           f"{m['f_n'][2]:.5g}], zeta {m['zeta'][0]:.3g} [{m['zeta'][1]:.3g}, "
+                           f"{m['zeta'][2]:.3g}]" for i, m in enumerate(laplace, start=1))
+        warns.append("the modes' least-squares optima with their Laplace 90 % intervals "
+                     f"(modes[i].least_squares), to read instead: {listed}")
     if post.n_modes >= 2:
         rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n"),
                                                   post.draws("zeta"))

@@ -85,7 +85,9 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
                    "ess_bulk"}, "f_d", "zeta", "p", "eta", "delta", "Q",
              "accel_amplitude",                  # K ≥ 2 only
              "c", "k", "c_crit", "u0",             # the mass's mode only (c, k with mass)
-             "crlb_sd": {"f_n", "zeta", "p", "omega_d"}}],
+             "crlb_sd": {"f_n", "zeta", "p", "omega_d"},
+             "least_squares": {"f_n": {"value", "q05", "q95", "unit"}, "zeta",
+                   "p"}}],                        # K ≥ 2: least squares, Laplace 90 %
              # one mode: modes[0] is parameters (eta = 2 zeta added)
      "modes_evidence": {"max_modes", "reason", "seconds",
              "screen": null | {"passed", "max_z2", "at_hz", "rate_per_s",
