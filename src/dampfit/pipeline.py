@@ -69,8 +69,8 @@ def analyze(
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
     looked for in the recording (:func:`modes_stage`; 1, the default: the stage is skipped —
-    several modes are opt-in, e.g. ``max_modes=4``, until their calibration is complete,
-    paper/modes.md) and
+    several modes are opt-in, e.g. ``max_modes=4``: they can add minutes to a real
+    recording, paper/modes.md) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
     belongs to: only that mode gets c and k in ``modes``. ``parameters`` stay the one-mode
     analysis of the dominant mode.
