@@ -30,8 +30,10 @@ def dask_absent():
     in a process that never makes a Dask array. The commands that analyse or render one result
     run inside this context (:mod:`dampfit.cli`), so xarray takes the path it takes where Dask
     is not installed; a process that has imported Dask (a study or batch, a user's script) is
-    left alone, and so is everything after the context."""
-    if "dask" in sys.modules:
+    left alone, and so is everything after the context. So is a process that imported xarray
+    before the context: xarray caches its answer to "is Dask installed?" (``lru_cache``), and
+    a "yes" cached outside would make it import ``dask.base`` inside, which fails here."""
+    if "dask" in sys.modules or "xarray" in sys.modules:
         yield
         return
     sys.modules["dask"] = None  # type: ignore[assignment] - "import dask" raises ImportError

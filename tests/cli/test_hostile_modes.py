@@ -96,3 +96,22 @@ def test_a_summary_without_modes_is_still_read(tmp_path):
     folder.mkdir()
     (folder / "summary.json").write_text(json.dumps({"parameters": {}}))
     assert "modes" not in read_summary(folder).data
+
+
+def test_the_cli_runs_in_a_process_that_used_xarray_before(tmp_path):
+    """xarray caches "is Dask installed?" on first use; a process that used it before calling
+    the CLI in-process (a script, a notebook, a test session) must not see the CLI's
+    Dask-absent shortcut clash with that cached answer (it raised "No module named
+    'dask.base'")."""
+    import subprocess
+    import sys
+
+    csv = decay_csv(tmp_path / "d.csv", *decay())
+    code = ("import sys, xarray\n"  # xarray's import asks about Dask (and caches "yes")
+            "from dampfit.cli import main\n"
+            f"sys.exit(main(['analyze', {str(csv)!r}, '--out', {str(tmp_path / 'out')!r}, "
+            "'--mass', '1', '--max-steps', '2000', '--no-figures', '--quiet']))\n")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert read_summary(tmp_path / "out").data["n_modes"] == 1
