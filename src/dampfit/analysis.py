@@ -47,7 +47,8 @@ PARAMETER_UNITS = {name: physics.UNITS[name] for name in (
 
 @dataclass(frozen=True)
 class Modes:
-    """The several-modes stage's result (:func:`dampfit.pipeline.modes_stage`): ``n_modes``;
+    """The several-modes stage's result for one recording (:func:`dampfit.pipeline.modes_stage`
+    of :func:`dampfit.stages.modes_stage`): ``n_modes``;
     ``modes`` one plain dict per mode (by frequency; None for one mode: then the one mode is
     ``parameters``, :meth:`Analysis.summary` fills it in); ``evidence`` summary.json's
     ``modes_evidence``; ``rayleigh`` α [1/s], β [s] (None below two modes); ``idata`` the

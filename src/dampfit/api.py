@@ -24,6 +24,7 @@ from dampfit.analysis import Analysis
 from dampfit.batch import analyze_many
 from dampfit.campaign import CampaignAnalysis, analyze_campaign
 from dampfit.errors import InputError
+from dampfit.inference.modes import DEFAULT_MAX_MODES
 from dampfit.io.readers import read
 from dampfit.io.recording import Recording
 from dampfit.pipeline import analyze as analyze_one
@@ -49,7 +50,7 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
             progress: bool = False, max_steps: int = 20000, min_ess: float = 1000.0,
             model: str = "auto", amplitude: float | None = None, on_stage=None,
             added_mass: Sequence[float] | None = None,
-            added_mass_sd: float | None = None, max_modes: int = 1,
+            added_mass_sd: float | None = None, max_modes: int | None = None,
             mode_of_mass: int | None = None) -> Analysis | CampaignAnalysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording
     (:func:`dampfit.pipeline.analyze`, which documents every option), or jointly from several
@@ -61,7 +62,10 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
     (a campaign pools the mode its ``band`` isolates; ``max_modes`` > 1 lists every test's
     other modes, :mod:`dampfit.campaign.modes`) and ``added_mass``,
     ``added_mass_sd`` to several: giving one where it does not apply is a one-line
-    :class:`~dampfit.errors.InputError`, never silently ignored.
+    :class:`~dampfit.errors.InputError`, never silently ignored. ``max_modes`` by default:
+    :data:`DEFAULT_MAX_MODES` (4) for one recording — a one-mode recording pays only a cheap
+    screen, ``max_modes=1`` skips the modal analysis — and 1 for a campaign (its tests' own
+    modes are opt-in).
     """
     if isinstance(recording, (list, tuple)):
         given = {"model": model != "auto", "amplitude": amplitude is not None,
@@ -75,14 +79,15 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
                                 added_mass_sd=0.0 if added_mass_sd is None else added_mass_sd,
                                 axis=axis, window=window, band=band, seed=seed,
                                 progress=progress, max_steps=max_steps, min_ess=min_ess,
-                                max_modes=max_modes)
+                                max_modes=1 if max_modes is None else max_modes)
     if added_mass is not None or added_mass_sd is not None:
         raise InputError("added_mass applies to several recordings (one per added mass), got "
                          "one recording")
     return analyze_one(recording, mass, mass_sd, axis=axis, window=window, band=band,
                        seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
                        model=model, amplitude=amplitude, on_stage=on_stage,
-                       max_modes=max_modes, mode_of_mass=mode_of_mass)
+                       max_modes=DEFAULT_MAX_MODES if max_modes is None else max_modes,
+                       mode_of_mass=mode_of_mass)
 
 
 def load(folder: str | os.PathLike) -> Analysis | CampaignAnalysis:

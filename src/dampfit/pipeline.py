@@ -11,7 +11,6 @@ Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (bot
 from __future__ import annotations
 
 import math
-import time
 
 from threadpoolctl import threadpool_limits
 
@@ -19,6 +18,7 @@ from dampfit import physics
 from dampfit import stages
 from dampfit.analysis import Analysis, Modes
 from dampfit.errors import InputError
+from dampfit.inference.modes import DEFAULT_MAX_MODES
 from dampfit.io.recording import Recording
 from dampfit.signal import prepare
 
@@ -40,7 +40,7 @@ def analyze(
     model: str = "auto",
     amplitude: float | None = None,
     on_stage=None,
-    max_modes: int = 1,
+    max_modes: int = DEFAULT_MAX_MODES,
     mode_of_mass: int | None = None,
 ) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
@@ -68,9 +68,10 @@ def analyze(
     recordings.
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
-    looked for in the recording (:func:`modes_stage`; 1, the default: the stage is skipped —
-    several modes are opt-in, e.g. ``max_modes=4``: they can add minutes to a real
-    recording, paper/modes.md) and
+    looked for in the recording (:func:`modes_stage`; by default
+    :data:`~dampfit.inference.modes.DEFAULT_MAX_MODES`, 4: a one-mode recording pays only the
+    screen, one with a second mode its selection and posterior — seconds to minutes on a
+    real record, paper/modes.md; 1 skips the stage) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
     belongs to: only that mode gets c and k in ``modes``. ``parameters`` stay the one-mode
     analysis of the dominant mode.
@@ -116,8 +117,7 @@ def _analyze(recording, mass, mass_sd, *, axis, window, band, seed, progress, ma
     modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
                         seed=seed, min_ess=min_ess, max_steps=max_steps,
                         viscous_seconds=viscous_seconds,
-                        amplitude_dependent=assessment.verdict_name in ("amplitude-dependent",
-                                                                        "misfit"))
+                        verdict=assessment.verdict_name)
     warns.extend(modes.warnings)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
@@ -170,73 +170,30 @@ def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                 mode_of_mass: int | None, seed: int, min_ess: float,
                 max_steps: int, viscous_seconds: float | None = None,
-                amplitude_dependent: bool = False) -> Modes:
-    """Several modes in the recording (issue 21), after the one-mode analysis.
-
-    ``max_modes`` 1: nothing is done (``n_modes`` 1, "not looked for"). Otherwise the cheap
-    screen :func:`dampfit.inference.modes_gate.screen` (≈ 0.01–0.05 s) looks at the one-mode
-    least squares ``ls``'s residual in the modal band: if nothing stands out of the noise the
-    recording is one mode, and neither the order selection nor the modal posterior is run
-    (the screen's false-negative risk is in its module docstring: it errs towards running the
-    selection). Else the number of modes is chosen by evidence
-    (:func:`dampfit.inference.modes_select.select`); for K ≥ 2 every mode's posterior is
-    sampled (:func:`dampfit.inference.modes_posterior.sample`, ``mass``, ``mass_sd`` [kg] for
-    the mode ``mode_of_mass``; within the work budget
-    :func:`dampfit.inference.modes_posterior.budget` of K and ``viscous_seconds``, the
-    one-mode posterior's wall time [s]: a run it stops is reported not converged, with a
-    warning, in ``modes_evidence["sampling"]``) and summarised with its bound, close pairs
-    and Rayleigh α, β (:func:`~dampfit.inference.modes_posterior.modal_summary`); a close
-    pair at the one-mode frequency with very different damping, or any close pair there when
-    ``amplitude_dependent`` (the one-mode damping verdict: amplitude-dependent or misfit), is
-    explained in a warning (:func:`~dampfit.inference.modes_close.split_pair`). K = 1 —
-    by the screen or the evidence — is the one-mode posterior of ``parameters`` (the same
-    model, so no second sampler runs). A recording the modal analysis cannot handle (too short, no mode fitted)
-    gives one mode with the reason as a warning. ``mode_of_mass`` beyond the modes found is
-    a one-line :class:`~dampfit.errors.InputError`.
-    """
-    from dampfit.errors import InputError
-    from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
-
-    start = time.perf_counter()
-    if max_modes == 1:
-        return Modes(evidence={"max_modes": 1, "screen": None, "reason":
-                               "several modes not looked for (max modes 1)"})
-
-    def one(evidence: dict, warnings: tuple[str, ...] = ()) -> Modes:
-        if mode_of_mass is not None and mode_of_mass > 1:
-            raise InputError(f"mode of mass {mode_of_mass} is out of range: the recording has "
-                             "1 mode (1 … 1)")
-        evidence.update(max_modes=max_modes, seconds=time.perf_counter() - start)
-        return Modes(evidence=evidence, warnings=warnings)
-
-    try:
-        gate = modes_gate.screen(prep, ls.p, ls.omega_d)
-        if not gate.passed:
-            return one({"screen": gate.summary(), "reason": gate.reason})
-        sel = modes_select.select(prep, max_modes=max_modes)
-    except InputError as exc:
-        why = f"several modes not analysed: {exc}"
-        return one({"screen": None, "reason": why}, (why,))
-    evidence = {"screen": gate.summary(), **sel.summary()}
-    if sel.n_modes == 1:
-        evidence["reason"] = "one mode by evidence"
-        return one(evidence, tuple(sel.warnings))
-    post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
-                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
-                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
-    out = modes_posterior.modal_summary(sel, post)
-    evidence.update(reason=f"{sel.n_modes} modes by evidence", pairs=out["pairs"],
-                    notes=out["notes"], max_modes=max_modes, sampling=post.sampling(),
-                    seconds=time.perf_counter() - start)
-    warns = list(out["warnings"])
+                verdict: str | None = None) -> Modes:
+    """Several modes in the recording (issue 21), after the one-mode analysis: the stage
+    :func:`dampfit.stages.modes_stage` with the one-mode least squares ``ls`` (its screen
+    first; K = 1 is the one-mode posterior of ``parameters``, so no second sampler runs) and
+    the damping-law ``verdict`` (a close pair at the one-mode frequency explained), as the
+    result's :class:`~dampfit.analysis.Modes`. A recording the modal analysis cannot handle
+    gives one mode with the reason as a warning; ``mode_of_mass`` beyond the modes found is
+    a one-line :class:`~dampfit.errors.InputError`."""
+    st = stages.modes_stage(prep, max_modes=max_modes, mass=mass, mass_sd=mass_sd,
+                            mode_of_mass=mode_of_mass, seed=seed, min_ess=min_ess,
+                            max_steps=max_steps, viscous_seconds=viscous_seconds,
+                            one_mode=(ls.p, ls.omega_d), verdict=verdict)
+    evidence = dict(st.evidence)
+    if st.n_modes is None or st.n_modes == 1 or st.posterior is None:
+        return Modes(evidence=evidence, warnings=st.warnings)
+    out = st.summary
+    warns = list(st.warnings)
     f1 = ls.omega_d / (2 * math.pi)
     nearest = min(range(len(out["modes"])),
                   key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
-    warns.extend(modes_close.split_pair(out["modes"], out["pairs"], nearest,
-                                        amplitude_dependent=amplitude_dependent))
-    if nearest != post.mode_of_mass:
+    if nearest != st.posterior.mode_of_mass:
         warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
-                     f"(mode {nearest + 1}); the mass belongs to mode {post.mode_of_mass + 1}, "
-                     f"whose c and k are in modes[{post.mode_of_mass}]")
-    return Modes(n_modes=sel.n_modes, modes=out["modes"], evidence=evidence,
-                 rayleigh=out["rayleigh"], idata=post.idata, warnings=tuple(warns))
+                     f"(mode {nearest + 1}); the mass belongs to mode "
+                     f"{st.posterior.mode_of_mass + 1}, whose c and k are in "
+                     f"modes[{st.posterior.mode_of_mass}]")
+    return Modes(n_modes=st.n_modes, modes=out["modes"], evidence=evidence,
+                 rayleigh=out["rayleigh"], idata=st.posterior.idata, warnings=tuple(warns))

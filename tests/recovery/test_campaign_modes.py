@@ -74,3 +74,33 @@ def test_mode_of_mass_is_refused_for_a_campaign():
         dampfit.analyze(recs, mass=MASS, max_modes=3, mode_of_mass=2)
     with pytest.raises(InputError, match="max modes must be from 1"):
         dampfit.analyze(recs, mass=MASS, max_modes=0)
+
+
+def test_each_test_runs_the_same_modes_stage_as_a_single_recording(campaign):
+    """The campaign's tests go through the one modes stage of a single recording: every mode
+    carries its K-mode least squares (to read when the posterior did not converge), and the
+    evidence has the screen that ran first."""
+    for t in campaign.summary()["tests"]:
+        m = t["modes"]
+        assert m["modes_evidence"]["screen"]["passed"] is True
+        for row in m["modes"]:
+            ls = row["least_squares"]
+            assert ls["f_n"]["q05"] <= ls["f_n"]["value"] <= ls["f_n"]["q95"]
+            assert row["f_n"]["q50"] == pytest.approx(ls["f_n"]["value"], rel=0.01)
+
+
+def test_a_one_mode_test_is_screened_and_listed_as_the_pooled_mode():
+    """A test with nothing beside the pooled mode is settled by the screen (no selection, no
+    modal posterior) and the table says so instead of "not analysed"."""
+    from dampfit import simulate as sim
+
+    one = sim.recording(sim.from_modal(MASS, 3.3, 0.006, seed=23, u0=0.004, duration=40.0,
+                                       sample_rate=100.0, noise_density=300.0))[0]
+    recs = [two_mode_recording(MASS, seed=21)[0], one]
+    c = dampfit.analyze(recs, mass=MASS, mass_sd=0.01, max_modes=3, min_ess=300, seed=4)
+    two, single = (t["modes"] for t in c.summary()["tests"])
+    assert two["n_modes"] == 2
+    assert single["n_modes"] == 1 and single["modes"] == [] and single["reason"] is None
+    assert single["modes_evidence"]["screen"]["passed"] is False
+    assert "evidence" not in single["modes_evidence"]  # the selection did not run
+    assert "one mode (the pooled one)" in c.report()

@@ -95,13 +95,33 @@ def test_save_and_load_give_back_every_mode(two_modes, tmp_path):
     assert back.mode_draws("f_n").shape[1] == 2
 
 
-def test_several_modes_are_looked_for_only_when_asked(analysed):
-    """The default is one mode (several are opt-in until their calibration is complete): the
-    stage is skipped and says so."""
+def test_several_modes_are_looked_for_by_default(analysed):
+    """The default looks for up to 4 modes (issue 21); on a one-mode recording the screen
+    settles it: one mode, no selection, and ``modes[0]`` is ``parameters``."""
     s = analysed[0].summary()
-    assert s["n_modes"] == 1 and s["modes_evidence"]["screen"] is None
-    assert "not looked for" in s["modes_evidence"]["reason"]
-    assert s["provenance"]["options"]["max_modes"] == 1
+    assert s["provenance"]["options"]["max_modes"] == 4
+    assert s["n_modes"] == 1 and s["modes_evidence"]["screen"]["passed"] is False
+    assert "evidence" not in s["modes_evidence"]
+    assert s["modes"][0]["zeta"] == s["parameters"]["zeta"]
+
+
+def test_a_harmonic_of_the_one_mode_is_not_a_second_mode():
+    """A large swing puts whole-multiple harmonics in the acceleration (a real phone pendulum
+    at 25 degrees: a component at 3.000 x f1). A damped component at exactly 3 f_d decaying
+    at 3 p (the same zeta) is the 3rd harmonic of a nonlinear mode: the evidence may prefer
+    two components, but the analysis reports one mode and names the harmonic."""
+    cfg = sim.from_modal(MASS, 3.3, 0.006, modes=[(3 * 3.3, 0.006, 0.08, 0.3)], seed=5,
+                         u0=0.004, duration=40.0, sample_rate=100.0, noise_density=300.0)
+    rec, _ = sim.recording(cfg)
+    an = analyze(rec, mass=MASS, mass_sd=0.01, min_ess=300, seed=2)
+    s = an.summary()
+    ev = s["modes_evidence"]
+    assert ev["screen"]["passed"] is True and ev["n_modes"] == 2  # the evidence saw it
+    assert s["n_modes"] == 1 and an.modes_posterior is None  # no modal posterior ran
+    (h,) = ev["harmonics"]
+    assert h["multiple"] == 3 and h["cells"] < 1 and h["f_d_hz"] == pytest.approx(9.9, rel=0.01)
+    assert ev["reason"].startswith("one mode") and "harmonic" in ev["reason"]
+    assert any("harmonics of a nonlinear oscillation" in w for w in s["diagnostics"]["warnings"])
 
 
 def test_a_one_mode_recording_is_screened_out(short_paper):

@@ -70,3 +70,19 @@ def test_one_mode_recording_gets_no_false_second_mode():
     assert s["n_modes"] == 1, s["modes"]
     assert abs(s["parameters"]["f_n"]["q50"] - 3.915) < 0.03  # SOURCES.md: f0 = 3.915 Hz
     assert s["modes_evidence"]["reason"]
+
+
+PENDULUM_25 = REAL / "phone-pendulum-harinlee83" / "l2LongTheta25.csv"
+
+
+def test_a_pendulum_s_harmonic_is_not_a_second_mode():
+    """The phone pendulum released at 25 degrees: its acceleration holds the 3rd harmonic of
+    the swing (2.907 Hz = 3.000 x 0.969 Hz, hundreds of times the noise), which the evidence
+    prefers as a second component. It is a harmonic of one nonlinear mode, not a mode: the
+    analysis reports one mode at the pendulum's frequency and names the harmonic."""
+    s = analysed(PENDULUM_25)
+    ev = s["modes_evidence"]
+    assert s["n_modes"] == 1 and ev["n_modes"] == 2, ev["reason"]
+    (h,) = ev["harmonics"]
+    assert h["multiple"] == 3 and abs(h["of_hz"] - 0.969) < 0.005
+    assert abs(s["parameters"]["f_n"]["q50"] - 0.969) < 0.01

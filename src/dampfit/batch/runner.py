@@ -176,7 +176,7 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
                  force: bool = False, read_options: dict[str, Any] | None = None,
                  axis: str = "auto", window=None, band=None, seed: int = 0,
                  max_steps: int = 20000, model: str = "auto", amplitude: float | None = None,
-                 max_modes: int = 1, mode_of_mass: int | None = None):
+                 max_modes: int = 4, mode_of_mass: int | None = None):
     """Analyse many independent recordings; return the results table (a ``pandas.DataFrame``,
     one row per recording: :mod:`dampfit.batch.table`).
 

@@ -38,8 +38,9 @@ Stages
    :mod:`dampfit.campaign.checks`): spread consistent with zero, outliers, amplitude explains
    the scatter, and a one-sentence verdict — made once here, stored on the result.
 7. **Several modes per test** (only with ``max_modes`` > 1, :mod:`dampfit.campaign.modes`):
-   each test on its own through :func:`dampfit.stages.modes_stage`; its modes are listed with
-   the pooled one marked, the pooling above unchanged.
+   each test on its own through :func:`dampfit.stages.modes_stage` (its screen, evidence,
+   posterior and split-pair check, as for one recording); its modes are listed with the
+   pooled one marked, the pooling above unchanged.
 
 The summary's schema is ``summary.json`` of kind "campaign" (schema_version 1).
 """

@@ -266,7 +266,7 @@ def campaign_command(args, files: list[str]) -> int:
                               band=tuple(args.band) if args.band else None, seed=args.seed,
                               progress=not args.quiet and sys.stderr.isatty(),
                               max_steps=args.max_steps,
-                              max_modes=modes_options(args)["max_modes"], **kw)
+                              max_modes=modes_options(args, campaign=True)["max_modes"], **kw)
         an.save(folder, figures=not args.no_figures)
         folder.publish()
         if args.report:

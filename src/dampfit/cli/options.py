@@ -23,11 +23,14 @@ SEED_LIMIT = 2**32
 #: :data:`~dampfit.inference.modes.MAX_MODES_LIMIT` (not imported: that module imports JAX,
 #: and the parser is built before the scientific stack; a test checks they agree).
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
-#: --max-modes when not given: 1, one mode. Several modes are looked for only when asked
-#: (``--max-modes 4``): their calibration is done (paper/modes.md), but on a real recording
-#: with a second mode the modal posterior adds 10 s to 3 min (paper/results/modes_real.csv),
-#: and the Rayleigh α of three modes on white noise covers 82 % (goal 85 %).
-ANALYSIS_MAX_MODES = 1
+#: --max-modes when not given, for one recording: several modes are looked for (calibrated,
+#: paper/modes.md). A one-mode recording pays only the screen (paper/benchmark.py); one with
+#: a second mode pays its selection and posterior (10 s to 3 min on the real cantilevers,
+#: paper/results/modes_real.csv): ``--max-modes 1`` skips them.
+ANALYSIS_MAX_MODES = DEFAULT_MAX_MODES
+#: --max-modes when not given, for a campaign: 1, its tests' own modes are opt-in (each test
+#: would pay the modal analysis; the pooling is of one mode either way).
+CAMPAIGN_MAX_MODES = 1
 #: Largest --max-steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).
 MAX_STEPS = 10**6
 
@@ -111,8 +114,8 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
     a.add_argument("--max-modes", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
                    default=None,
                    help=f"most modes looked for in the recording, 1 to {MAX_MODES_LIMIT} "
-                        f"(default {ANALYSIS_MAX_MODES}: one mode only; {DEFAULT_MAX_MODES} to look "
-                        "for several, as paper/modes.md describes)")
+                        f"(default {ANALYSIS_MAX_MODES} for one recording, {CAMPAIGN_MAX_MODES} "
+                        "for a campaign's tests; 1 skips the modal analysis; paper/modes.md)")
     a.add_argument("--mode-of-mass", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
                    default=None,
                    help="the mode (1 = lowest frequency) the --mass belongs to: only it gets "
@@ -133,9 +136,11 @@ def check_analysis_options(args) -> None:
                          f"{args.band[0]:g} {args.band[1]:g}")
 
 
-def modes_options(args) -> dict:
-    """``max_modes`` and ``mode_of_mass`` of :func:`dampfit.pipeline.analyze` from ``args``."""
-    return {"max_modes": getattr(args, "max_modes", None) or ANALYSIS_MAX_MODES,
+def modes_options(args, campaign: bool = False) -> dict:
+    """``max_modes`` and ``mode_of_mass`` of :func:`dampfit.pipeline.analyze` (of a
+    ``campaign``'s tests) from ``args``."""
+    default = CAMPAIGN_MAX_MODES if campaign else ANALYSIS_MAX_MODES
+    return {"max_modes": getattr(args, "max_modes", None) or default,
             "mode_of_mass": getattr(args, "mode_of_mass", None)}
 
 

@@ -84,7 +84,7 @@ from dampfit.signal.prepare import FitData, Prepared
 
 __all__ = ["KResult", "Tried", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
            "amplitude_prior_radius", "psd_ratios", "local_ratio", "harmonics", "reject_reason",
-           "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE",
+           "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE", "harmonic_components",
            "MAX_CANDIDATES"]
 
 #: Amplitude prior radius in units of the largest |y⊥| (MS2).
@@ -489,20 +489,32 @@ def _evidence_chain(fd, band, span, fits, r_at) -> list[KResult]:
     return results
 
 
-def harmonics(fit: ModeFit) -> list[str]:
-    """Warnings for modes at an integer multiple (2…5) of a stronger mode's frequency, within
-    2 % of it: the harmonics of a nonlinear oscillation (friction, drag, a stiffening spring)
-    decay like modes but are not structural modes."""
+def harmonic_components(fit: ModeFit, span: float | None = None) -> list[dict]:
+    """Modes of ``fit`` at an integer multiple m = 2…5 of a stronger mode's damped frequency,
+    within :data:`HARMONIC_TOLERANCE` of it: ``[{"index", "of", "multiple", "cells"}]``
+    (0-based mode and its fundamental; ``cells`` = |f_j − m·f_i|·T, the mismatch in
+    resolution cells of the window ``span`` T [s], NaN without it). The harmonics of a
+    nonlinear oscillation (a pendulum's large swing, friction, drag, a stiffening spring)
+    decay like modes and sit at exactly m·f_i — within a resolution cell — but are not
+    structural modes."""
     out = []
-    amp = fit.amplitudes
+    amp, f = fit.amplitudes, fit.f_d
     for j in range(fit.n_modes):
         for i in range(fit.n_modes):
-            ratio = fit.f_d[j] / fit.f_d[i]
+            ratio = f[j] / f[i]
             m = round(ratio)
             if i != j and 2 <= m <= 5 and abs(ratio / m - 1) < HARMONIC_TOLERANCE \
                     and amp[i] > amp[j]:
-                out.append(f"the mode at {fit.f_d[j]:.4g} Hz lies at {m}x the mode at "
-                           f"{fit.f_d[i]:.4g} Hz: it may be a harmonic of a nonlinear "
-                           "oscillation rather than a structural mode")
+                cells = abs(f[j] - m * f[i]) * span if span else math.nan
+                out.append({"index": j, "of": i, "multiple": m, "cells": float(cells)})
                 break
     return out
+
+
+def harmonics(fit: ModeFit) -> list[str]:
+    """Warnings for the :func:`harmonic_components` of ``fit``: they may be harmonics of a
+    nonlinear oscillation rather than structural modes."""
+    f = fit.f_d
+    return [f"the mode at {f[h['index']]:.4g} Hz lies at {h['multiple']}x the mode at "
+            f"{f[h['of']]:.4g} Hz: it may be a harmonic of a nonlinear oscillation rather "
+            "than a structural mode" for h in harmonic_components(fit)]

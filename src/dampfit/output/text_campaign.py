@@ -200,6 +200,18 @@ def _test_lines(s: dict) -> list[str]:
 _REASON_CHARS = 160
 
 
+def _no_modes(m: dict) -> str:
+    """Why a test lists no modes: one mode (the pooled one) by the screen or the evidence,
+    or not analysed, with the reason (whitespace folded, at most :data:`_REASON_CHARS`)."""
+    evidence = m.get("modes_evidence") if isinstance(m.get("modes_evidence"), dict) else {}
+    one = m.get("n_modes") == 1 and not isinstance(m.get("n_modes"), bool)
+    reason = evidence.get("reason") if one else m.get("reason")
+    reason = " ".join(reason.split())[:_REASON_CHARS] if isinstance(reason, str) else ""
+    if one:
+        return "one mode (the pooled one)" + (f": {reason}" if reason else "")
+    return f"not analysed: {reason or 'no modes'}"
+
+
 def _modes_lines(s: dict) -> list[str]:
     """With ``max_modes`` > 1: every test's modes (f_n, ζ with 90 % intervals), the pooled
     one marked ``*``, or why its modes were not analysed. Nothing for a one-mode campaign."""
@@ -214,9 +226,7 @@ def _modes_lines(s: dict) -> list[str]:
         modes = [r for r in m.get("modes") or [] if isinstance(r, dict)] \
             if isinstance(m.get("modes"), list) else []
         if not modes:
-            reason = m.get("reason") if isinstance(m.get("reason"), str) else "no modes"
-            reason = " ".join(reason.split())[:_REASON_CHARS]
-            rows.append([label, "", f"not analysed: {reason}", ""])
+            rows.append([label, "", _no_modes(m), ""])
             continue
         for j, r in enumerate(modes):
             star = " *" if r.get("pooled") is True else ""

@@ -168,8 +168,11 @@ def _test_modes(s: dict) -> list[Block]:
         modes = [r for r in m.get("modes") or [] if isinstance(r, dict)] \
             if isinstance(m.get("modes"), list) else []
         if not modes:
-            rows.append([f"{i + 1} {name}", "—", f"not analysed: {number(m.get('reason'))}"]
-                        + ["—"] * len(CONVENTIONS))
+            one = m.get("n_modes") == 1 and not isinstance(m.get("n_modes"), bool)
+            ev = m.get("modes_evidence") if isinstance(m.get("modes_evidence"), dict) else {}
+            why = (f"one mode (the pooled one): {number(ev.get('reason'))}" if one else
+                   f"not analysed: {number(m.get('reason'))}")
+            rows.append([f"{i + 1} {name}", "—", why] + ["—"] * len(CONVENTIONS))
         for j, r in enumerate(modes):
             qs = {k: r.get(k) for k, _ in CONVENTIONS}
             qs["Q_inv"] = inverse_q(r.get("Q"))

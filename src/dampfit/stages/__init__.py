@@ -13,8 +13,10 @@ In order, for one :class:`~dampfit.io.recording.Recording`:
 5. :func:`crlb_stage` — the Cramér–Rao bound of this recording's design;
 6. :func:`assess_damping` — damping laws, ζ(amplitude) and the adequacy verdict
    (:mod:`dampfit.damping`);
-7. :func:`modes_stage` — several modes (not wired yet): the number of modes by evidence and
-   every mode's posterior, bound, close pairs and Rayleigh α, β, as plain data.
+7. :func:`modes_stage` (:mod:`dampfit.stages.modes`) — several modes: a screen of the one-mode
+   residual, the number of modes by evidence and every mode's posterior, bound, close pairs
+   and Rayleigh α, β, as plain data; one function for a single recording, each test of a
+   campaign and the study's modal estimators.
 
 :func:`ls_summary` is the one least-squares summary (values, 1-σ from the calibrated Jacobian
 covariance): summary.json's ``least_squares`` and the study's ``least_squares`` estimator both
@@ -498,57 +500,4 @@ def _number(x) -> np.float64:
     return np.float64(np.nan if x is None else x)
 
 
-@dataclass(frozen=True)
-class ModesStage:
-    """Several modes of one prepared signal (:func:`modes_stage`): ``summary`` the plain data,
-    ``selection`` (:class:`~dampfit.inference.modes_select.ModeSelection`) and ``posterior``
-    (:class:`~dampfit.inference.modes_posterior.ModalPosterior`, its ``idata`` for
-    posterior.nc), and ``seconds`` [s] the wall time of the stage."""
-
-    summary: dict[str, Any]
-    selection: Any
-    posterior: Any
-    seconds: float
-
-
-def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | None = None,
-                band: tuple[float, float] | None = None, mass: float | None = None,
-                mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = 0,
-                min_ess: float = 1000.0, max_steps: int = 20000,
-                viscous_seconds: float | None = None) -> ModesStage:
-    """Several modes in the window of ``prep`` (the one-mode path's prepared signal): the
-    number of modes K = 1 … ``max_modes`` chosen by evidence (or fixed by ``n_modes``;
-    :func:`dampfit.inference.modes_select.select`, modal ``band`` [Hz] by default (MS1)),
-    then the posterior of every mode (:func:`dampfit.inference.modes_posterior.sample`;
-    ``mass``, ``mass_sd`` [kg] for c [N·s/m] and k [N/m] of the mode ``mode_of_mass``
-    (1-based; default the dominant one)), within the work budget
-    :func:`dampfit.inference.modes_posterior.budget` of K (and ``viscous_seconds``, a
-    one-mode posterior's wall time [s], if known).
-
-    ``summary`` (JSON-safe, :func:`dampfit.inference.modes_posterior.modal_summary`):
-    ``n_modes``; ``modes`` — one row per mode by frequency with f_n, f_d [Hz], ζ, η = 2ζ,
-    Λ (``delta``), Q [1], p [1/s], the acceleration amplitude [m/s²] (and c, k, u₀ for the
-    mass's mode), each {mean, sd, q05, q50, q95, r_hat, ess_bulk, unit}, plus ``crlb_sd``;
-    ``modes_evidence`` — P(K), ln Z and the reason of every K tried; ``pairs`` — separation
-    and CRLB inflation of every pair, ``flagged`` when close; ``rayleigh`` — α [1/s], β [s]
-    with intervals and the misfit statement (None for one mode); ``mode_of_mass``;
-    ``sampling`` — convergence, max R-hat, min ESS, steps, wall time, why the run stopped
-    and its budget; ``warnings`` and ``notes``.
-    Bad options raise :class:`~dampfit.errors.InputError` before any fit (``mode_of_mass``
-    beyond the K found: after the selection).
-    """
-    from dampfit.inference import modes_posterior, modes_select
-    from dampfit.inference.modes import check_max_modes, check_mode_of_mass
-
-    start = time.perf_counter()
-    limit = check_max_modes(max_modes if n_modes is None else n_modes)
-    check_mode_of_mass(mode_of_mass, limit)
-    mass, mass_sd = physics.check_mass(mass, mass_sd)
-    sel = modes_select.select(prep, max_modes=limit, band=band, n_modes=n_modes)
-    post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
-                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
-                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
-    out = modes_posterior.modal_summary(sel, post)
-    out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
-    return ModesStage(summary=jsonable(out), selection=sel, posterior=post,
-                      seconds=time.perf_counter() - start)
+from dampfit.stages.modes import ModesStage, modes_stage  # noqa: E402 (the modes stage)

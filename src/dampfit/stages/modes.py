@@ -1,0 +1,163 @@
+"""The several-modes stage (issue 21): one function for a single recording
+(:func:`dampfit.pipeline.analyze`), each test of a campaign (:mod:`dampfit.campaign.modes`)
+and the study's modal estimators (:mod:`dampfit.study.modal`).
+
+In order, on the prepared signal of the one-mode path:
+
+1. with the one-mode least squares given (``one_mode``), the cheap screen
+   :func:`dampfit.inference.modes_gate.screen` (≈ 0.01–0.05 s) looks at its residual in the
+   modal band: when nothing stands out of the noise the recording is one mode and nothing
+   else runs (the screen errs towards running the selection: its module docstring);
+2. the number of modes K = 1 … ``max_modes`` by evidence
+   (:func:`dampfit.inference.modes_select.select`), or fixed by ``n_modes``;
+3. the posterior of every mode (:func:`dampfit.inference.modes_posterior.sample`, within its
+   work budget) and its plain-data summary with bounds, close pairs, Rayleigh α, β and each
+   mode's least squares (:func:`~dampfit.inference.modes_posterior.modal_summary`). With
+   ``one_mode`` given, K = 1 is that analysis and no second sampler runs;
+4. a close pair at the one-mode frequency that may be one amplitude-dependent mode split in
+   two is explained in a warning (:func:`dampfit.inference.modes_close.split_pair`).
+
+Bad options are one-line :class:`~dampfit.errors.InputError` before any fit (a
+``mode_of_mass`` beyond the K found: after the selection). A recording the modal analysis
+cannot handle (too short, too few samples per cycle of the highest mode, no mode fitted) is
+not an error: ``n_modes`` is None and the evidence's ``reason`` says why.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from dampfit import physics
+from dampfit._json import jsonable
+from dampfit.errors import InputError
+from dampfit.signal import prepare
+
+__all__ = ["ModesStage", "modes_stage"]
+
+#: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
+#: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
+SPLIT_VERDICTS = ("amplitude-dependent", "misfit")
+
+
+@dataclass(frozen=True)
+class ModesStage:
+    """What :func:`modes_stage` found.
+
+    ``n_modes`` K (None: not analysed, ``evidence["reason"]`` says why); ``summary`` the
+    JSON-safe :func:`~dampfit.inference.modes_posterior.modal_summary` with ``sampling``
+    (None when no modal posterior ran); ``evidence`` summary.json's ``modes_evidence``
+    (``max_modes``, ``screen``, P(K) and ln Z of every K tried, ``reason``, ``seconds``; with a
+    posterior also ``pairs``, ``notes``, ``sampling``); ``warnings``; ``selection``
+    (:class:`~dampfit.inference.modes_select.ModeSelection`) and ``posterior``
+    (:class:`~dampfit.inference.modes_posterior.ModalPosterior`, its ``idata`` for
+    posterior.nc), None when not run; ``split`` the warnings (also in ``warnings``) that a
+    close pair may be the one-mode analysis's mode split in two; ``seconds`` [s] the stage's
+    wall time."""
+
+    n_modes: int | None
+    evidence: dict[str, Any]
+    summary: dict[str, Any] | None = None
+    warnings: tuple[str, ...] = ()
+    selection: Any = None
+    posterior: Any = None
+    split: tuple[str, ...] = ()
+    seconds: float = 0.0
+
+
+def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | None = None,
+                band: tuple[float, float] | None = None, mass: float | None = None,
+                mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = 0,
+                min_ess: float = 1000.0, max_steps: int = 20000,
+                viscous_seconds: float | None = None,
+                one_mode: tuple[float, float] | None = None,
+                verdict: str | None = None) -> ModesStage:
+    """Several modes in the window of ``prep`` (see the module docstring).
+
+    ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
+    ``n_modes`` a fixed K; ``band`` [Hz] the modal band (MS1 by default); ``mass``,
+    ``mass_sd`` [kg] give c [N·s/m] and k [N/m] of the mode ``mode_of_mass`` (1-based; the
+    dominant one by default); ``viscous_seconds`` a one-mode posterior's wall time [s], for
+    the work budget (:func:`dampfit.inference.modes_posterior.budget`); ``one_mode`` the
+    one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
+    that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
+    verdict (amplitude-dependent or misfit: any close pair there is explained).
+    """
+    from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
+    from dampfit.inference.modes import check_max_modes, check_mode_of_mass
+
+    start = time.perf_counter()
+    limit = check_max_modes(max_modes if n_modes is None else n_modes)
+    check_mode_of_mass(mode_of_mass, limit)
+    mass, mass_sd = physics.check_mass(mass, mass_sd)
+
+    def done(k: int | None, evidence: dict, warnings=(), **kw) -> ModesStage:
+        check_mode_of_mass(mode_of_mass, k or 1)  # not analysed: one mode, as reported
+        evidence.update(max_modes=limit, seconds=time.perf_counter() - start)
+        return ModesStage(n_modes=k, evidence=jsonable(evidence), warnings=tuple(warnings),
+                          seconds=time.perf_counter() - start, **kw)
+
+    if limit == 1 and n_modes is None:
+        return done(1, {"screen": None, "reason": "several modes not looked for (max modes 1)"})
+    gate = None
+    try:
+        if one_mode is not None and n_modes is None:
+            gate = modes_gate.screen(prep, one_mode[0], one_mode[1], band)
+            if not gate.passed:
+                return done(1, {"screen": gate.summary(), "reason": gate.reason})
+        sel = modes_select.select(prep, max_modes=limit, band=band, n_modes=n_modes)
+    except InputError as exc:
+        why = f"several modes not analysed: {exc}"
+        return done(None, {"screen": None if gate is None else gate.summary(), "reason": why},
+                    (why,))
+    evidence = {"screen": None if gate is None else gate.summary(), **sel.summary()}
+    if sel.n_modes == 1 and one_mode is not None:
+        evidence["reason"] = "one mode by evidence"
+        return done(1, evidence, sel.warnings, selection=sel)
+    harmonic = _harmonics(sel) if one_mode is not None and n_modes is None else None
+    if harmonic is not None:
+        evidence.update(reason=harmonic[0], harmonics=harmonic[1])
+        return done(1, evidence, [w for w in sel.warnings if "harmonic" not in w]
+                    + [harmonic[0]], selection=sel)
+    post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
+                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
+                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
+    out = modes_posterior.modal_summary(sel, post)
+    out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
+    warns, split = list(out["warnings"]), []
+    if one_mode is not None and sel.n_modes > 1:
+        f1 = one_mode[1] / (2 * math.pi)
+        dominant = min(range(len(out["modes"])),
+                       key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
+        split = modes_close.split_pair(out["modes"], out["pairs"], dominant,
+                                       amplitude_dependent=verdict in SPLIT_VERDICTS)
+    evidence.update(reason=f"{sel.n_modes} mode{'s' if sel.n_modes > 1 else ''} by evidence"
+                    if n_modes is None else f"{n_modes} modes fixed",
+                    pairs=out["pairs"], notes=out["notes"], sampling=post.sampling())
+    return done(sel.n_modes, evidence, warns + split, summary=jsonable(out), selection=sel,
+                posterior=post, split=tuple(split))
+
+
+def _harmonics(sel) -> tuple[str, list[dict]] | None:
+    """(reason, rows) when every mode the evidence chose but one is a harmonic of it — at a
+    whole multiple of its damped frequency within one resolution cell 1/T
+    (:func:`dampfit.inference.modes_select.harmonic_components`): the recording is one
+    nonlinear mode, not several (a pendulum's large swing puts its 3rd harmonic in the
+    acceleration). None otherwise (harmonics beside two genuine modes stay a warning)."""
+    from dampfit.inference import modes_select
+
+    fit = sel.chosen.fit
+    rows = [h for h in modes_select.harmonic_components(fit, sel.span) if h["cells"] < 1.0]
+    if sel.n_modes < 2 or sel.n_modes - len(rows) != 1:
+        return None
+    f = fit.f_d
+    listed = ", ".join(f"{f[h['index']]:.5g} Hz = {h['multiple']} x {f[h['of']]:.5g} Hz"
+                       for h in rows)
+    reason = (f"one mode: the evidence's other component{'s' if len(rows) > 1 else ''} "
+              f"({listed}) {'lie' if len(rows) > 1 else 'lies'} at a whole multiple of its "
+              "frequency within a resolution cell: harmonics of a nonlinear oscillation "
+              "(a large swing, friction, a stiffening spring), not modes")
+    return reason, [{"f_d_hz": float(f[h["index"]]), "multiple": h["multiple"],
+                     "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in rows]
