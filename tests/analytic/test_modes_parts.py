@@ -251,3 +251,85 @@ def test_a_close_pair_with_very_different_damping_at_the_dominant_mode_is_explai
     (warning,) = split_pair(near, rows, 0, amplitude_dependent=True)
     assert "not to be one viscous c" in warning and "split in two" in warning
     assert split_pair(near, far, 0, amplitude_dependent=True) == []
+
+
+def test_each_mode_s_posterior_stays_in_its_basin():
+    """The modal posterior's prior confines mode i to the ln ω nearer its selected frequency
+    than its neighbours' (a real phone-spring record's 2.85 Hz walkers otherwise left for
+    0.716 Hz, splitting the 0.714 Hz mode): the basins tile the band in order, and a draw
+    with a mode outside its own basin has zero prior even though it is ordered."""
+    import numpy as np
+
+    from dampfit.inference.modes_posterior import basins
+    from dampfit.model import modes as mm
+
+    w = 2 * np.pi * np.array([0.7145, 2.8465])
+    lw = basins(w, (0.2, 6.0))
+    assert lw.shape == (2, 2)
+    assert lw[0, 0] == pytest.approx(np.log(2 * np.pi * 0.2))
+    assert lw[1, 1] == pytest.approx(np.log(2 * np.pi * 6.0))
+    assert lw[1, 0] == lw[0, 1] == pytest.approx(np.log(np.sqrt(w[0] * w[1])))
+    lnp = np.log(0.01)
+    at_fit = np.array([lnp, np.log(w[0]), lnp, np.log(w[1])])
+    split = np.array([lnp, np.log(w[0]), lnp, np.log(2 * np.pi * 0.716)])  # ordered, but mode 2 left
+    assert np.isfinite(mm.log_prior(at_fit, lw[0], lw[1]))
+    assert mm.log_prior(split, lw[0], lw[1]) == -np.inf
+    assert np.isfinite(mm.log_prior(split, lw[0, 0], lw[1, 1]))  # the band alone allows it
+
+
+class _Fit:
+    """The few fields of a ModeFit that the one-mode check reads."""
+
+    def __init__(self, f, zeta, amp):
+        import numpy as np
+
+        fn, z = np.asarray(f, float), np.asarray(zeta, float)
+        wn = 2 * np.pi * fn
+        self.p, self.omega_d = z * wn, wn * np.sqrt(1 - z**2)
+        self.f_d, self.amplitudes, self.n_modes = self.omega_d / (2 * np.pi), np.asarray(amp), fn.size
+
+
+class _Sel:
+    def __init__(self, fit, span):
+        self.chosen, self.n_modes, self.span = type("K", (), {"fit": fit})(), fit.n_modes, span
+
+
+@pytest.mark.parametrize("verdict, expect", [("amplitude-dependent", 1), ("misfit", 1),
+                                             ("adequate", None), (None, None)])
+def test_a_split_one_mode_is_one_mode_only_when_its_damping_changes_with_amplitude(verdict,
+                                                                                   expect):
+    """The real 30 cm cantilever run 21-08-55 (ζ falls over the record): the evidence's three
+    components at 16.356 / 16.388 / 16.394 Hz (ζ 0.0038 / 0.0015 / 0.011) are one mode split
+    by the sum of viscous modes — when the one-mode verdict says the damping is amplitude-
+    dependent. With a viscous-adequate verdict the same numbers stay three modes."""
+    from dampfit.stages.modes import one_mode_after_all
+
+    sel = _Sel(_Fit([16.3555, 16.3880, 16.3937], [0.00379, 0.00148, 0.01068], [1, 3, 0.5]), 60.0)
+    got = one_mode_after_all(sel, 16.388, verdict)
+    if expect is None:
+        assert got is None
+    else:
+        reason, entries = got
+        assert reason.startswith("one mode") and f"({verdict})" in reason
+        assert [round(e["f_d_hz"], 2) for e in entries["split"]] == [16.36, 16.39]
+
+
+def test_a_split_pair_beside_a_genuine_mode_stays_modes():
+    """The 40 cm run 11-41-04: a split pair at 9.36 / 9.41 Hz and the 2nd bending mode at
+    61.7 Hz — two genuine modes remain, so nothing is folded (the split pair is a warning)."""
+    from dampfit.stages.modes import one_mode_after_all
+
+    sel = _Sel(_Fit([9.3585, 9.4052, 61.715], [0.00078, 0.00555, 0.0176], [0.3, 1, 0.2]), 60.0)
+    assert one_mode_after_all(sel, 9.405, "amplitude-dependent") is None
+
+
+def test_a_component_near_but_not_at_a_multiple_is_not_a_harmonic():
+    """Harmonics sit at a whole multiple within a resolution cell: 2.907 Hz beside 0.969 Hz
+    (3.000 x) in a 60 s window is one; 2.85 Hz (2.94 x) is not."""
+    from dampfit.stages.modes import one_mode_after_all
+
+    harm = _Sel(_Fit([0.96910, 2.90677], [0.0005, 0.0005], [1, 0.05]), 60.0)
+    reason, entries = one_mode_after_all(harm, 0.969, None)
+    assert entries["harmonics"][0]["multiple"] == 3 and "harmonics" in reason
+    other = _Sel(_Fit([0.96910, 2.85], [0.0005, 0.0005], [1, 0.05]), 60.0)
+    assert one_mode_after_all(other, 0.969, None) is None

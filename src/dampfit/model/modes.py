@@ -116,7 +116,9 @@ def log_prior_volume(n: int, band: tuple[float, float]) -> float:
 def log_prior(theta, lw_lo, lw_hi, xp=np):
     """ln π_K(θ) of (MK4) for θ (..., 2K); −inf outside the ordered support (MK3).
 
-    ``lw_lo``, ``lw_hi`` are the band edges as ln ω [ln(rad/s)] (they may be JAX values).
+    ``lw_lo``, ``lw_hi`` are the band edges as ln ω [ln(rad/s)] (they may be JAX values), or
+    one pair per mode (K,): each mode's own interval of ln ω (the posterior's basins,
+    :func:`dampfit.inference.modes_posterior.basins`), uniform over each.
     """
     th = theta if xp is not np else np.asarray(theta, dtype=float)
     k = th.shape[-1] // PARAMS_PER_MODE
@@ -125,6 +127,6 @@ def log_prior(theta, lw_lo, lw_hi, xp=np):
                     & (lnp > lnw + math.log(P_RANGE)), axis=-1)
     if k > 1:
         inside = inside & xp.all(lnw[..., 1:] > lnw[..., :-1], axis=-1)
-    dens = (math.lgamma(k + 1) - k * math.log(_D_P)
-            - k * xp.log(lw_hi - lw_lo) + xp.zeros_like(lnw[..., 0]))
+    width = xp.sum(xp.log(xp.broadcast_to(xp.asarray(lw_hi) - xp.asarray(lw_lo), (k,))))
+    dens = math.lgamma(k + 1) - k * math.log(_D_P) - width + xp.zeros_like(lnw[..., 0])
     return xp.where(inside, dens, -xp.inf)

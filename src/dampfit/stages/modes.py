@@ -14,6 +14,10 @@ In order, on the prepared signal of the one-mode path:
    work budget) and its plain-data summary with bounds, close pairs, Rayleigh α, β and each
    mode's least squares (:func:`~dampfit.inference.modes_posterior.modal_summary`). With
    ``one_mode`` given, K = 1 is that analysis and no second sampler runs;
+   Before it, with ``one_mode`` given: when every component but one is a harmonic of a
+   stronger one, or — under an amplitude-dependent or misfit one-mode verdict — a close
+   partner of the one-mode frequency, the recording is one mode, with the reason
+   (:func:`one_mode_after_all`);
 4. a close pair at the one-mode frequency that may be one amplitude-dependent mode split in
    two is explained in a warning (:func:`dampfit.inference.modes_close.split_pair`).
 
@@ -116,11 +120,12 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     if sel.n_modes == 1 and one_mode is not None:
         evidence["reason"] = "one mode by evidence"
         return done(1, evidence, sel.warnings, selection=sel)
-    harmonic = _harmonics(sel) if one_mode is not None and n_modes is None else None
-    if harmonic is not None:
-        evidence.update(reason=harmonic[0], harmonics=harmonic[1])
+    single = None if one_mode is None or n_modes is not None else \
+        one_mode_after_all(sel, one_mode[1] / (2 * math.pi), verdict)
+    if single is not None:
+        evidence.update(reason=single[0], **single[1])
         return done(1, evidence, [w for w in sel.warnings if "harmonic" not in w]
-                    + [harmonic[0]], selection=sel)
+                    + [single[0]], selection=sel)
     post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
                                   seed=seed, min_ess=min_ess, max_steps=max_steps,
                                   budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
@@ -140,24 +145,54 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
                 posterior=post, split=tuple(split))
 
 
-def _harmonics(sel) -> tuple[str, list[dict]] | None:
-    """(reason, rows) when every mode the evidence chose but one is a harmonic of it — at a
-    whole multiple of its damped frequency within one resolution cell 1/T
-    (:func:`dampfit.inference.modes_select.harmonic_components`): the recording is one
-    nonlinear mode, not several (a pendulum's large swing puts its 3rd harmonic in the
-    acceleration). None otherwise (harmonics beside two genuine modes stay a warning)."""
-    from dampfit.inference import modes_select
+def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] | None:
+    """(reason, evidence entries) when every component the evidence chose but one is not a
+    mode of its own, else None (they stay modes; a harmonic or a split pair beside two
+    genuine modes is a warning).
+
+    Not modes: **harmonics** — at a whole multiple of a stronger component's damped
+    frequency within one resolution cell 1/T
+    (:func:`dampfit.inference.modes_select.harmonic_components`; a pendulum's large swing
+    puts its 3rd harmonic in the acceleration); and, when the one-mode ``verdict`` says the
+    damping changes with amplitude (or misfit), **split partners** — components closer than
+    :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths (C1) to the
+    one at the one-mode frequency ``f1`` [Hz]: a sum of viscous modes reproduces a
+    non-exponential envelope by beating (a real 30 cm cantilever: three "modes" within
+    0.04 Hz of 16.39 Hz, ζ 0.0015–0.011). Decided on the least-squares values, before any
+    modal posterior runs."""
+    from dampfit import physics
+    from dampfit.inference import modes_close, modes_select
 
     fit = sel.chosen.fit
-    rows = [h for h in modes_select.harmonic_components(fit, sel.span) if h["cells"] < 1.0]
-    if sel.n_modes < 2 or sel.n_modes - len(rows) != 1:
+    if sel.n_modes < 2:
         return None
     f = fit.f_d
-    listed = ", ".join(f"{f[h['index']]:.5g} Hz = {h['multiple']} x {f[h['of']]:.5g} Hz"
-                       for h in rows)
-    reason = (f"one mode: the evidence's other component{'s' if len(rows) > 1 else ''} "
-              f"({listed}) {'lie' if len(rows) > 1 else 'lies'} at a whole multiple of its "
-              "frequency within a resolution cell: harmonics of a nonlinear oscillation "
-              "(a large swing, friction, a stiffening spring), not modes")
-    return reason, [{"f_d_hz": float(f[h["index"]]), "multiple": h["multiple"],
-                     "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in rows]
+    harm = [h for h in modes_select.harmonic_components(fit, sel.span) if h["cells"] < 1.0]
+    split: list[int] = []
+    if verdict in SPLIT_VERDICTS:
+        q = physics.quantities(fit.p, fit.omega_d)
+        fn, zeta = [float(v) for v in q["f_n"]], [float(v) for v in q["zeta"]]
+        d = min(range(sel.n_modes), key=lambda i: abs(f[i] - f1))
+        split = [j for j in range(sel.n_modes) if j != d and abs(fn[j] - fn[d])
+                 < modes_close.SPLIT_HALF_POWER * (zeta[j] * fn[j] + zeta[d] * fn[d])]
+    gone = {h["index"] for h in harm} | set(split)
+    if sel.n_modes - len(gone) != 1:
+        return None
+    parts, entries = [], {}
+    if harm:
+        parts.append("harmonics of a nonlinear oscillation (a large swing, friction, a "
+                     "stiffening spring): " + ", ".join(
+                         f"{f[h['index']]:.5g} Hz = {h['multiple']} x {f[h['of']]:.5g} Hz"
+                         for h in harm))
+        entries["harmonics"] = [{"f_d_hz": float(f[h["index"]]), "multiple": h["multiple"],
+                                 "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in harm]
+    if split:
+        parts.append(f"the one mode split by its amplitude-dependent damping ({verdict}): "
+                     + ", ".join(f"{f[j]:.5g} Hz" for j in split) + f" beside {f1:.5g} Hz, "
+                     f"closer than {modes_close.SPLIT_HALF_POWER:g} half-power bandwidths")
+        entries["split"] = [{"f_d_hz": float(f[j])} for j in split]
+    n = len(gone)
+    reason = (f"one mode: the evidence's other component{'s' if n > 1 else ''} "
+              f"{'are' if n > 1 else 'is'} not {'modes' if n > 1 else 'a mode'} — "
+              + "; ".join(parts))
+    return reason, entries
