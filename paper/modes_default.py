@@ -50,11 +50,14 @@ def _row(path: Path) -> dict:
         out["decided_by"] = "harmonics: " + ", ".join(
             f"{h['f_d_hz']:.4g} Hz = {h['multiple']} x {h['of_hz']:.4g} Hz"
             for h in ev["harmonics"])
+    elif ev.get("split"):
+        out["decided_by"] = "split of the one mode: " + ", ".join(
+            f"{e['f_d_hz']:.4g} Hz" for e in ev["split"])
     elif ev.get("screen") and ev["screen"].get("passed") is False:
         out["decided_by"] = "screen"
     else:
-        out["decided_by"] = "evidence" + (f" (P(K) = {max(r['probability'] for r in ev['evidence']):.2g})"
-                                          if ev.get("evidence") else "")
+        best = max((r["probability"] for r in ev.get("evidence") or []), default=None)
+        out["decided_by"] = "evidence" + (f" (P(K) = {best:.2g})" if best is not None else "")
     sampling = ev.get("sampling") or {}
     out["modal_converged"] = sampling.get("converged") if s["n_modes"] > 1 else ""
     out["verdict"] = s["model_checks"]["verdict"]
