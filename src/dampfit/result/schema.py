@@ -93,7 +93,8 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "screen": null | {"passed", "max_z2", "at_hz", "rate_per_s",
                    "threshold_z2", "reason"},  # the cheap one-mode screen
              "harmonics": [{"f_d_hz", "multiple", "of_hz", "cells"}],  # only when the
-                   # evidence's other components are harmonics of the one mode: K = 1
+             "split": [{"f_d_hz"}],  # evidence's other components are harmonics of the one
+                   # mode or (amplitude-dependent verdict) its split: K = 1, reason says so
              "evidence": [{"n_modes", "ln_evidence", "probability", "admissible",
                    "reason", "f_d_hz", "amplitude_z"}],   # every K tried, P(K)
              "band_hz", "window_s", "psd_ratio", "pairs": [{…, "flagged"}],
