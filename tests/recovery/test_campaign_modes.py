@@ -60,12 +60,22 @@ def test_the_table_shows_the_modes_and_load_reads_them_back(campaign, tmp_path):
     assert "--max-modes 3" in md
 
 
-def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign):
+def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign, tmp_path):
     s = json.loads(json.dumps(campaign.summary()))
     s["tests"][0]["modes"] = {"modes": [], "reason": "too short\nfor 2 modes " + "x" * 400}
     s["tests"][1]["modes"] = {"modes": [3, "a", {"f_n": "x"}]}
     text = text_campaign.text(s)
     assert "not analysed: too short for 2 modes" in text and "x" * 200 not in text
+    # a one-mode entry (the screen or the evidence settled it), edited into nonsense
+    s["tests"][0]["modes"] = {"n_modes": 1, "modes": [], "modes_evidence": ["x"]}
+    s["tests"][1]["modes"] = {"n_modes": True, "modes": [],
+                              "modes_evidence": {"reason": "y\n" * 300}}
+    text = text_campaign.text(s)
+    assert "one mode (the pooled one)" in text and "not analysed: no modes" in text
+    from dampfit.output.report import campaign as report_campaign
+
+    _, blocks = report_campaign.build_campaign({"summary": s}, tmp_path, "2026-01-01")
+    assert "one mode (the pooled one)" in str(blocks) and "not analysed" in str(blocks)
 
 
 def test_mode_of_mass_is_refused_for_a_campaign():
