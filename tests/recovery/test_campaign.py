@@ -207,6 +207,7 @@ def test_sampler_log_posterior_is_never_nan_far_out():
             assert not np.isnan(lp).any(), (shared, lp)
 
 
+@pytest.mark.slow  # two campaigns sampled to convergence (≈ 25 s)
 def test_two_tests_converge_like_three():
     """Two tests barely identify the frequency scatter: sampled in (μ_ω, ln τ_ω) the M₁ model
     was a funnel that ran 20,000 steps without converging (3–6× a 3-test campaign). In the
