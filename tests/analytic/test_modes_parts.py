@@ -287,11 +287,19 @@ class _Fit:
         wn = 2 * np.pi * fn
         self.p, self.omega_d = z * wn, wn * np.sqrt(1 - z**2)
         self.f_d, self.amplitudes, self.n_modes = self.omega_d / (2 * np.pi), np.asarray(amp), fn.size
+        self.beta = np.ravel([[a, 0.0] for a in amp])
 
 
 class _Sel:
+    """A ModeSelection's chosen fit on ``span`` [s] of 100 Hz samples."""
+
     def __init__(self, fit, span):
-        self.chosen, self.n_modes, self.span = type("K", (), {"fit": fit})(), fit.n_modes, span
+        import types
+
+        import numpy as np
+
+        self.chosen, self.n_modes, self.span = types.SimpleNamespace(fit=fit), fit.n_modes, span
+        self.fit_data = types.SimpleNamespace(tau=np.arange(0.0, span, 0.01), drift_degree=0)
 
 
 @pytest.mark.parametrize("verdict, expect", [("amplitude-dependent", 1), ("misfit", 1),

@@ -157,10 +157,10 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
     damping changes with amplitude (or misfit), **split partners** — components closer than
     :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths (C1) to the
     one at the one-mode frequency ``f1`` [Hz]: a sum of viscous modes reproduces a
-    non-exponential envelope by beating (a real 30 cm cantilever: three "modes" within
-    0.04 Hz of 16.39 Hz, ζ 0.0015–0.011). Decided on the least-squares values, before any
-    modal posterior runs."""
-    from dampfit import physics
+    non-exponential envelope by beating close partners or with broad components overlapping
+    the peak (the real 30 cm cantilever run 21-08-55, paper/modes.md). Decided on the
+    least-squares values (their pairs, :func:`~dampfit.inference.modes_close.selection_pairs`),
+    before any modal posterior runs."""
     from dampfit.inference import modes_close, modes_select
 
     fit = sel.chosen.fit
@@ -169,12 +169,12 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
     f = fit.f_d
     harm = [h for h in modes_select.harmonic_components(fit, sel.span) if h["cells"] < 1.0]
     split: list[int] = []
-    if verdict in SPLIT_VERDICTS:
-        q = physics.quantities(fit.p, fit.omega_d)
-        fn, zeta = [float(v) for v in q["f_n"]], [float(v) for v in q["zeta"]]
+    if verdict in SPLIT_VERDICTS:  # the pairs (C1) of the least squares, as split_pair reads them
         d = min(range(sel.n_modes), key=lambda i: abs(f[i] - f1))
-        split = [j for j in range(sel.n_modes) if j != d and abs(fn[j] - fn[d])
-                 < modes_close.SPLIT_HALF_POWER * (zeta[j] * fn[j] + zeta[d] * fn[d])]
+        for row in modes_close.selection_pairs(sel)[0]:
+            i, j = (m - 1 for m in row["modes"])
+            if d in (i, j) and row["separation_half_power"] < modes_close.SPLIT_HALF_POWER:
+                split.append(j if i == d else i)
     gone = {h["index"] for h in harm} | set(split)
     if sel.n_modes - len(gone) != 1:
         return None
