@@ -24,7 +24,6 @@ from dampfit.analysis import Analysis
 from dampfit.batch import analyze_many
 from dampfit.campaign import CampaignAnalysis, analyze_campaign
 from dampfit.errors import InputError
-from dampfit.inference.modes import DEFAULT_MAX_MODES
 from dampfit.io.readers import read
 from dampfit.io.recording import Recording
 from dampfit.pipeline import analyze as analyze_one
@@ -63,7 +62,7 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
     other modes, :mod:`dampfit.campaign.modes`) and ``added_mass``,
     ``added_mass_sd`` to several: giving one where it does not apply is a one-line
     :class:`~dampfit.errors.InputError`, never silently ignored. ``max_modes`` by default:
-    :data:`DEFAULT_MAX_MODES` (4) for one recording — a one-mode recording pays only a cheap
+    :data:`~dampfit.inference.modes.DEFAULT_MAX_MODES` (4) for one recording — a one-mode recording pays only a cheap
     screen, ``max_modes=1`` skips the modal analysis — and 1 for a campaign (its tests' own
     modes are opt-in).
     """
@@ -79,15 +78,19 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
                                 added_mass_sd=0.0 if added_mass_sd is None else added_mass_sd,
                                 axis=axis, window=window, band=band, seed=seed,
                                 progress=progress, max_steps=max_steps, min_ess=min_ess,
-                                max_modes=1 if max_modes is None else max_modes)
+                                **_given(max_modes=max_modes))
     if added_mass is not None or added_mass_sd is not None:
         raise InputError("added_mass applies to several recordings (one per added mass), got "
                          "one recording")
     return analyze_one(recording, mass, mass_sd, axis=axis, window=window, band=band,
                        seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
                        model=model, amplitude=amplitude, on_stage=on_stage,
-                       max_modes=DEFAULT_MAX_MODES if max_modes is None else max_modes,
-                       mode_of_mass=mode_of_mass)
+                       mode_of_mass=mode_of_mass, **_given(max_modes=max_modes))
+
+
+def _given(**options) -> dict:
+    """The ``options`` that are not None: the rest keep the callee's own defaults."""
+    return {k: v for k, v in options.items() if v is not None}
 
 
 def load(folder: str | os.PathLike) -> Analysis | CampaignAnalysis:

@@ -187,9 +187,7 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
         return Modes(evidence=evidence, warnings=st.warnings)
     out = st.summary
     warns = list(st.warnings)
-    f1 = ls.omega_d / (2 * math.pi)
-    nearest = min(range(len(out["modes"])),
-                  key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
+    nearest, f1 = st.dominant, ls.omega_d / (2 * math.pi)
     if nearest != st.posterior.mode_of_mass:
         warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
                      f"(mode {nearest + 1}); the mass belongs to mode "

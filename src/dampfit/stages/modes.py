@@ -57,7 +57,8 @@ class ModesStage:
     posterior also ``pairs``, ``notes``, ``sampling``); ``warnings``; ``selection``
     (:class:`~dampfit.inference.modes_select.ModeSelection`) and ``posterior``
     (:class:`~dampfit.inference.modes_posterior.ModalPosterior`, its ``idata`` for
-    posterior.nc), None when not run; ``split`` the warnings (also in ``warnings``) that a
+    posterior.nc), None when not run; ``dominant`` the 0-based index of the mode at the
+    one-mode frequency (None without ``one_mode`` or a modal posterior); ``split`` the warnings (also in ``warnings``) that a
     close pair may be the one-mode analysis's mode split in two; ``seconds`` [s] the stage's
     wall time."""
 
@@ -67,6 +68,7 @@ class ModesStage:
     warnings: tuple[str, ...] = ()
     selection: Any = None
     posterior: Any = None
+    dominant: int | None = None
     split: tuple[str, ...] = ()
     seconds: float = 0.0
 
@@ -131,7 +133,7 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
                                   budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
     out = modes_posterior.modal_summary(sel, post)
     out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
-    warns, split = list(out["warnings"]), []
+    warns, split, dominant = list(out["warnings"]), [], None
     if one_mode is not None and sel.n_modes > 1:
         f1 = one_mode[1] / (2 * math.pi)
         dominant = min(range(len(out["modes"])),
@@ -142,7 +144,7 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
                     if n_modes is None else f"{n_modes} modes fixed",
                     pairs=out["pairs"], notes=out["notes"], sampling=post.sampling())
     return done(sel.n_modes, evidence, warns + split, summary=jsonable(out), selection=sel,
-                posterior=post, split=tuple(split))
+                posterior=post, dominant=dominant, split=tuple(split))
 
 
 def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] | None:
