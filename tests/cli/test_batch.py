@@ -331,3 +331,29 @@ def test_recordings_of_one_name_get_folders_that_tell_them_apart(tmp_path):
     # at most four path parts, and still unique when those are shared
     assert labels(["/a/b/c/d/e/f.csv", "/z/b/c/d/e/f.csv"]) == ["c/d/e/f.csv"] * 2
     assert [j.name for j in jobs([str(tmp_path / "solo.csv")])] == ["solo.csv"]
+
+
+@pytest.mark.parametrize("trim, noted", [("65536", True), (None, False)])
+def test_workers_of_an_external_cluster_trimming_memory_are_pointed_out(monkeypatch, trim,
+                                                                        noted):
+    """Workers of the user's own cluster started with Dask's MALLOC_TRIM_THRESHOLD_ make each
+    analysis ~1.5x slower: one note names the setting that avoids it (not a refusal)."""
+    pytest.importorskip("distributed")
+    import io
+
+    from distributed import Client, LocalCluster
+
+    from dampfit import cluster
+    from dampfit._meta import __version__
+
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    if trim is not None:
+        monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", trim)  # the in-process worker's
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                      dashboard_address=None) as lc, Client(lc) as c:
+        err = io.StringIO()
+        cluster.check_workers(c, lc.scheduler_address, __version__, err)
+    lines = err.getvalue().splitlines()
+    assert len([x for x in lines if "MALLOC_TRIM_THRESHOLD_" in x]) == (1 if noted else 0)
+    if noted:
+        assert "pre-spawn-environ.MALLOC_TRIM_THRESHOLD_: null" in lines[0]
