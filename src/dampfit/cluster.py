@@ -41,28 +41,10 @@ START_TIMEOUT_S = 120.0
 _BOOT = "from dampfit.cluster import nanny_main; nanny_main(sys.argv[1], sys.argv[2])"
 
 
-#: Dask's variables set in a worker process before it starts (``distributed.nanny.
-#: pre-spawn-environ``) that a local dampfit worker goes without: ``MALLOC_TRIM_THRESHOLD_=65536``
-#: makes glibc hand freed memory back to the kernel at every 64 KiB. The JAX kernels, the
-#: sampler and the filters allocate and free megabytes per call, so every call then pays page
-#: faults and ``madvise``: measured, an analysis of the paper recording took 1.8–2.0 s instead
-#: of 1.2 s on one core, 0.6 s of it system time. glibc's own adaptive threshold reuses that
-#: memory; a recording's memory is bounded by its data either way. A user's own
-#: ``MALLOC_TRIM_THRESHOLD_`` (in the environment) still reaches the workers.
-DROPPED_PRE_SPAWN = ("MALLOC_TRIM_THRESHOLD_",)
-DROPPED_PRE_SPAWN_DOC = "the README's cluster recipe"
-
-
 def nanny_main(scheduler: str, spec: str) -> None:
-    """Run ``dask spec SCHEDULER --spec SPEC`` here, without :data:`DROPPED_PRE_SPAWN` in the
-    worker's environment, and stop (SIGTERM to itself: the Nanny closes its worker) once the
-    parent process is gone."""
+    """Run ``dask spec SCHEDULER --spec SPEC`` here, and stop (SIGTERM to itself: the Nanny
+    closes its worker) once the parent process is gone."""
     import threading
-
-    import dask
-
-    dask.config.set({f"distributed.nanny.pre-spawn-environ.{name}": None
-                     for name in DROPPED_PRE_SPAWN})
 
     parent = os.getppid()
 
@@ -149,13 +131,29 @@ def local_cluster(workers: int):
 ONE_THREAD_XLA = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 
 
+#: glibc's memory thresholds [bytes] of a local worker process (``MALLOC_MMAP_THRESHOLD_``,
+#: ``MALLOC_TRIM_THRESHOLD_``). Dask starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``
+#: (``distributed.nanny.pre-spawn-environ``, to hand unused memory back to the system), and an
+#: explicit trim threshold also switches off glibc's adaptive mmap threshold, which then stays
+#: at 128 KiB: every array above that — a recording's signals, the kernels' buffers, a
+#: figure's canvas — is mapped and unmapped at each use, and the heap's top is trimmed at every
+#: 64 KiB. Measured on one core (the paper recording with its figures): 3.4–3.6 s of CPU per
+#: analysis against 2.8–2.9 s without Dask's setting, whose resident size however crept from
+#: 460 to 620 MiB over 40 recordings; with arrays up to 32 MiB from the heap and trimming above
+#: 1 MiB, 2.9–3.0 s and a flat 495 MiB. Batch of 20, 2 workers, ``--summaries-only``: 20.0–20.7 s
+#: (Dask's setting: 28 s). A user's own value of either variable is left as it is.
+MALLOC_THRESHOLDS = {"MALLOC_MMAP_THRESHOLD_": "33554432", "MALLOC_TRIM_THRESHOLD_": "1048576"}
+
+
 def worker_env(workers: int) -> dict[str, str]:
     """Environment added to each of ``workers`` local worker processes: with several workers
     and no ``XLA_FLAGS`` of the user's, :data:`ONE_THREAD_XLA` (the workers are the
-    parallelism)."""
-    if workers < 2 or "XLA_FLAGS" in os.environ:
-        return {}
-    return {"XLA_FLAGS": ONE_THREAD_XLA}
+    parallelism); :data:`MALLOC_THRESHOLDS` but those the user set (a Nanny takes Dask's
+    ``MALLOC_TRIM_THRESHOLD_`` only where its own environment has none)."""
+    env = {k: v for k, v in MALLOC_THRESHOLDS.items() if k not in os.environ}
+    if workers >= 2 and "XLA_FLAGS" not in os.environ:
+        env["XLA_FLAGS"] = ONE_THREAD_XLA
+    return env
 
 
 def _wait_for_workers(cluster, n: int) -> None:
@@ -305,21 +303,12 @@ def check_workers(dask_client, scheduler: str | None, version: str, err: TextIO)
         addr, v = next(iter(other.items()))
         raise InputError(f"worker {addr} runs dampfit {v}, this client {version}; install the "
                          "same version everywhere so that runs are reproducible")
-    if scheduler and any(i.get("malloc_trim") == _dask_trim() for i in infos.values()):
-        print(f"dampfit: note: the Dask workers run with Dask's MALLOC_TRIM_THRESHOLD_="
-              f"{_dask_trim()}, which makes each analysis about 1.5x slower (see "
-              f"{DROPPED_PRE_SPAWN_DOC}); set distributed.nanny.pre-spawn-environ."
-              "MALLOC_TRIM_THRESHOLD_: null in the workers' Dask config", file=err)
-
-
-def _dask_trim() -> str | None:
-    """Dask's own ``MALLOC_TRIM_THRESHOLD_`` for the workers it spawns (its configuration),
-    as the string a worker's environment holds; None if it sets none."""
-    import dask
-
-    value = dask.config.get("distributed.nanny.pre-spawn-environ", {}).get(
-        "MALLOC_TRIM_THRESHOLD_")
-    return None if value is None else str(value)
+    if scheduler and any(i.get("mmap_threshold") is None and i.get("trim_threshold")
+                         for i in infos.values()):
+        setting = " ".join(f"{k}={v}" for k, v in MALLOC_THRESHOLDS.items())
+        print("dampfit: note: the Dask workers trim memory (MALLOC_TRIM_THRESHOLD_, Dask's "
+              "default) with glibc's mmap threshold left at 128 KiB, which makes each analysis "
+              f"1.2-1.5x slower; start them with {setting} in their environment", file=err)
 
 
 def worker_info() -> dict[str, Any]:
@@ -327,4 +316,5 @@ def worker_info() -> dict[str, Any]:
     from dampfit._meta import __version__
 
     return {"dampfit": __version__, "pid": os.getpid(), "host": socket.gethostname(),
-            "malloc_trim": os.environ.get("MALLOC_TRIM_THRESHOLD_")}
+            "trim_threshold": os.environ.get("MALLOC_TRIM_THRESHOLD_"),
+            "mmap_threshold": os.environ.get("MALLOC_MMAP_THRESHOLD_")}
