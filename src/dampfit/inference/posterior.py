@@ -65,7 +65,6 @@ from dampfit.model import profile
 from dampfit.model.viscous import M1
 from dampfit.inference.executables import kernel
 from dampfit.inference.least_squares import LeastSquaresResult
-from dampfit.inference.moves import KDEMove
 from dampfit.signal.prepare import FitData
 
 if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric import path
@@ -85,9 +84,7 @@ def default_moves():
     """emcee proposal mixture for the 2-D θ = (ln p, ln ω_d) (and, in
     :mod:`dampfit.inference.law_sampler`, the 3–6 parameters of a nonlinear damping law).
 
-    80 % :class:`emcee.moves.KDEMove` (computed directly: :class:`dampfit.inference.moves.KDEMove`,
-    the same proposal and draws without scipy's KDE object, ≈ 4× cheaper a step) — an
-    independence proposal from a Gaussian kernel density
+    80 % :class:`emcee.moves.KDEMove` — an independence proposal from a Gaussian kernel density
     estimate of the complementary half-ensemble (Scott's bandwidth). The posterior of θ is
     nearly Gaussian once the amplitudes are marginalised, so this proposal is close to the
     target itself: integrated autocorrelation τ ≈ 2–3 steps, against ≈ 9 for differential
@@ -97,7 +94,7 @@ def default_moves():
     target, so 20 % differential-evolution moves (DE 15 %, DE snooker 5 %) keep local
     exploration for curved or skewed posteriors (low SNR, ζ near the prior bounds).
     """
-    return [(KDEMove(), 0.8), (emcee.moves.DEMove(), 0.15),
+    return [(emcee.moves.KDEMove(), 0.8), (emcee.moves.DEMove(), 0.15),
             (emcee.moves.DESnookerMove(), 0.05)]
 
 
