@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import time
 
-T0 = time.perf_counter()  # noqa: E402 - before anything else is imported
+T0 = time.perf_counter()  # before anything else is imported
 
 import argparse  # noqa: E402
 import functools  # noqa: E402
@@ -26,8 +26,9 @@ from pathlib import Path  # noqa: E402
 
 MARKS: list[tuple[str, float, float]] = []
 
-#: (module, attribute path, label) of the stages timed, in the order they run.
-STAGES = (
+#: (module, attribute path, label) of the analysis stages timed, in the order they run: wrapped
+#: once the CLI has imported the stack (their modules are the stack).
+STACK_STAGES = (
     ("dampfit.io.readers", "read", "read the recording"),
     ("dampfit.pipeline", "analyze", "analysis (all stages)"),
     ("dampfit.stages", "fit_stages", "fit stages (baselines, least squares, noise)"),
@@ -37,6 +38,9 @@ STAGES = (
     ("dampfit.pipeline", "modes_stage", "modes screen"),
     ("dampfit.analysis", "Analysis.save", "write the folder"),
     ("dampfit.analysis", "Analysis.to_netcdf", "posterior.nc"),
+)
+#: The CLI's own stages, wrapped before it runs (their modules import no stack).
+CLI_STAGES = (
     ("dampfit.output.figure_process", "FigureProcess.finish", "last figures / wait"),
     ("dampfit.cli.analyze", "_write_report", "report"),
 )
@@ -70,13 +74,13 @@ def child(argv_cli: list[str]) -> None:
 
     def analyse_into(*args, **kwargs):  # the stack is imported here, as in the CLI
         started = time.perf_counter() - T0
-        for module, path, label in STAGES[:-2]:
+        for module, path, label in STACK_STAGES:
             _wrap(module, path, label)
         MARKS.append(("imports (stack)", started, time.perf_counter() - T0))
         return inner(*args, **kwargs)
 
     cli_analyze.analyse_into = analyse_into
-    for module, path, label in STAGES[-2:]:
+    for module, path, label in CLI_STAGES:
         _wrap(module, path, label)
     from dampfit.cli import main as cli_main
 
