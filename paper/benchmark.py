@@ -206,7 +206,9 @@ def batch_times(folder: Path, n: int, cache: Path) -> dict[str, float]:
     """Wall times [s] of ``dampfit batch`` of ``n`` paper-preset recordings on 2 workers:
     with the outputs of ``dampfit analyze`` (``all``: folder with figures per recording) and
     with ``--summaries-only`` (``summaries``: the table and each summary.json), both after a
-    first ``--summaries-only`` batch (``first``) that filled the compiled-kernel store."""
+    first ``--summaries-only`` batch (``first``) that filled the compiled-kernel store, and
+    both again on :data:`SMALL` of the recordings (``all_small``, ``summaries_small``: the
+    fixed cost of a batch)."""
     from dampfit import simulate as sim
 
     data = folder / "batch-data"
@@ -222,10 +224,28 @@ def batch_times(folder: Path, n: int, cache: Path) -> dict[str, float]:
     # start, not the throughput)
     first = _timed([*base, "--out", str(folder / "batch-first"), "--summaries-only"],
                    _env(cache))
+    # the same command on the first SMALL recordings (one per worker) is the batch's fixed
+    # cost (the cluster's start, every worker's imports, the table): T(N) ≈ F + N·t, so
+    # (T(n) − T(SMALL))/(n − SMALL) is the throughput of a long batch, the marginal
+    # wall time per recording
+    small = folder / "batch-data-small"
+    small.mkdir()
+    for i in range(SMALL):
+        (small / f"rec{i:03d}.csv").write_bytes((data / f"rec{i:03d}.csv").read_bytes())
+    base_small = [*base[:4], str(small), *base[5:]]
     return {"first": first,
             "all": _timed([*base, "--out", str(folder / "batch-all")], _env(cache)),
             "summaries": _timed([*base, "--out", str(folder / "batch-summaries"),
-                                 "--summaries-only"], _env(cache))}
+                                 "--summaries-only"], _env(cache)),
+            "all_small": _timed([*base_small, "--out", str(folder / "batch-all-small")],
+                                _env(cache)),
+            "summaries_small": _timed([*base_small, "--out",
+                                       str(folder / "batch-summaries-small"),
+                                       "--summaries-only"], _env(cache))}
+
+
+#: Recordings of the small batch that measures a batch's fixed cost (one per worker).
+SMALL = 2
 
 
 #: The scientific stack the CLI is built on: every library ``dampfit analyze`` needs to do its
@@ -312,6 +332,8 @@ def main(argv=None) -> int:
         single_runs += cli_times(csv, cache, report=False)  # again after the batch: drift
     cli = float(np.median(cli_runs))
     single = float(np.median(single_runs))
+    marginal = {kind: (batch[kind] - batch[f"{kind}_small"]) / (a.batch - SMALL)
+                for kind in ("all", "summaries")}
     floor = import_floor()
     floor_narrow = import_floor(STACK_NARROW)
     os.environ["DAMPFIT_JAX_CACHE"] = "off"  # the in-process runs below: cold means compiling
@@ -351,6 +373,12 @@ def main(argv=None) -> int:
            "batch_summaries_time_s": batch["summaries"],
            "batch_summaries_per_recording_over_single": batch["summaries"] / a.batch / single,
            "batch_first_time_s": batch["first"],
+           "batch_small_recordings": SMALL, "batch_small_time_s": batch["all_small"],
+           "batch_summaries_small_time_s": batch["summaries_small"],
+           "batch_marginal_per_recording_s": marginal["all"],
+           "batch_marginal_over_single": marginal["all"] / single,
+           "batch_summaries_marginal_per_recording_s": marginal["summaries"],
+           "batch_summaries_marginal_over_single": marginal["summaries"] / single,
            "cli_max_modes_1_runs_s": modes_runs, "cli_max_modes_1_first_run_s": cli_first_modes,
            "cli_default_over_max_modes_1": cli / float(np.median(modes_runs)),
            "cli_default_over_max_modes_1_pairs": modes_pairs,
@@ -388,7 +416,12 @@ def main(argv=None) -> int:
           f"{batch['all'] / a.batch / single:.2f} x one warm dampfit analyze ({single:.2f} s; goal "
           f"<= 0.35x); --summaries-only {batch['summaries'] / a.batch:.2f} s = "
           f"{batch['summaries'] / a.batch / single:.2f} x (after a first batch filling the "
-          f"store: {batch['first'] / a.batch:.2f} s per recording, summaries-only)")
+          f"store: {batch['first'] / a.batch:.2f} s per recording, summaries-only); a long "
+          f"batch's throughput (the {a.batch}-recording batch minus a {SMALL}-recording one): "
+          f"{marginal['all']:.2f} s per recording = {marginal['all'] / single:.2f} x with every "
+          f"output, {marginal['summaries']:.2f} s = {marginal['summaries'] / single:.2f} x "
+          f"summaries-only (fixed cost {batch['all_small']:.1f} s and "
+          f"{batch['summaries_small']:.1f} s)")
     print(f"issue 21: on the one-mode recording the default (up to 4 modes: the screen finds "
           f"one) takes {cli / float(np.median(modes_runs)):.3f} x --max-modes 1 "
           f"({float(np.median(modes_runs)):.2f} s), paired median {np.median(modes_pairs):.3f} x "

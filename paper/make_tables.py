@@ -131,7 +131,17 @@ def _issue23(b: dict) -> str:
         "single runs vary by ±15 % on this machine), both after a first batch of the same "
         "recordings that filled the compiled-kernel store"
         + (f" ({b['batch_first_time_s'] / b['batch_recordings']:.2f} s per recording "
-           "summaries-only)." if "batch_first_time_s" in b else "."))
+           "summaries-only)." if "batch_first_time_s" in b else ".")
+        + (f" A batch also has a fixed cost — starting the cluster and every worker's imports "
+           f"— which the per-recording time of {b['batch_recordings']} recordings still "
+           f"carries: {b['batch_small_recordings']} recordings (one per worker) take "
+           f"{b['batch_small_time_s']:.1f} s with every output and "
+           f"{b['batch_summaries_small_time_s']:.1f} s summaries-only, so a long batch runs at "
+           f"{b['batch_marginal_per_recording_s']:.2f} s per recording with every output "
+           f"({b['batch_marginal_over_single']:.2f}×) and "
+           f"{b['batch_summaries_marginal_per_recording_s']:.2f} s summaries-only "
+           f"({b['batch_summaries_marginal_over_single']:.2f}×), the slope between the two "
+           "batches." if "batch_small_time_s" in b else ""))
 
 
 TABLES = {"ranking": ranking, "calibration": calibration, "benchmark": benchmark}
