@@ -341,3 +341,21 @@ def test_a_component_near_but_not_at_a_multiple_is_not_a_harmonic():
     assert entries["harmonics"][0]["multiple"] == 3 and "harmonics" in reason
     other = _Sel(_Fit([0.96910, 2.85], [0.0005, 0.0005], [1, 0.05]), 60.0)
     assert one_mode_after_all(other, 0.969, None) is None
+
+
+def test_an_uncertain_number_of_modes_says_when_the_other_k_counts_a_harmonic():
+    """The real 15° pendulum: the evidence rates K = 2 as likely as K = 1, and K = 2's second
+    component is the swing's 3rd harmonic; the warning names it. An alternative whose extra
+    component is off the multiple, or too unlikely to be listed, adds nothing."""
+    import types
+
+    from dampfit.inference.modes_select import harmonic_alternatives
+
+    one = _Fit([0.97578], [0.0005], [1])
+    two = _Fit([0.97578, 2.92782], [0.0005, 0.0005], [1, 0.01])
+    results = [types.SimpleNamespace(fit=one), types.SimpleNamespace(fit=two)]
+    note = harmonic_alternatives(results, [0.5, 0.5], 1, 39.9)
+    assert "K = 2 counts 2.928 Hz = 3 x 0.9758 Hz" in note and "not a mode" in note
+    assert harmonic_alternatives(results, [0.995, 0.005], 1, 39.9) == ""
+    off = [results[0], types.SimpleNamespace(fit=_Fit([0.97578, 2.85], [0.0005] * 2, [1, 0.01]))]
+    assert harmonic_alternatives(off, [0.5, 0.5], 1, 39.9) == ""

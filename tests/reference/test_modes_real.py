@@ -19,6 +19,7 @@ DAMPFIT_REQUIRE_ALL=1, as in CI). Each analysis takes 20–60 s: marked slow (``
 
 from __future__ import annotations
 
+import re
 import warnings
 
 import pytest
@@ -86,6 +87,24 @@ def test_a_pendulum_s_harmonic_is_not_a_second_mode():
     (h,) = ev["harmonics"]
     assert h["multiple"] == 3 and abs(h["of_hz"] - 0.969) < 0.005
     assert abs(s["parameters"]["f_n"]["q50"] - 0.969) < 0.01
+
+
+PENDULUM_15 = REAL / "phone-pendulum-harinlee83" / "l2LongTheta15.csv"
+
+
+def test_a_pendulum_s_harmonic_is_named_when_the_number_of_modes_is_uncertain():
+    """Released at 15 degrees, the pendulum's evidence rates K = 1 and K = 2 alike (P ≈ 0.5
+    each), and K = 2's second component is the swing's 3rd harmonic (2.928 Hz = 3 x 0.976 Hz).
+    Whichever K the evidence picks, one mode is reported and the harmonic named: in the
+    warning on the uncertain number of modes (K = 1) or in ``modes_evidence.harmonics``."""
+    s = analysed(PENDULUM_15)
+    ev = s["modes_evidence"]
+    assert s["n_modes"] == 1, ev["reason"]
+    if ev["n_modes"] == 2:
+        assert [h["multiple"] for h in ev["harmonics"]] == [3]
+        return
+    (w,) = [w for w in s["diagnostics"]["warnings"] if "number of modes is uncertain" in w]
+    assert re.search(r"K = 2 counts 2\.9\d* Hz = 3 x 0\.97\d* Hz", w), w
 
 
 SPLIT_30CM = ADXL / ("tests_for_comparing_1st_nfreq/30cm_adxl/08-12_21-08-55_2cmIDadxlAt6cm/"

@@ -84,8 +84,8 @@ from dampfit.signal.prepare import FitData, Prepared
 
 __all__ = ["KResult", "Tried", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
            "amplitude_prior_radius", "psd_ratios", "local_ratio", "harmonics", "reject_reason",
-           "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE", "harmonic_components",
-           "MAX_CANDIDATES"]
+           "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE", "HARMONIC_CELLS",
+           "harmonic_components", "harmonic_alternatives", "MAX_CANDIDATES"]
 
 #: Amplitude prior radius in units of the largest |y⊥| (MS2).
 AMP_PRIOR_FACTOR = 2.0
@@ -96,6 +96,9 @@ MAX_CANDIDATES = 6
 #: A mode within this relative distance of m × a stronger mode's frequency (m = 2…5) is
 #: flagged as a possible harmonic.
 HARMONIC_TOLERANCE = 0.02
+#: A flagged component within this many resolution cells 1/T of the multiple [1] *is* a
+#: harmonic, not a mode (a genuine mode lands that close to a multiple only by chance).
+HARMONIC_CELLS = 1.0
 
 
 #: Two-sided 90 % standard normal quantile (the 95 % point), for the Laplace intervals.
@@ -439,7 +442,8 @@ def _decide(fd, band, span, fits, pencil, peaks, max_modes, fixed) -> ModeSelect
     warns = []
     if not fixed and prob[chosen - 1] < 0.9:
         alt = ", ".join(f"P(K = {k + 1}) = {p:.2g}" for k, p in enumerate(prob) if p >= 0.01)
-        warns.append(f"the number of modes is uncertain: {alt}")
+        warns.append(f"the number of modes is uncertain: {alt}"
+                     + harmonic_alternatives(results, prob, chosen, span))
     best = results[chosen - 1]
     warns += harmonics(best.fit)
     return ModeSelection(fit_data=fd, band=band, span=span, results=tuple(results),
@@ -509,6 +513,29 @@ def harmonic_components(fit: ModeFit, span: float | None = None) -> list[dict]:
                 out.append({"index": j, "of": i, "multiple": m, "cells": float(cells)})
                 break
     return out
+
+
+def harmonic_alternatives(results, prob, chosen: int, span: float) -> str:
+    """What the uncertain number of modes hinges on when another K counts harmonics
+    (:func:`harmonic_components` within :data:`HARMONIC_CELLS`): "; K = k counts f Hz = m x
+    f' Hz, …" for every other K with P(K) ≥ 0.01 whose fit has them, "" if none. A pendulum's
+    large swing puts its 3rd harmonic in the acceleration, and the evidence may then rate
+    K = 2 as likely as K = 1 (the real 15° pendulum: P = 0.5 each) although the second
+    component is no mode of its own."""
+    notes = []
+    for k, (res, p) in enumerate(zip(results, prob), start=1):
+        fit = res.fit
+        if k == chosen or p < 0.01 or fit is None:
+            continue
+        harm = [h for h in harmonic_components(fit, span) if h["cells"] < HARMONIC_CELLS]
+        if harm:
+            notes.append(f"K = {k} counts " + ", ".join(
+                f"{fit.f_d[h['index']]:.4g} Hz = {h['multiple']} x {fit.f_d[h['of']]:.4g} Hz"
+                for h in harm))
+    if not notes:
+        return ""
+    return ("; " + "; ".join(notes) + " (a whole multiple of a stronger component within a "
+            "resolution cell: a harmonic of a nonlinear oscillation, not a mode)")
 
 
 def harmonics(fit: ModeFit) -> list[str]:

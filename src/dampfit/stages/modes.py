@@ -169,7 +169,8 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
     if sel.n_modes < 2:
         return None
     f = fit.f_d
-    harm = [h for h in modes_select.harmonic_components(fit, sel.span) if h["cells"] < 1.0]
+    harm = [h for h in modes_select.harmonic_components(fit, sel.span)
+            if h["cells"] < modes_select.HARMONIC_CELLS]
     split: list[int] = []
     if verdict in SPLIT_VERDICTS:  # the pairs (C1) of the least squares, as split_pair reads them
         d = min(range(sel.n_modes), key=lambda i: abs(f[i] - f1))
