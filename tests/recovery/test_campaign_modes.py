@@ -87,6 +87,25 @@ def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign, tmp
     assert "one mode (the pooled one)" in str(blocks) and "not analysed" in str(blocks)
 
 
+def test_one_mode_tests_share_one_line_of_the_terminal_table(campaign):
+    """A campaign of many one-mode tests does not print a row of reasons for each: they share
+    one line naming the tests (reasons stay in the report); a test with several modes keeps
+    its rows, and a lone one-mode test its own row."""
+    s = json.loads(json.dumps(campaign.summary()))
+    multi = s["tests"][1]["modes"]
+    assert len(multi["modes"]) >= 2
+    one = {"n_modes": 1, "modes": [], "reason": None,
+           "modes_evidence": {"reason": "one mode: after the mode at 2.1 Hz no peak stands out"}}
+    s["tests"] = [dict(s["tests"][0], modes=dict(one)) for _ in range(5)] + [s["tests"][1]] + [
+        dict(s["tests"][0], modes=dict(one))]
+    text = text_campaign.text(s)
+    assert "tests 1–5, 7: one mode (the pooled one)" in text
+    assert "no peak stands out" not in text and "mode 2" in text
+    s["tests"] = s["tests"][5:]  # the modal test and one one-mode test: its own row
+    text = text_campaign.text(s)
+    assert text.count("one mode (the pooled one): one mode: after the mode") == 1
+
+
 def test_mode_of_mass_is_refused_for_a_campaign():
     recs = [two_mode_recording(MASS, seed=s, duration=10.0)[0] for s in (1, 2)]
     with pytest.raises(InputError, match="mode_of_mass apply to a single recording"):

@@ -204,7 +204,7 @@ def _no_modes(m: dict) -> str:
     """Why a test lists no modes: one mode (the pooled one) by the screen or the evidence,
     or not analysed, with the reason (whitespace folded, at most :data:`_REASON_CHARS`)."""
     evidence = m.get("modes_evidence") if isinstance(m.get("modes_evidence"), dict) else {}
-    one = m.get("n_modes") == 1 and not isinstance(m.get("n_modes"), bool)
+    one = _one_mode(m)
     reason = evidence.get("reason") if one else m.get("reason")
     reason = " ".join(reason.split())[:_REASON_CHARS] if isinstance(reason, str) else ""
     if one:
@@ -212,17 +212,43 @@ def _no_modes(m: dict) -> str:
     return f"not analysed: {reason or 'no modes'}"
 
 
+def _one_mode(m: dict) -> bool:
+    """Whether a test's modes entry says one mode (the pooled one), settled by the screen or
+    the evidence."""
+    return m.get("n_modes") == 1 and not isinstance(m.get("n_modes"), bool)
+
+
+def _numbers(numbers: list[int]) -> str:
+    """Test numbers as ranges: [1, 2, 3, 5] → "1–3, 5"."""
+    runs: list[list[int]] = []
+    for n in numbers:
+        if runs and n == runs[-1][-1] + 1:
+            runs[-1].append(n)
+        else:
+            runs.append([n])
+    return ", ".join(f"{r[0]}–{r[-1]}" if len(r) > 2 else ", ".join(map(str, r)) for r in runs)
+
+
 def _modes_lines(s: dict) -> list[str]:
     """With ``max_modes`` > 1: every test's modes (f_n, ζ with 90 % intervals), the pooled
-    one marked ``*``, or why its modes were not analysed. Nothing for a one-mode campaign."""
+    one marked ``*``, or why its modes were not analysed. Tests of one mode (the pooled one)
+    share one line when there are several — their reasons, test by test, are in the report
+    and summary.json. Nothing for a one-mode campaign."""
     entries = tests(s)
-    blocks = [(name, t["modes"]) for t, name in zip(entries, labels(entries))
+    blocks = [(i, name, t["modes"])
+              for i, (t, name) in enumerate(zip(entries, labels(entries)), start=1)
               if isinstance(t.get("modes"), dict)]
     if not blocks:
         return []
+    ones = [i for i, _, m in blocks
+            if _one_mode(m) and not (isinstance(m.get("modes"), list) and m["modes"])]
+    if len(ones) < 2:
+        ones = []
     rows = []
-    for i, (name, m) in enumerate(blocks):
-        label = f"{i + 1:>2d} {name}"
+    for i, name, m in blocks:
+        if i in ones:
+            continue
+        label = f"{i:>2d} {name}"
         modes = [r for r in m.get("modes") or [] if isinstance(r, dict)] \
             if isinstance(m.get("modes"), list) else []
         if not modes:
@@ -232,9 +258,13 @@ def _modes_lines(s: dict) -> list[str]:
             star = " *" if r.get("pooled") is True else ""
             rows.append([label if j == 0 else "", f"mode {j + 1}{star}",
                          _iv(r.get("f_n")), _iv(r.get("zeta"))])
-    head = ["test", "mode", "f_n [Hz]", "zeta"]
-    widths = [max(len(r[j]) for r in [head, *rows]) for j in range(len(head))]
     out = ["", "  modes of each test (* = the pooled mode; the others are this test's own)"]
-    for r in [head, *rows]:
-        out.append("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    if rows:
+        head = ["test", "mode", "f_n [Hz]", "zeta"]
+        widths = [max(len(r[j]) for r in [head, *rows]) for j in range(len(head))]
+        for r in [head, *rows]:
+            out.append("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip())
+    if ones:
+        out.append(f"  tests {_numbers(ones)}: one mode (the pooled one); "
+                   "why, test by test: the report, or modes_evidence.reason in summary.json")
     return out
