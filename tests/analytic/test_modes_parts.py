@@ -359,3 +359,32 @@ def test_an_uncertain_number_of_modes_says_when_the_other_k_counts_a_harmonic():
     assert harmonic_alternatives(results, [0.995, 0.005], 1, 39.9) == ""
     off = [results[0], types.SimpleNamespace(fit=_Fit([0.97578, 2.85], [0.0005] * 2, [1, 0.01]))]
     assert harmonic_alternatives(off, [0.5, 0.5], 1, 39.9) == ""
+
+
+@pytest.mark.parametrize("mode_of_mass, warned", [(1, True), (0, False)])
+def test_parameters_say_which_mode_they_describe_when_the_mass_is_another_s(
+        monkeypatch, mode_of_mass, warned):
+    """With the mass given to another mode (``--mode-of-mass``) than the one the one-mode
+    analysis found, ``parameters`` (whose c and k use the mass) describe the one-mode
+    analysis's mode: the result says so and points to the mass's mode in ``modes``."""
+    import math
+    import types
+
+    from dampfit import pipeline
+    from dampfit.stages.modes import ModesStage
+
+    stage = ModesStage(n_modes=2, evidence={"reason": "2 modes by evidence"},
+                       summary={"modes": [{"f_n": 2.0}, {"f_n": 7.0}], "rayleigh": None},
+                       posterior=types.SimpleNamespace(mode_of_mass=mode_of_mass, idata=None),
+                       dominant=0)
+    monkeypatch.setattr(pipeline.stages, "modes_stage", lambda *a, **k: stage)
+    one_mode = types.SimpleNamespace(p=0.1, omega_d=2 * math.pi * 2.0)
+    modes = pipeline.modes_stage(None, one_mode, 0.5, 0.0, max_modes=2, mode_of_mass=2,
+                                 seed=0, min_ess=100, max_steps=100)
+    said = [w for w in modes.warnings if "'parameters' describe" in w]
+    assert modes.n_modes == 2 and len(modes.modes) == 2
+    if warned:
+        assert said == ["'parameters' describe the one-mode analysis of the mode at 2 Hz "
+                        "(mode 1); the mass belongs to mode 2, whose c and k are in modes[1]"]
+    else:
+        assert said == []
