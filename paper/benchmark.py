@@ -216,8 +216,11 @@ def batch_times(folder: Path, n: int, cache: Path) -> dict[str, float]:
     for i in range(n):
         sim.write_phyphox_csv(sim.recording(sim.preset("paper", seed=100 + i))[0],
                               data / f"rec{i:03d}.csv")
-    base = [sys.executable, "-m", "dampfit", "batch", str(data), "--mass", str(MASS),
-            "--workers", "2", "--quiet"]
+    def command(recordings: Path) -> list[str]:
+        return [sys.executable, "-m", "dampfit", "batch", str(recordings), "--mass", str(MASS),
+                "--workers", "2", "--quiet"]
+
+    base = command(data)
     # first a batch that fills the compiled-kernel store with every shape bucket these
     # recordings need (the single CLI runs it is compared with are warm too: a recording whose
     # fit window falls in another bucket compiles ≈ 14 s once per machine, which is the cold
@@ -232,7 +235,7 @@ def batch_times(folder: Path, n: int, cache: Path) -> dict[str, float]:
     small.mkdir()
     for i in range(SMALL):
         (small / f"rec{i:03d}.csv").write_bytes((data / f"rec{i:03d}.csv").read_bytes())
-    base_small = [*base[:4], str(small), *base[5:]]
+    base_small = command(small)
     return {"first": first,
             "all": _timed([*base, "--out", str(folder / "batch-all")], _env(cache)),
             "summaries": _timed([*base, "--out", str(folder / "batch-summaries"),
