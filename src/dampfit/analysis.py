@@ -121,6 +121,7 @@ class Analysis(ResultViews):
     _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
     _signals: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False,
                                                    compare=False)
+    _damper_cache: Any = field(default=None, init=False, repr=False, compare=False)
 
     @classmethod
     def from_loaded(cls, loaded) -> "Analysis":
@@ -193,6 +194,7 @@ class Analysis(ResultViews):
             "dampfit_version": __version__,
             **{key: fit[key] for key in ("input", "window", "band", "dominant_frequency_hz",
                                          "mass")},
+            "damper": self._damper().section if self._damper() is not None else None,
             "parameters": params,
             "missing": missing,
             "least_squares": fit["least_squares"],
@@ -209,6 +211,60 @@ class Analysis(ResultViews):
             "provenance": {"seed": self.seed, "options": self.options, "date": self.date,
                            "python": platform.python_version(), "versions": versions()},
         })
+
+    @property
+    def damper(self) -> dict[str, Any] | None:
+        """The recommended damper: summary.json's ``damper`` section (a fresh plain dict;
+        :mod:`dampfit.damping.damper`, layout in :mod:`dampfit.result.schema`) — the law, its
+        coefficients with 90 % intervals, the measured range, the equivalent linear c at the
+        design amplitude — or None when the damping laws were not assessed (an older
+        folder)."""
+        d = self.summary().get("damper")
+        return d if isinstance(d, dict) else None
+
+    @property
+    def damper_draws(self):
+        """The damper's posterior draws (an ``xarray.Dataset`` over ``draw``: mass, k, f_n, the
+        law's coefficients, c_linear, zeta_linear; attributes law and design_amplitude_m), or
+        None (status none, or not assessed). Of a loaded result: the ``damper`` group of
+        posterior.nc."""
+        if self._loaded is not None:
+            post = self._loaded.posterior()
+            return post["damper"] if "damper" in post.groups() else None
+        dm = self._damper()
+        if dm is None or dm.draws is None:
+            return None
+        import xarray as xr
+
+        return xr.Dataset({k: ("draw", np.asarray(v, float)) for k, v in dm.draws.items()},
+                          coords={"draw": np.arange(len(next(iter(dm.draws.values()))))},
+                          attrs=dm.attrs)
+
+    def _damper(self):
+        """The :class:`dampfit.damping.damper.Damper` of the live analysis (computed once),
+        None without a damping assessment."""
+        if self.damping is None or self.damping.adequacy is None:
+            return None
+        if self._damper_cache is None:
+            from dampfit.damping import damper
+
+            self._damper_cache = damper.from_assessment(
+                self.damping, self._viscous_draws(), amplitude=self.options.get("amplitude"),
+                seed=self.seed)
+        return self._damper_cache
+
+    def _viscous_draws(self):
+        """The pipeline's viscous posterior (``parameters``) as damper draws: θ = (ln p,
+        ln ω_n), a₀ = u0, the posterior's mass draws."""
+        from dampfit.damping.damper import LawDraws
+
+        post = self.posterior.posterior
+        p = self.draws("p")
+        theta = np.column_stack([np.log(p), np.log(2 * np.pi * self.draws("f_n"))])
+        mass = self.draws("mass") if "mass" in post and self.mass is not None else None
+        return LawDraws("viscous", theta, self.draws("u0"), mass, "emcee",
+                        bool(self.sampling.converged),
+                        "" if self.sampling.converged else "posterior NOT converged")
 
     def _modes_summary(self, params: dict[str, Any]) -> dict[str, Any]:
         """``n_modes``, ``modes``, ``modes_evidence`` and ``rayleigh`` (schema docstring)."""
@@ -409,11 +465,13 @@ class Analysis(ResultViews):
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file, with the per-mode
         posterior (:attr:`modes_posterior`, when there are several modes) as its group
-        ``modes``."""
-        modal = self.modes_posterior
-        return atomic_write(path, lambda tmp: write_netcdf(
-            self.posterior, tmp, groups={} if modal is None else {"modes": modal}),
-            suffix=".nc")
+        ``modes`` and the damper's draws (:attr:`damper_draws`, unless no damper is
+        recommended) as its group ``damper``."""
+        modal, damper = self.modes_posterior, self.damper_draws
+        groups = {**({} if modal is None else {"modes": modal}),
+                  **({} if damper is None else {"damper": damper})}
+        return atomic_write(path, lambda tmp: write_netcdf(self.posterior, tmp, groups=groups),
+                            suffix=".nc")
 
 
 def _baselines_summary(base: dict, p_post: dict | None) -> dict[str, Any]:

@@ -103,8 +103,9 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
     a.add_argument("--quiet", action="store_true", help=quiet_help)
     a.add_argument("--report", action="store_true", help="also write report.html and report.md")
-    a.add_argument("--model", default="auto",
-                   choices=["auto", "viscous", "coulomb", "quadratic", "power"],
+    from dampfit.model.laws import names as law_names  # light: JAX is imported on first use
+
+    a.add_argument("--model", default="auto", choices=("auto",) + law_names(),
                    help="damping law reported as c_equivalent (auto: the one the evidence "
                         "prefers); all are compared in model_checks either way")
     a.add_argument("--amplitude", type=real_arg("a positive displacement amplitude in metres",

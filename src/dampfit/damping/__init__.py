@@ -22,13 +22,13 @@ Modules: :mod:`~dampfit.model.laws` (laws, averaged envelopes, c_eq),
 :mod:`~dampfit.damping.assessment` holds :func:`assess`.
 """
 
-from dampfit.damping.assessment import CHOICES as CHOICES
+from dampfit.damping.assessment import choices as choices
 from dampfit.damping.assessment import POSTERIORS as POSTERIORS
 from dampfit.damping.assessment import DampingAssessment as DampingAssessment
 from dampfit.damping.assessment import assess as assess
 from dampfit.damping.assessment import from_analysis as from_analysis
-from dampfit.model.laws import MODELS as MODELS
+from dampfit.model.laws import names as names
 from dampfit.model.laws import c_equivalent as c_equivalent
 
-__all__ = ["CHOICES", "POSTERIORS", "DampingAssessment", "MODELS", "assess", "c_equivalent",
-           "from_analysis"]
+__all__ = ["POSTERIORS", "DampingAssessment", "assess", "c_equivalent", "choices",
+           "from_analysis", "names"]

@@ -39,10 +39,13 @@ from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit
 from dampfit.inference import law_sampler as dsample
 
-__all__ = ["assess", "from_analysis", "DampingAssessment", "CHOICES", "POSTERIORS"]
+__all__ = ["assess", "from_analysis", "DampingAssessment", "choices", "POSTERIORS"]
 
-#: Accepted values of ``model``.
-CHOICES = ("auto",) + laws.MODELS
+
+def choices() -> tuple[str, ...]:
+    """Accepted values of ``model``: ``auto`` and the registered laws' names."""
+    return ("auto",) + laws.names()
+
 #: Accepted values of ``posterior``: emcee for every law, for the chosen law only, or none.
 POSTERIORS = ("chosen", "chosen-nonviscous", "emcee", "laplace")
 
@@ -72,6 +75,8 @@ class DampingAssessment:
     adequacy: dict | None = None  # checks.adequacy(...) plus "fit_checks", "frequency_trend"
     warning: str | None = None  # the verdict's warning (also in warnings)
     decay: dict | None = None  # law_fit.decay_test of the viscous fit: is a decay measured?
+    mass_draws: dict[str, np.ndarray | None] = field(default_factory=dict)  # [kg] per law
+    mass_sd: float = 0.0  # [kg]
 
     @property
     def preferred(self) -> str:
@@ -172,8 +177,9 @@ class DampingAssessment:
 
 
 def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_cycles) -> None:
-    if model not in CHOICES:
-        raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
+    if model not in choices():
+        raise InputError(f"unknown damping model {model!r}; choose one of "
+                         f"{', '.join(choices())}")
     if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
         raise InputError("the reference amplitude must be a positive displacement in m, "
                          f"got {amplitude!r}")
@@ -195,7 +201,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     ``ls`` the viscous :class:`~dampfit.inference.least_squares.LeastSquaresResult` (start values; None: from the
     envelope), ``noise_model`` its :class:`~dampfit.inference.noise.NoiseModel` or None (its r is
     reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
-    [kg]; ``model`` one of :data:`CHOICES` (``auto`` = the preferred law); ``amplitude`` [m]
+    [kg]; ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
     the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
     ``"chosen"`` = emcee for the chosen law and the Laplace approximation for the others,
     ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
@@ -235,10 +241,10 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
 
     amps = _amplitudes(fits[chosen], wins, fd, amplitude)
     rng = np.random.default_rng(seed + 101)
-    qts = {}
+    qts, mds = {}, {}
     for m, post in posts.items():
-        md = quantities.mass_draws(mass, mass_sd, len(post.a0), rng)
-        qts[m] = quantities.draws(m, post.theta, post.a0, md, amps) if len(post.a0) else {}
+        mds[m] = quantities.mass_draws(mass, mass_sd, len(post.a0), rng)
+        qts[m] = quantities.draws(m, post.theta, post.a0, mds[m], amps) if len(post.a0) else {}
 
     ratios = {m: float(ratio(mf)) for m, mf in fits.items() if mf.converged}
     best_nl = verdict.get("best_nonlinear")
@@ -251,15 +257,38 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
         slope=curve.slope(wins), window_cycles=float(cyc), amplitudes=amps, mass=mass,
         quantities=qts, t0=float(fd.t0), warnings=warns,
         pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
-        decay=decay,
+        decay=decay, mass_draws=mds, mass_sd=mass_sd,
     )
     out.adequacy = _adequacy(out, prep, fd, data, n_cyc, noise_of, white_r=r_white, ls=ls)
     law = out.adequacy.get("law")
+    if law and law != chosen and posterior != "laplace":  # the named law's own posterior
+        _resample(out, law, data, prep.band, seed=seed + laws.names().index(law),
+                  min_ess=min_ess, max_steps=max_steps, budget=budget, progress=progress)
     out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None)
     if out.warning:
         out.warnings.append(out.warning)
     out.warnings.extend(_request_warnings(out, model, amplitude))
     return out
+
+
+def _resample(a: DampingAssessment, law: str, data, band, *, seed: int, min_ess: float,
+              max_steps: int, budget, progress: bool) -> None:
+    """emcee draws of ``law`` — the law the verdict names when it is not the chosen one (the
+    windows carried the verdict), whose Laplace draws served the comparison — so the damper's
+    coefficients come from the law's own posterior; its quantities are recomputed."""
+    mf = a.fits[law]
+    if not (mf.converged and mf.cov is not None and np.all(np.isfinite(mf.cov))):
+        return
+    post = dsample.sample_emcee(mf, data, band, seed=seed, min_ess=min_ess,
+                                max_steps=max_steps, budget=budget, progress=progress)
+    if not len(post.a0):
+        return
+    a.posteriors[law] = post
+    a.warnings.extend(post.warnings)
+    rng = np.random.default_rng(seed + 101)
+    a.mass_draws[law] = quantities.mass_draws(a.mass, a.mass_sd, len(post.a0), rng)
+    a.quantities[law] = quantities.draws(law, post.theta, post.a0, a.mass_draws[law],
+                                         a.amplitudes)
 
 
 def _fit_laws(fd, data, p_start: float, w_start: float, ratio):
@@ -271,7 +300,7 @@ def _fit_laws(fd, data, p_start: float, w_start: float, ratio):
     phase0 = visc.theta[2:]
     fits = {"viscous": visc}
     fits.update({m: law_fit.fit_model(m, fd, data, p_start, w_start, phase0=phase0)
-                 for m in laws.MODELS[1:]})
+                 for m in laws.names()[1:]})
     warns = [f"{m} damping law: least squares did not converge ({mf.message})"
              for m, mf in fits.items() if not mf.converged]
     ok = [mf for mf in fits.values() if mf.converged] or [fits["viscous"]]

@@ -102,7 +102,7 @@ import numpy as np
 from scipy import stats
 
 __all__ = ["ljung_box", "envelope_whiteness", "warning_text", "adequacy", "verdict_warning",
-           "FEM_HINT", "VERDICTS"]
+           "fem_hint", "VERDICTS"]
 
 #: The four verdicts of :func:`adequacy`.
 VERDICTS = ("adequate", "amplitude-dependent", "misfit", "inconclusive")
@@ -127,17 +127,14 @@ P_VISCOUS_ADEQUATE = 0.5
 #: Two-sided level of the "decisive" intervals of the slopes.
 DECISIVE_LEVEL = 0.99
 
-#: What to enter in an FEM code for each law (LS-DYNA discrete dampers, OpenSees materials).
-FEM_HINT = {
-    "viscous": "a linear dashpot c (LS-DYNA *MAT_DAMPER_VISCOUS, DC = c; OpenSees "
-               "uniaxialMaterial Viscous with alpha = 1)",
-    "coulomb": "a dashpot c plus a friction force F_c (e.g. LS-DYNA *MAT_DAMPER_NONLINEAR_VISCOUS "
-               "with the force–velocity curve F = c·v + F_c·sign(v), or a friction element)",
-    "quadratic": "a dashpot with F = c·v + c2·v·|v| (LS-DYNA *MAT_DAMPER_NONLINEAR_VISCOUS with "
-                 "that force–velocity curve)",
-    "power": "a nonlinear viscous damper F = c_alpha·|v|^alpha·sign(v) (OpenSees uniaxialMaterial "
-             "Viscous C alpha; LS-DYNA *MAT_DAMPER_NONLINEAR_VISCOUS with that curve)",
-}
+
+
+def fem_hint(law: str) -> str:
+    """What to enter in an FEM code for ``law`` (its :attr:`dampfit.model.laws.Law.fem_hint`:
+    LS-DYNA discrete dampers, OpenSees materials)."""
+    from dampfit.model.laws import get
+
+    return get(law).fem_hint
 
 
 def ljung_box(x: np.ndarray, lags: int) -> tuple[float, float]:
@@ -197,7 +194,7 @@ def warning_text(preferred: str, p_viscous: float, zeta_hi: float, zeta_lo: floa
         f"damping depends on amplitude: ζ {verb} from {_fmt(zeta_hi)} at {_fmt(a_hi)} m to "
         f"{_fmt(zeta_lo)} at {_fmt(a_lo)} m ({source}; P(one viscous c) = {p_viscous:.2g}); "
         f"the {preferred} law fits best, so a single viscous c is not adequate — {at}; "
-        f"for FEM use {FEM_HINT[preferred]}"
+        f"for FEM use {fem_hint(preferred)}"
     )
 
 
@@ -347,9 +344,11 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
     law's α − 1 when that law is usable (else None); ``decay`` the
     :func:`~dampfit.inference.law_fit.decay_test` of the viscous fit (None: not tested).
 
-    Returns ``{"verdict", "reasons", "law", "criteria"}``: ``verdict`` one of
+    Returns ``{"verdict", "reasons", "law", "criteria", "bound"}``: ``verdict`` one of
     :data:`VERDICTS`, ``reasons`` short strings with the numbers, ``law`` the named damping
-    law (amplitude-dependent only, else None), ``criteria`` the booleans behind it.
+    law (amplitude-dependent only, else None), ``criteria`` the booleans behind it, ``bound``
+    ``{"factor": the largest change of ζ [1] over the recorded amplitudes the slope's 90 %
+    interval allows (inf: no slope), "source"}``.
     """
     span = float(amplitude_span) if np.isfinite(amplitude_span) and amplitude_span > 1 else 1.0
     sc = _slope_criteria(slope, span, power_slope)
@@ -370,8 +369,11 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
                 "pipeline_misfit": bool(p_mis), "phase_drift": phase, "few_cycles": few,
                 "no_decay": no_decay}
 
+    bound = {"factor": float(sc["bound"]), "source": sc["bound_source"]}
+
     def out(verdict, why, law=None):
-        return {"verdict": verdict, "reasons": why, "law": law, "criteria": criteria}
+        return {"verdict": verdict, "reasons": why, "law": law, "criteria": criteria,
+                "bound": bound}
 
     if no_decay:
         return out("inconclusive", [_no_decay_text(decay)] + reasons)

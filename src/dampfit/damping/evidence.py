@@ -24,7 +24,8 @@ log likelihood from the best law, from one-cycle blocks: dse = √(B·var_b(ℓ_
 Blocks of a cycle keep the correlated residuals of one cycle together.
 
 **Model prior and verdict.** Prior odds 1 : 1 between "one viscous c" and "amplitude-dependent"
-(1/2 for viscous, 1/6 for each nonlinear law). Posterior model probabilities are the
+(1/2 for viscous, 1/6 for each nonlinear law: each law's ``prior_weight``,
+:func:`dampfit.model.laws.prior_weights`). Posterior model probabilities are the
 ``weight`` column. Amplitude dependence is *detected* when P(viscous | data) <
 :data:`P_VISCOUS_MAX`; the preferred law is then the most probable nonlinear one, else viscous.
 """
@@ -36,10 +37,14 @@ import numpy as np
 from dampfit.inference import law_fit
 from dampfit.model import laws
 
-__all__ = ["compare", "MODEL_PRIOR", "P_VISCOUS_MAX"]
+__all__ = ["compare", "model_prior", "P_VISCOUS_MAX"]
 
-#: Prior model probabilities (1 : 1 between viscous and amplitude-dependent).
-MODEL_PRIOR = {"viscous": 0.5, "coulomb": 1 / 6, "quadratic": 1 / 6, "power": 1 / 6}
+
+def model_prior() -> dict[str, float]:
+    """Prior model probabilities of the registered laws (1 : 1 between viscous and
+    amplitude-dependent for the four built-in ones): :func:`dampfit.model.laws.prior_weights`."""
+    return laws.prior_weights()
+
 #: Amplitude dependence is reported when P(viscous | data) falls below this.
 P_VISCOUS_MAX = 0.05
 
@@ -58,9 +63,10 @@ def compare(fits: dict[str, law_fit.ModelFit], data: law_fit.Data, f0: float) ->
     (posterior probability), ``loglik_tempered``, ``rss`` [(m/s²)²], ``converged``. The verdict:
     ``{"preferred", "amplitude_dependent", "p_viscous", "best_nonlinear", "bayes_factor_ln"}``.
     """
-    names = [m for m in laws.MODELS if m in fits]
+    names = [m for m in laws.names() if m in fits]
     lnz = np.array([fits[m].ln_evidence for m in names])
-    prior = np.array([MODEL_PRIOR[m] for m in names])
+    weights = model_prior()
+    prior = np.array([weights[m] for m in names])
     ok = np.isfinite(lnz)
     logw = np.where(ok, lnz + np.log(prior), -np.inf)
     weight = np.zeros(len(names))

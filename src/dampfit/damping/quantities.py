@@ -22,7 +22,7 @@ import numpy as np
 from dampfit import physics
 from dampfit.model import laws as models
 
-__all__ = ["UNITS", "draws", "summarise", "mass_draws"]
+__all__ = ["UNITS", "draws", "summarise", "mass_draws", "unit_of"]
 
 #: Unit of every reported quantity.
 UNITS = {
@@ -33,6 +33,16 @@ UNITS = {
     "zeta_eq_ref": "1", "zeta_eq_start": "1", "zeta_eq_end": "1",
     "c_eq_ref": "N s/m", "c_eq_start": "N s/m", "c_eq_end": "N s/m",
 }
+
+
+def unit_of(model: str, name: str) -> str:
+    """Unit of the quantity ``name`` of law ``model``: :data:`UNITS`, else the law's own
+    coefficient units (a law added with :func:`dampfit.model.laws.register`), else ""."""
+    if name in UNITS:
+        return UNITS[name]
+    law = models.LAWS.get(model)
+    units = {c.name: c.unit for c in law.coefficients} if law is not None else {}
+    return units.get(name, "")
 
 
 def mass_draws(mass: float | None, mass_sd: float, size: int, rng) -> np.ndarray | None:
@@ -50,16 +60,17 @@ def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,
     ``ref``, ``start``, ``end`` to displacement amplitudes [m] for ζ_eq and c_eq.
     """
     theta = np.asarray(theta, dtype=float)
-    w = np.exp(theta[:, models.omega_index(model)])
+    law = models.get(model)
+    w = np.exp(theta[:, law.omega_index])
     out: dict[str, np.ndarray] = {"p0": np.exp(theta[:, 0]), "f_n": w / (2 * np.pi), "u0": a0}
-    phys = models.physical(model, theta, a0, m)
-    if model == "viscous":
+    phys = law.physical(theta, a0, m)
+    if law.shape_prior is None:  # one decay rate: it is p, and ζ = p/ω
         out["p"] = out["p0"]
         out["zeta"] = physics.quantities(out["p0"], w)["zeta"]
-    elif model in ("coulomb", "quadratic"):
-        out[models.SHAPE[model]] = theta[:, 1]
-    keep = {"c", "F_c", "mu_c", "c2", "beta", "alpha", "c_alpha", "gamma"}
-    out.update({k_: v for k_, v in phys.items() if k_ in keep})
+    elif law.shape_name not in phys:  # a shape parameter that is no coefficient (a fraction)
+        out[law.shape_name] = theta[:, 1]
+    # the law's coefficients (with a mass) and their per-unit-mass forms; p_viscous is p0's
+    out.update({k_: v for k_, v in phys.items() if k_ != "p_viscous"})
     if m is not None:
         out["k"] = physics.stiffness(m, w)
     for name, a in amplitudes.items():

@@ -79,7 +79,7 @@ def _model_entry(a: Assessment, name: str) -> dict[str, Any]:
     q = a.quantities.get(name, {})
     names = [f"theta:{n}" for n in models.get(name, mf.theta).names]
     return {
-        "parameters": {k: quantities.summarise(v, quantities.UNITS.get(k, ""))
+        "parameters": {k: quantities.summarise(v, quantities.unit_of(name, k))
                        for k, v in q.items()},
         "least_squares": {"theta": dict(zip(names, mf.theta.tolist())), "rss": mf.rss,
                           "u0": mf.a0, "converged": mf.converged, "message": mf.message,
@@ -89,7 +89,11 @@ def _model_entry(a: Assessment, name: str) -> dict[str, Any]:
                       "n_steps": post.n_steps, "max_r_hat": post.max_r_hat,
                       "min_ess_bulk": post.min_ess_bulk},
         "ln_evidence": mf.ln_evidence,
-        "fem": checks.FEM_HINT[name],
+        "fem": models.get(name).fem_hint,
+        "force": models.get(name).force_text,
+        "coefficients": [{"name": c.name, "unit": c.unit, "symbol": c.symbol,
+                          "needs_mass": c.per_mass} for c in models.get(name).coefficients],
+        "style": {"colour": models.get(name).colour},
     }
 
 
@@ -103,7 +107,7 @@ def _curve(a: Assessment) -> dict[str, Any]:
         if not mf.converged:
             continue
         zeta = models.local_rate(name, mf.theta, grid / mf.a0) / mf.omega
-        entry = {"zeta_eq": zeta}
+        entry = {"zeta_eq": zeta, "colour": models.get(name).colour}
         if a.mass is not None:
             entry["c_eq"] = damping_coefficient(a.mass, mf.omega * zeta)
         curves[name] = entry
@@ -162,7 +166,7 @@ def summary(a: Assessment) -> dict[str, Any]:
             "criterion": "log evidence (Laplace; a nonlinear law's shape parameter integrated "
                          "numerically); likelihood tempered by 1/r with one r (Whittle factor "
                          "of the best law's residuals) for every law",
-            "model_prior": compare.MODEL_PRIOR,
+            "model_prior": compare.model_prior(),
             "psd_ratio_common": a.psd_ratio,
             "comparison": a.table,
             "preferred_model": a.preferred,

@@ -80,6 +80,16 @@ arguments. The methods are pure and shape-static and run on ``jax.numpy`` (jit/v
 NumPy (``xp=numpy``); θ may carry leading batch axes. The likelihood built on the columns (one
 variable-projection profile for every law, sums of laws and several recordings) is in
 :mod:`dampfit.model.profile`.
+
+**A new law is one class.** Besides the numerics (:meth:`Law.envelope`, :meth:`Law.local_rate`,
+:meth:`Law._coefficients`, :meth:`Law.force`) a law carries everything the rest of dampfit
+reads about it: ``prior_weight`` (the evidence's model prior, :func:`prior_weights`),
+``coefficients`` (:class:`Coefficient`: name, SI unit, symbol, whether it needs the mass —
+summary.json's ``damper`` and the report print them), ``force_text``, ``fem_hint`` (the
+damping-law warning) and ``colour`` (the amplitude figure). :func:`register` adds an instance
+to :data:`LAWS` (``--model`` then offers it, the assessment fits, samples and compares it);
+:func:`unregister` removes it. The FEM writers dispatch on ``Law.name`` and can tabulate any
+law's force–velocity curve with :meth:`Law.force`.
 """
 
 from __future__ import annotations
@@ -88,12 +98,38 @@ import math
 from dataclasses import dataclass, replace
 from typing import ClassVar
 
-import jax.numpy as jnp
 import numpy as np
-from scipy.special import gammaln
+
+
+class _LazyModule:
+    """``jax.numpy``, imported on first use: the laws' descriptions (names, coefficients,
+    units, force laws, FEM hints, plot styles) are read by the command line and the outputs,
+    which should not pay JAX's import (≈ 2 s) for them. The array methods resolve
+    ``jnp.<name>`` through it on the first call (then from its own attribute cache)."""
+
+    def __init__(self, name: str):
+        self._name = name
+
+    def __getattr__(self, attr: str):
+        import importlib
+
+        value = getattr(importlib.import_module(self._name), attr)
+        self.__dict__[attr] = value
+        return value
+
+
+jnp = _LazyModule("jax.numpy")
+
+
+def gammaln(x):
+    """ln Γ(x) (scipy.special.gammaln, imported on first use)."""
+    from scipy.special import gammaln as _gammaln
+
+    return _gammaln(x)
 
 __all__ = [
-    "Law", "Viscous", "ViscousM1", "Coulomb", "Quadratic", "Power", "LAWS", "get",
+    "Law", "Coefficient", "Viscous", "ViscousM1", "Coulomb", "Quadratic", "Power", "LAWS", "get",
+    "names", "prior_weights", "register", "unregister",
     "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "P_RANGE", "lam", "envelope", "phase",
     "columns", "local_rate", "c_equivalent", "physical", "omega_index", "n_phase", "log_prior",
 ]
@@ -127,6 +163,19 @@ MAX_PHASE = len(_LEG)
 
 
 @dataclass(frozen=True)
+class Coefficient:
+    """One physical coefficient of a law: its name (a key of :meth:`Law.physical` with a
+    mass and of summary.json's ``damper.coefficients``), SI unit, printed symbol, and
+    ``per_mass`` (True: the recording identifies it per unit mass only, so it needs the mass;
+    False: mass-free, like α)."""
+
+    name: str
+    unit: str
+    symbol: str
+    per_mass: bool = True
+
+
+@dataclass(frozen=True)
 class Law:
     r"""One damping law: θ = (the law's own parameters, ln ω, c₂ … c_{J+1}).
 
@@ -148,6 +197,19 @@ class Law:
     shape_prior: ClassVar[tuple[float, float] | None] = None
     #: Linear amplitudes per law: the two quadratures (A, B) of the oscillation columns.
     n_columns: ClassVar[int] = 2
+    # ---- what the rest of dampfit reads about a law (one place: see "A new law" above)
+    #: Prior weight in the evidence comparison (normalised over the registered laws:
+    #: :func:`prior_weights`); viscous 1/2 and the three others 1/6 each is 1 : 1 between
+    #: "one viscous c" and "amplitude-dependent".
+    prior_weight: ClassVar[float] = 1 / 6
+    #: The law's own physical coefficients, in the order they are printed.
+    coefficients: ClassVar[tuple["Coefficient", ...]] = ()
+    #: The force law in plain text (units implied by the coefficients).
+    force_text: ClassVar[str] = ""
+    #: What to enter in an FEM code for this law (the hint of the damping-law warning).
+    fem_hint: ClassVar[str] = ""
+    #: Plot style of the law in the figures (a matplotlib colour).
+    colour: ClassVar[str] = "tab:purple"
 
     # ------------------------------------------------------------------ parameters
     @property
@@ -265,6 +327,12 @@ class Law:
     def _coefficients(self, p0, s, w, a0) -> dict[str, np.ndarray]:
         raise NotImplementedError
 
+    def force(self, velocity, coefficients: dict[str, float]) -> np.ndarray:
+        """The damping force f_d [N] at ``velocity`` [m/s] (NumPy, broadcasts) for the
+        coefficient values ``coefficients`` (names of :attr:`coefficients`, SI units): the
+        force–velocity curve an FEM deck tabulates."""
+        raise NotImplementedError
+
     def physical(self, theta, a0, mass=None) -> dict[str, np.ndarray]:
         """The law's coefficients from θ and the start amplitude ``a0`` [m]; NumPy, broadcasts.
 
@@ -294,6 +362,15 @@ class Viscous(Law):
     name: ClassVar[str] = "viscous"
     own: ClassVar[tuple[str, ...]] = ("ln_p0",)
     own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)",)
+    prior_weight: ClassVar[float] = 1 / 2
+    coefficients: ClassVar[tuple[Coefficient, ...]] = (Coefficient("c", "N s/m", "c"),)
+    force_text: ClassVar[str] = "F = c·v"
+    fem_hint: ClassVar[str] = ("a linear dashpot c (LS-DYNA *MAT_DAMPER_VISCOUS, DC = c; "
+                               "OpenSees uniaxialMaterial Viscous with alpha = 1)")
+    colour: ClassVar[str] = "0.45"
+
+    def force(self, velocity, coefficients):
+        return coefficients["c"] * np.asarray(velocity, dtype=float)
 
     def envelope(self, theta, tau, xp=jnp):
         p0, _, _ = self.rates(theta, xp)
@@ -329,6 +406,17 @@ class Coulomb(Law):
     own: ClassVar[tuple[str, ...]] = ("ln_p0", "friction_fraction")
     own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
     shape_prior: ClassVar[tuple[float, float]] = (0.0, 1.0)
+    coefficients: ClassVar[tuple[Coefficient, ...]] = (
+        Coefficient("c", "N s/m", "c"), Coefficient("F_c", "N", "F_c"))
+    force_text: ClassVar[str] = "F = c·v + F_c·sgn(v)"
+    fem_hint: ClassVar[str] = ("a dashpot c plus a friction force F_c (e.g. LS-DYNA "
+                               "*MAT_DAMPER_NONLINEAR_VISCOUS with the force–velocity curve "
+                               "F = c·v + F_c·sign(v), or a friction element)")
+    colour: ClassVar[str] = "tab:orange"
+
+    def force(self, velocity, coefficients):
+        v = np.asarray(velocity, dtype=float)
+        return coefficients["c"] * v + coefficients["F_c"] * np.sign(v)
 
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
@@ -357,6 +445,16 @@ class Quadratic(Law):
     own: ClassVar[tuple[str, ...]] = ("ln_p0", "drag_fraction")
     own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
     shape_prior: ClassVar[tuple[float, float]] = (0.0, 1.0)
+    coefficients: ClassVar[tuple[Coefficient, ...]] = (
+        Coefficient("c", "N s/m", "c"), Coefficient("c2", "N s^2/m^2", "c₂"))
+    force_text: ClassVar[str] = "F = c·v + c2·v·|v|"
+    fem_hint: ClassVar[str] = ("a dashpot with F = c·v + c2·v·|v| (LS-DYNA "
+                               "*MAT_DAMPER_NONLINEAR_VISCOUS with that force–velocity curve)")
+    colour: ClassVar[str] = "tab:green"
+
+    def force(self, velocity, coefficients):
+        v = np.asarray(velocity, dtype=float)
+        return coefficients["c"] * v + coefficients["c2"] * v * np.abs(v)
 
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
@@ -386,6 +484,18 @@ class Power(Law):
     own: ClassVar[tuple[str, ...]] = ("ln_p0", "alpha")
     own_units: ClassVar[tuple[str, ...]] = ("ln(1/s)", "1")
     shape_prior: ClassVar[tuple[float, float]] = (0.0, 3.0)
+    coefficients: ClassVar[tuple[Coefficient, ...]] = (
+        Coefficient("c_alpha", "N (s/m)^alpha", "c_α"),
+        Coefficient("alpha", "1", "α", per_mass=False))
+    force_text: ClassVar[str] = "F = c_alpha·|v|^alpha·sgn(v)"
+    fem_hint: ClassVar[str] = ("a nonlinear viscous damper F = c_alpha·|v|^alpha·sign(v) "
+                               "(OpenSees uniaxialMaterial Viscous C alpha; LS-DYNA "
+                               "*MAT_DAMPER_NONLINEAR_VISCOUS with that curve)")
+    colour: ClassVar[str] = "tab:blue"
+
+    def force(self, velocity, coefficients):
+        v = np.asarray(velocity, dtype=float)
+        return coefficients["c_alpha"] * np.abs(v) ** coefficients["alpha"] * np.sign(v)
 
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
@@ -410,14 +520,68 @@ class Power(Law):
         return {"alpha": s, "gamma": 2.0 * math.pi * p0 * (w * a0) ** (1.0 - s) / lam(s)}
 
 
-#: The four damping laws by name, viscous first (the null model).
+#: The registered damping laws by name, viscous first (the null model): the four of this
+#: module, and any added with :func:`register`.
 LAWS: dict[str, Law] = {law.name: law for law in (Viscous(), Coulomb(), Quadratic(), Power())}
-#: Their names, viscous first.
+#: Their names, viscous first (kept equal to ``tuple(LAWS)`` by :func:`register`).
 MODELS = tuple(LAWS)
 #: Name of each law's shape parameter θ[1] (viscous has none).
 SHAPE = {m: law.shape_name for m, law in LAWS.items() if law.shape_name}
 #: Uniform prior support of the shape parameter: f ∈ [0, 1]; α ∈ [0, 3].
 PRIOR_SHAPE = {m: law.shape_prior for m, law in LAWS.items() if law.shape_prior}
+
+
+def _refresh() -> None:
+    """Bring :data:`MODELS`, :data:`SHAPE` and :data:`PRIOR_SHAPE` up to :data:`LAWS` (the
+    dicts in place, so a module holding them sees the change)."""
+    global MODELS
+    MODELS = tuple(LAWS)
+    SHAPE.clear()
+    SHAPE.update({m: law.shape_name for m, law in LAWS.items() if law.shape_name})
+    PRIOR_SHAPE.clear()
+    PRIOR_SHAPE.update({m: law.shape_prior for m, law in LAWS.items() if law.shape_prior})
+
+
+def names() -> tuple[str, ...]:
+    """The registered laws' names, viscous first (what ``--model`` accepts besides auto)."""
+    return tuple(LAWS)
+
+
+def prior_weights() -> dict[str, float]:
+    """Prior model probabilities [1]: each registered law's :attr:`Law.prior_weight`,
+    normalised to sum 1 (the four laws of this module: 1/2, 1/6, 1/6, 1/6)."""
+    total = sum(law.prior_weight for law in LAWS.values())
+    if abs(total - 1.0) < 1e-12:  # already normalised: the weights as written
+        return {m: law.prior_weight for m, law in LAWS.items()}
+    return {m: law.prior_weight / total for m, law in LAWS.items()}
+
+
+def register(law: Law) -> Law:
+    """Add a damping law (an instance of a :class:`Law` subclass with a new ``name``); it is
+    then fitted, sampled, compared, reported and offered by ``--model`` like the four others.
+    Returns ``law``; :func:`unregister` removes it again. A name already registered is a
+    ``ValueError`` (the four laws of this module cannot be replaced)."""
+    if not isinstance(law, Law) or not law.name or law.name == "auto":
+        raise ValueError("register() takes an instance of a Law subclass with a name")
+    if law.name in LAWS:
+        raise ValueError(f"damping law {law.name!r} is already registered")
+    if not law.coefficients:
+        raise ValueError(f"damping law {law.name!r} declares no coefficients")
+    LAWS[law.name] = law.with_phase(0)
+    _refresh()
+    return law
+
+
+def unregister(name: str) -> None:
+    """Remove a law added by :func:`register` (the four laws of this module stay)."""
+    if name in _BUILT_IN:
+        raise ValueError(f"the built-in damping law {name!r} cannot be removed")
+    LAWS.pop(name, None)
+    _refresh()
+
+
+#: The laws of this module (never removed).
+_BUILT_IN = frozenset(LAWS)
 
 
 def get(model: "str | Law", theta=None) -> Law:

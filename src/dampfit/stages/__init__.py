@@ -211,10 +211,11 @@ def initial_decay_rate(base: dict) -> float:
 
 def check_damping_options(model: str, amplitude: float | None) -> None:
     """Validate ``model`` and ``amplitude`` before any work is done."""
-    from dampfit.damping import CHOICES
+    from dampfit.damping import choices
 
-    if model not in CHOICES:
-        raise InputError(f"unknown damping model {model!r}; choose one of {', '.join(CHOICES)}")
+    if model not in choices():
+        raise InputError(f"unknown damping model {model!r}; choose one of "
+                         f"{', '.join(choices())}")
     if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
         raise InputError("--amplitude must be a positive displacement amplitude in metres, "
                          f"got {amplitude!r}")

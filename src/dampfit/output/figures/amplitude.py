@@ -23,8 +23,18 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["amplitude_figure", "amplitude_of"]
 
-_COLORS = {"viscous": "0.45", "coulomb": "tab:orange", "quadratic": "tab:green",
-           "power": "tab:blue"}
+#: Colour of a law whose curve names none (an older summary.json: the four laws' own colours,
+#: which every law now carries itself, :attr:`dampfit.model.laws.Law.colour`).
+_OLD_COLOURS = {"viscous": "0.45", "coulomb": "tab:orange", "quadratic": "tab:green",
+                "power": "tab:blue"}
+
+
+def _colour(name: str, entry: dict) -> str:
+    """The law's plot colour from its curve (``amplitude_curve.models.<law>.colour``)."""
+    from matplotlib.colors import is_color_like
+
+    c = entry.get("colour")  # an edited summary may hold anything: only a real colour is used
+    return c if isinstance(c, str) and is_color_like(c) else _OLD_COLOURS.get(name, "k")
 
 
 def _num(v: Any) -> float:
@@ -150,7 +160,7 @@ def _zeta_panel(ax, curve: dict, wins: list[dict], a: np.ndarray) -> np.ndarray:
     for name, entry in models.items():
         zeta_eq = _series(entry.get("zeta_eq"), grid.size) if isinstance(entry, dict) else None
         if grid.size > 1 and zeta_eq is not None:
-            ax.plot(grid, zeta_eq, color=_COLORS.get(name, "k"),
+            ax.plot(grid, zeta_eq, color=_colour(name, entry),
                     lw=2.0 if name == chosen else 1.0, ls="-" if name == chosen else "--",
                     label=f"{plain(name)}{' (chosen)' if name == chosen else ''}: ζ_eq(a)")
     return grid

@@ -1,0 +1,341 @@
+r"""The one damper a recording supports: summary.json's ``damper`` section and its draws.
+
+From what the analysis already decided — the adequacy verdict (:mod:`~dampfit.damping.checks`),
+the law it names, that law's posterior draws (θ, a₀ and the mass) and the recorded amplitudes —
+:func:`recommend` builds the recommendation every output leads with:
+
+* **status** ``recommended`` (verdict "adequate": one viscous c; "amplitude-dependent": the law
+  the verdict names), ``viscous-stands`` (verdict "inconclusive": the viscous c, with what the
+  recording could not rule out) or ``none`` (verdict "misfit", an amplitude dependence no law
+  describes, or a law without draws: why, and what to try);
+* the law's **coefficients** (:attr:`dampfit.model.laws.Law.coefficients`, SI units) as
+  median and 90 % interval of the law's own posterior draws, with the mass draws
+  (:meth:`dampfit.model.laws.Law.physical` inverts (K2)–(K3));
+* the **measured range**: displacement amplitudes [lo, hi] of the analysed window and the
+  velocity amplitudes ω·A (first-order averaging, u̇ = −a·ω·sin ψ);
+* the **equivalent linear c** at the design amplitude A_d (``--amplitude``, else the middle of
+  the measured range on a log scale, √(lo·hi)): c_lin = 2·m·ρ(A_d) per draw (Jacobsen 1930;
+  (K2) of :mod:`dampfit.model.laws`), ζ_lin = ρ(A_d)/ω;
+* where that c holds: the displacement amplitudes around A_d over which the law's posterior
+  median c_eq(A) = 2·m·ρ(A) stays within ±10 % of c_lin's median, searched over
+  [lo/10, 10·hi] (an end at the search bound means "at least that far"; a linear law holds
+  over the whole search range). The ratio ρ(A)/ρ(A_d) is mass-free, so it is given without a
+  mass too.
+
+**Without a mass** the recording identifies rates per unit mass only: the coefficients that
+need the mass (:attr:`~dampfit.model.laws.Coefficient.per_mass`) are given per kilogram under
+``per_unit_mass`` (``c_per_kg`` [(N s/m)/kg] = 2·p …), ``coefficients`` keeps the mass-free
+ones (α), ``mass``, ``k`` and ``c_linear`` are null and ``missing`` says why; ζ_lin, f_n and the
+±10 % range are given. No FEM damper can be written from it.
+
+The draws (a seeded, thinned subset of at most :data:`MAX_DRAWS`) are kept for posterior.nc's
+``damper`` group. Numeric only: no I/O.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from dampfit.damping.quantities import summarise
+from dampfit.model import laws
+
+__all__ = ["LawDraws", "Damper", "recommend", "MAX_DRAWS", "WITHIN", "SEARCH_FACTOR"]
+
+#: Most draws kept for posterior.nc's ``damper`` group.
+MAX_DRAWS = 4000
+#: Relative band of c_eq(A) around c_lin that "holds" [1].
+WITHIN = 0.10
+#: The ±10 % range is searched over [lo/SEARCH_FACTOR, SEARCH_FACTOR·hi] of the measured range.
+SEARCH_FACTOR = 10.0
+#: Points of the amplitude grid of that search (log-spaced) and draws used for its median.
+_GRID, _CURVE_DRAWS = 481, 1000
+
+
+@dataclass(frozen=True)
+class LawDraws:
+    """Posterior draws of one law: θ (N, k), start amplitude a₀ (N,) [m], mass (N,) [kg] or
+    None; ``method`` ("emcee", "laplace"), ``converged``, ``note`` (why its intervals are
+    approximate, "" when they are not)."""
+
+    law: str
+    theta: np.ndarray
+    a0: np.ndarray
+    mass: np.ndarray | None
+    method: str = "emcee"
+    converged: bool = True
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Damper:
+    """The ``damper`` section (plain, JSON-safe) and the draws of posterior.nc's group (name →
+    array over ``draw``, SI units; None for status ``none``) with its attributes."""
+
+    section: dict[str, Any]
+    draws: dict[str, np.ndarray] | None
+    attrs: dict[str, Any]
+
+
+def _q(x: np.ndarray, unit: str, **extra) -> dict[str, Any]:
+    out = summarise(x, unit)
+    out.update(extra)
+    return out
+
+
+def _thin(n: int, seed: int) -> np.ndarray:
+    """Indices of at most :data:`MAX_DRAWS` of ``n`` draws (seeded, in order)."""
+    if n <= MAX_DRAWS:
+        return np.arange(n)
+    return np.sort(np.random.default_rng(seed).choice(n, MAX_DRAWS, replace=False))
+
+
+def _within(law: laws.Law, theta, a0, a_design: float, lo: float, hi: float) -> list | None:
+    """[A_lo, A_hi] [m] around ``a_design`` where median ρ(A)/median ρ(A_d) is within ±WITHIN
+    (module docstring), or None when not even A_d qualifies (no finite curve)."""
+    idx = np.linspace(0, len(a0) - 1, min(_CURVE_DRAWS, len(a0))).astype(int)
+    grid = np.geomspace(min(lo, a_design) / SEARCH_FACTOR, max(hi, a_design) * SEARCH_FACTOR,
+                        _GRID)
+    th, a = theta[idx], a0[idx]
+    with np.errstate(all="ignore"):
+        rho = law.local_rate(th[:, None, :], grid[None, :] / a[:, None])
+        ref = np.nanmedian(law.local_rate(th, a_design / a))
+        ratio = np.nanmedian(rho, axis=0) / ref
+    ok = np.isfinite(ratio) & (np.abs(ratio - 1.0) <= WITHIN)
+    i = int(np.argmin(np.abs(np.log(grid / a_design))))
+    if not (np.isfinite(ref) and ref > 0 and ok[i]):
+        return None
+    j0, j1 = i, i
+    while j0 > 0 and ok[j0 - 1]:
+        j0 -= 1
+    while j1 < grid.size - 1 and ok[j1 + 1]:
+        j1 += 1
+    return [float(grid[j0]), float(grid[j1])]
+
+
+def _coefficients(law: laws.Law, d: LawDraws) -> tuple[dict, dict, dict]:
+    """(coefficients in SI, per-kilogram ones without a mass, their draws)."""
+    phys = law.physical(d.theta, d.a0, d.mass if d.mass is not None else None)
+    per_kg = law.physical(d.theta, d.a0, 1.0) if d.mass is None else {}
+    coef, per, draws = {}, {}, {}
+    for c in law.coefficients:
+        if d.mass is not None or not c.per_mass:
+            x = np.asarray(phys[c.name], dtype=float)
+            coef[c.name] = _q(x, c.unit, symbol=c.symbol)
+            draws[c.name] = x
+        else:
+            x = np.asarray(per_kg[c.name], dtype=float)
+            per[f"{c.name}_per_kg"] = _q(x, f"({c.unit})/kg", symbol=f"{c.symbol}/m")
+            draws[f"{c.name}_per_kg"] = x
+    return coef, per, draws
+
+
+def _numbers(name: str, d: LawDraws, measured: tuple[float, float], amplitude: float | None,
+             mass: float | None, mass_sd: float) -> tuple[dict, dict]:
+    """The numeric part of the section (law's coefficients, k, f_n, range, design amplitude,
+    c_lin, ζ_lin, ±10 % range) and its draws."""
+    law = laws.get(name, d.theta)
+    theta, a0 = np.asarray(d.theta, float), np.asarray(d.a0, float)
+    w = np.exp(theta[:, law.omega_index])
+    w_med = float(np.median(w))
+    lo, hi = measured
+    a_d = float(amplitude) if amplitude is not None else float(np.sqrt(lo * hi))
+    rho = law.local_rate(theta, a_d / a0)
+    coef, per, draws = _coefficients(law, d)
+    draws.update({"f_n": w / (2 * np.pi), "zeta_linear": rho / w})
+    out: dict[str, Any] = {
+        "force": law.force_text, "coefficients": coef,
+        "mass": {"value": mass, "sd": mass_sd if mass is not None else None, "unit": "kg"},
+        "k": None, "f_n": _q(draws["f_n"], "Hz"),
+        "measured_range": {"displacement_m": [lo, hi],
+                           "velocity_m_s": [w_med * lo, w_med * hi]},
+        "design_amplitude": {"displacement_m": a_d, "velocity_m_s": w_med * a_d,
+                             "source": "--amplitude" if amplitude is not None
+                             else "middle of the measured range"},
+        "c_linear": None, "zeta_linear": _q(draws["zeta_linear"], "1"),
+        "linear_within_10pct_m": _within(law, theta, a0, a_d, lo, hi),
+    }
+    if per:
+        out["per_unit_mass"] = per
+    if d.mass is not None:
+        m = np.asarray(d.mass, float)
+        draws.update({"mass": m, "k": m * w * w, "c_linear": 2.0 * m * rho})
+        out["k"] = _q(draws["k"], "N/m")
+        out["c_linear"] = _q(draws["c_linear"], "N s/m")
+    return out, draws
+
+
+def _factor(x: float) -> str:
+    return f"{100 * (x - 1):.2g} %" if x < 1.1 else f"{x:.3g}x"
+
+
+def not_ruled_out(ctx: dict[str, Any], measured: tuple[float, float]) -> str:
+    """What an "inconclusive" recording could not rule out, in one sentence from the evidence
+    (``ctx``: ``no_decay``, ``bound`` = the largest change of ζ over the recorded amplitudes
+    the slope's 90 % interval allows and ``bound_source``, ``white_at_f0`` with
+    ``ljung_box_p``, ``best_nonlinear`` with ``best_weight``, ``p_viscous``)."""
+    lo, hi = measured
+    if ctx.get("no_decay"):
+        return ("no damping at all: the decay rate cannot be told from 0, so the viscous c "
+                "is an upper bound")
+    parts = []
+    bound = ctx.get("bound")
+    if isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 1:
+        parts.append(f"an amplitude-dependent damping with ζ changing by up to {_factor(bound)} "
+                     f"between {lo:.3g} and {hi:.3g} m displacement amplitude "
+                     f"({ctx.get('bound_source') or 'windowed slope'}, 90 %)")
+    elif bound is None or not np.isfinite(bound):
+        parts.append(f"an amplitude-dependent damping of any size: the recorded amplitudes "
+                     f"({lo:.3g}–{hi:.3g} m) give no slope of ζ against amplitude")
+    best, weight = ctx.get("best_nonlinear"), ctx.get("best_weight")
+    if best and isinstance(weight, (int, float)) and weight >= 0.05:
+        parts.append(f"the {best} law (P = {weight:.2g})")
+    if ctx.get("white_at_f0") is False:
+        p = ctx.get("ljung_box_p")
+        parts.append("structure at f0 that one viscous c leaves in the residual (Ljung-Box p = "
+                     + ("n/a" if p is None else f"{p:.2g}") + ")")
+    if not parts:
+        parts.append("an amplitude dependence below what these data resolve")
+    return "; ".join(parts) + " cannot be ruled out"
+
+
+def misfit_advice(criteria: dict[str, Any]) -> str:
+    """What to try after a misfit (or an amplitude dependence no law describes), from the
+    adequacy criteria that fired."""
+    tips = []
+    if criteria.get("frequency_drift"):
+        tips.append("the frequency changes with amplitude (a stiffness nonlinearity): analyse a "
+                    "window of nearly constant amplitude (--window START END)")
+    if criteria.get("phase_drift"):
+        tips.append("the frequency drifts along the decay: check the set-up (temperature, a "
+                    "loosening clamp) or analyse a shorter --window")
+    if criteria.get("best_law_misfit") or criteria.get("viscous_misfit") \
+            or criteria.get("pipeline_misfit"):
+        tips.append("look at signal.png and spectrum.png for a second mode, harmonics, "
+                    "clipping or catches; narrow the pass band (--band LO HI), shorten the "
+                    "window (--window START END) or look for more modes (--max-modes 4)")
+    if not tips:
+        tips.append("record a longer, cleaner decay over a wider amplitude range; amplitude.png "
+                    "shows the windows' zeta(A) meanwhile")
+    tips.append("--force-law LAW on export writes a chosen law anyway, at your risk")
+    return "; ".join(tips)
+
+
+def _empty(verdict: str, reason: str, tip: str) -> Damper:
+    keys = ("law", "force", "k", "f_n", "measured_range", "design_amplitude", "c_linear",
+            "zeta_linear", "linear_within_10pct_m", "not_ruled_out", "draws", "mass",
+            "missing", "posterior")
+    section = {"status": "none", "verdict": verdict, **{k: None for k in keys},
+               "coefficients": {}, "reason": reason, "try": tip}
+    return Damper(section, None, {})
+
+
+def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
+              draws: LawDraws | None, measured: tuple[float, float], amplitude: float | None,
+              mass: float | None, mass_sd: float, context: dict[str, Any] | None = None,
+              seed: int = 0) -> Damper:
+    """The damper of the module docstring.
+
+    ``verdict`` the adequacy verdict and ``reasons`` its reasons; ``law`` the law the verdict
+    names (amplitude-dependent) — viscous is used for "adequate" and "inconclusive" whatever
+    ``law`` is; ``draws`` that law's posterior draws (:class:`LawDraws`, None: none);
+    ``measured`` (lo, hi) displacement amplitudes [m] of the analysed window; ``amplitude``
+    [m] the user's design amplitude or None; ``mass``, ``mass_sd`` [kg]; ``context`` the
+    evidence :func:`not_ruled_out` and :func:`misfit_advice` read (``criteria`` …, ``weight``
+    the law's posterior probability); ``seed`` thins the draws reproducibly.
+    """
+    ctx = context or {}
+    first = reasons[0] if reasons else "no reason recorded"
+    v = verdict or "none"
+    if verdict in ("adequate", "inconclusive"):
+        name = "viscous"
+    elif verdict == "amplitude-dependent" and law:
+        name = law
+    elif verdict == "amplitude-dependent":
+        return _empty(v, "damping depends on amplitude, but no damping law describes it "
+                      f"reliably ({first})", misfit_advice({}))
+    else:
+        return _empty(v, first if verdict == "misfit" else
+                      "no damping verdict could be made", misfit_advice(ctx.get("criteria")
+                                                                       or {}))
+    if draws is None or len(draws.a0) == 0:
+        return _empty(v, f"the {name} law has no posterior draws", misfit_advice({}))
+    lo, hi = measured
+    if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
+        return _empty(v, "no displacement amplitude was measured in the window",
+                      misfit_advice({}))
+    keep = _thin(len(draws.a0), seed)
+    d = LawDraws(name, np.asarray(draws.theta)[keep], np.asarray(draws.a0)[keep],
+                 None if draws.mass is None else np.asarray(draws.mass)[keep],
+                 draws.method, draws.converged, draws.note)
+    numbers, arrays = _numbers(name, d, (float(lo), float(hi)), amplitude, mass, mass_sd)
+    section: dict[str, Any] = {"status": "viscous-stands" if verdict == "inconclusive"
+                               else "recommended", "verdict": v, "law": name, **numbers}
+    section["reason"] = _reason(verdict, name, first, ctx, d)
+    section["not_ruled_out"] = not_ruled_out(ctx, (lo, hi)) if verdict == "inconclusive" \
+        else None
+    section["try"] = None
+    section["missing"] = None if mass is not None else (
+        "no mass given: the coefficients in newtons, k and c_linear need it (--mass KG); the "
+        "per-kilogram coefficients are under per_unit_mass")
+    section["posterior"] = {"method": d.method, "converged": bool(d.converged),
+                            "note": d.note or None}
+    section["draws"] = {"group": "damper", "n": int(len(d.a0))}
+    attrs = {"law": name, "design_amplitude_m": section["design_amplitude"]["displacement_m"]}
+    return Damper(section, arrays, attrs)
+
+
+def _reason(verdict: str, name: str, first: str, ctx: dict[str, Any], d: LawDraws) -> str:
+    approx = f" ({d.note})" if d.note else ""
+    if verdict == "adequate":
+        return f"one viscous c describes the whole decay: {first}{approx}"
+    if verdict == "inconclusive":
+        return ("the recording cannot tell whether one viscous c is adequate "
+                f"({first}), so the viscous c stands for the measured amplitude range "
+                f"only{approx}")
+    w = ctx.get("weight")
+    pw = f" (P = {w:.2g})" if isinstance(w, (int, float)) and np.isfinite(w) else ""
+    return (f"damping depends on amplitude and the {name} law describes it best{pw}: "
+            f"{first}{approx}")
+
+
+def from_assessment(a: Any, viscous: LawDraws | None, *, amplitude: float | None,
+                    seed: int = 0) -> Damper:
+    """:func:`recommend` from a :class:`~dampfit.damping.assessment.DampingAssessment` ``a``
+    (verdict, reasons, named law and its draws with the mass draws, recorded amplitudes,
+    evidence). ``viscous`` the viscous draws to recommend under "adequate" or "inconclusive"
+    (the pipeline's emcee posterior, whose c is ``parameters.c``; None: the assessment's own
+    viscous draws)."""
+    ad = a.adequacy or {}
+    verdict = ad.get("verdict")
+    law = ad.get("law")
+    name = "viscous" if verdict in ("adequate", "inconclusive") else law
+    draws = viscous if name == "viscous" else None
+    if draws is None and name:
+        post = a.posteriors.get(name)
+        if post is not None:
+            note = ""
+            if post.ill_conditioned:
+                note = "ill-conditioned: Laplace approximation, intervals approximate"
+            elif post.method != "emcee":
+                note = "Laplace approximation of the posterior, intervals approximate"
+            elif not post.converged:
+                note = f"posterior NOT converged ({post.stop_reason}), intervals approximate"
+            draws = LawDraws(name, post.theta, post.a0, a.mass_draws.get(name), post.method,
+                             bool(post.converged), note)
+    fc = (ad.get("fit_checks") or {}).get("viscous") or {}
+    crit = ad.get("criteria") or {}
+    bound = ad.get("bound") or {}
+    best = a.verdict.get("best_nonlinear")
+    weights = {r["model"]: r.get("weight") for r in a.table}
+    ctx = {"criteria": crit, "no_decay": bool(crit.get("no_decay")),
+           "bound": bound.get("factor"), "bound_source": bound.get("source"),
+           "white_at_f0": crit.get("white_at_f0"), "ljung_box_p": fc.get("ljung_box_p"),
+           "best_nonlinear": best, "best_weight": weights.get(best),
+           "p_viscous": a.verdict.get("p_viscous"), "weight": weights.get(name)}
+    return recommend(verdict=verdict, reasons=list(ad.get("reasons") or []), law=law,
+                     draws=draws, measured=a.recorded_amplitudes, amplitude=amplitude,
+                     mass=a.mass, mass_sd=float(getattr(a, "mass_sd", 0.0) or 0.0),
+                     context=ctx, seed=seed)
