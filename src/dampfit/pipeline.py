@@ -55,7 +55,8 @@ def analyze(
     takes the one the evidence prefers; every law is checked either way (``model_checks``).
     The viscous posterior under ``parameters`` is always computed. ``amplitude`` [m] is the
     displacement amplitude at which a non-viscous law's equivalent viscous c is reported
-    (default: the geometric mean of the first and last amplitudes of the window).
+    (default: the middle of the recorded displacement amplitudes, their geometric mean) and
+    the design amplitude of the recommended damper (``Analysis.damper``).
 
     ``on_stage(name, data)``, when given, is called as stages finish with the plain data they
     produced (what the figures are drawn from, :class:`dampfit.output.figures.FigureData`):

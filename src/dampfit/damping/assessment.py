@@ -264,7 +264,8 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     if law and law != chosen and posterior != "laplace":  # the named law's own posterior
         _resample(out, law, data, prep.band, seed=seed + laws.names().index(law),
                   min_ess=min_ess, max_steps=max_steps, budget=budget, progress=progress)
-    out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None)
+    out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None,
+                                         has_mass=mass is not None)
     if out.warning:
         out.warnings.append(out.warning)
     out.warnings.extend(_request_warnings(out, model, amplitude))
@@ -384,7 +385,10 @@ def _weight(table, name) -> float:
 
 
 def _amplitudes(mf: law_fit.ModelFit, wins, fd, amplitude) -> dict[str, float]:
-    """Displacement amplitudes [m] at the window start and end and the reference one."""
+    """Displacement amplitudes [m] at the window start and end and the reference one: the
+    user's ``amplitude``, else the middle (geometric mean) of the recorded range — the
+    windows' amplitudes with the start and end (:attr:`DampingAssessment.recorded_amplitudes`),
+    the damper's design amplitude (:mod:`dampfit.damping.damper`)."""
     start = mf.a0
     e_end = float(laws.envelope(mf.model, mf.theta, np.array([fd.tau[-1] - fd.tau[0]]),
                                   xp=np)[0][..., 0])
@@ -394,7 +398,9 @@ def _amplitudes(mf: law_fit.ModelFit, wins, fd, amplitude) -> dict[str, float]:
         end = max(end, min(measured))
     if not (np.isfinite(end) and end > 0):
         end = 0.5 * start
-    ref = float(amplitude) if amplitude is not None else float(np.sqrt(start * end))
+    rec = [a for a in measured + [start, end] if np.isfinite(a) and a > 0]
+    middle = float(np.sqrt(min(rec) * max(rec))) if rec else float("nan")
+    ref = float(amplitude) if amplitude is not None else middle
     return {"ref": ref, "start": float(start), "end": float(end)}
 
 

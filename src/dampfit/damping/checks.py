@@ -193,7 +193,8 @@ def warning_text(preferred: str, p_viscous: float, zeta_hi: float, zeta_lo: floa
     return (
         f"damping depends on amplitude: ζ {verb} from {_fmt(zeta_hi)} at {_fmt(a_hi)} m to "
         f"{_fmt(zeta_lo)} at {_fmt(a_lo)} m ({source}; P(one viscous c) = {p_viscous:.2g}); "
-        f"the {preferred} law fits best, so a single viscous c is not adequate — {at}; "
+        f"the {preferred} law fits best, so a single viscous {'c' if c_ref is not None else 'zeta'}"
+        f" is not adequate — {at}; "
         f"for FEM use {fem_hint(preferred)}"
     )
 
@@ -490,16 +491,21 @@ def _p_decisive() -> float:
     return P_VISCOUS_MAX
 
 
-def verdict_warning(result: dict, amplitude_text: str | None = None) -> str | None:
+def verdict_warning(result: dict, amplitude_text: str | None = None, *,
+                    has_mass: bool = True) -> str | None:
     """The one warning for a verdict of :func:`adequacy` (None when adequate).
 
-    ``amplitude_text`` the :func:`warning_text` of an amplitude-dependent decay.
+    ``amplitude_text`` the :func:`warning_text` of an amplitude-dependent decay; ``has_mass``
+    whether c was computed at all (without a mass the damping is ζ and p only, and the
+    warning speaks of those).
     """
     v, why = result["verdict"], "; ".join(result["reasons"][:3])
     if v == "adequate":
         return None
+    c = "c" if has_mass else "zeta"
     if (result.get("criteria") or {}).get("no_decay"):
-        return (f"{result['reasons'][0]}: zeta, p, c and delta are reported as upper bounds "
+        listed = "zeta, p, c and delta" if has_mass else "zeta, p and delta"
+        return (f"{result['reasons'][0]}: {listed} are reported as upper bounds "
                 "(their intervals reach 0); a free-decay analysis needs a released, decaying "
                 "oscillation — check the recording and the window")
     if v == "amplitude-dependent":
@@ -507,14 +513,14 @@ def verdict_warning(result: dict, amplitude_text: str | None = None) -> str | No
             return f"{amplitude_text} (evidence: {why})"
         if not result.get("law"):
             return ("damping depends on amplitude (the windowed zeta(A) shows it), so a single "
-                    f"viscous c is not adequate; no damping law describes it reliably ({why})")
+                    f"viscous {c} is not adequate; no damping law describes it reliably ({why})")
         return (
             f"damping depends on amplitude: the {result['law']} law fits best, so a single "
-            f"viscous c is not adequate ({why})")
+            f"viscous {c} is not adequate ({why})")
     if v == "misfit":
         return ("model misfit: the free-decay model does not describe this waveform "
                 f"({why}); no damping law explains it (harmonics, frequency drift, distortion, "
-                "a second mode or catches?), so c and its interval are not trustworthy — check "
-                "the window and the set-up")
-    return ("inconclusive: the recording cannot tell whether one viscous c is adequate "
-            f"({why}); treat c as an estimate for this amplitude range only")
+                f"a second mode or catches?), so {c} and its interval are not trustworthy — "
+                "check the window and the set-up")
+    return (f"inconclusive: the recording cannot tell whether one viscous {c} is adequate "
+            f"({why}); treat {c} as an estimate for the recorded amplitude range only")

@@ -20,6 +20,7 @@ from __future__ import annotations
 import html
 from typing import Any
 
+from dampfit.output import damper as damper_rows
 from dampfit.output.format import interval, own_spread, point
 from dampfit.physics import UNITS
 
@@ -123,14 +124,28 @@ def _backbone_lines(s: dict) -> list[str]:
              for name, unit in (("zeta", ""), ("c", " " + UNITS["c"])) if isinstance(params.get(name), dict)
              and params[name].get("q50") is not None]
     if parts:
-        out.append("  drift followed  " + ", ".join(parts) + " (viscous decay with the frequency "
-                   "drift modelled)")
+        out.append("  drift followed (viscous, frequency drift modelled)  " + ", ".join(parts))
     return out
 
 
+def damper_lines(s: dict[str, Any]) -> list[str]:
+    """The recommended-damper block (:mod:`dampfit.output.damper`), first of the results; []
+    for a summary without one (an older folder)."""
+    d = s.get("damper")
+    if not isinstance(d, dict):
+        return []
+    return [f"  {damper_rows.title(d)}"] + [f"    {label:17s} {text}"
+                                           for label, text in damper_rows.rows(d)]
+
+
 def text(s: dict[str, Any]) -> str:
-    """A readable multi-line table of a summary dict."""
-    lines = _head_lines(s) + [""] + _posterior_lines(s) + [""] + _estimate_lines(s)
+    """A readable multi-line table of a summary dict: the recommended damper first, then the
+    other estimates, each named for what it is."""
+    lead = damper_lines(s)
+    if lead:
+        lead += ["", "  other estimates (not the recommendation; each named for what it is)"]
+    lines = (_head_lines(s) + [""] + lead + _posterior_lines(s) + [""]
+             + _estimate_lines(s))
     nm = s["noise_model"]
     lines.append(
         f"  noise           sigma = {nm['sigma']:.3g} m/s^2 per sample at {nm['sample_rate_hz']:.4g} Hz, "
@@ -216,7 +231,8 @@ def _head_lines(s: dict[str, Any]) -> list[str]:
 
 def _posterior_lines(s: dict[str, Any]) -> list[str]:
     """The posterior table: median, 90 % interval (honest digits), sd, R-hat, ESS."""
-    lines = [f"  {'posterior':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} "
+    lines = [f"  {damper_rows.other_label(s)}",
+             f"  {'':15s} {'median':>12s}   {'90 % interval':^27s} {'sd':>10s} "
              f"{'R-hat':>7s} {'ESS':>6s}"]
     for name in ("c", "k", "u0", "zeta", "f_n", "p"):
         q = s["parameters"].get(name)
@@ -234,11 +250,12 @@ def _posterior_lines(s: dict[str, Any]) -> list[str]:
 def _estimate_lines(s: dict[str, Any]) -> list[str]:
     """Least squares (with the posterior's digits) and the baselines (with their own)."""
     ls = s["least_squares"]
-    lines = ["  least squares   " + ", ".join(
+    lines = ["  least squares (viscous)  " + ", ".join(
         f"{k} = {_like_posterior(s, k, ls.get(k))}" for k in ("c", "k", "u0", "zeta", "f_n")
         if ls.get(k) is not None
     ) + ("" if ls["converged"] else "   (NOT converged)")]
-    for key, label in (("log_decrement", "log decrement "), ("envelope_pipeline", "envelope (paper)")):
+    for key, label in (("log_decrement", "log decrement (seed paper baseline)"),
+                       ("envelope_pipeline", "envelope (seed paper baseline)")):
         b = s["baselines"].get(key)
         if b is None:
             lines.append(f"  {label:15s} not computed")
@@ -268,8 +285,11 @@ def _damping_law_line(s: dict[str, Any]) -> str:
                                 f"({pv})"),
         "misfit": f"MISFIT: no damping law describes this waveform ({pv}); see the warning",
         "inconclusive": (f"inconclusive: {first or 'the evidence is too weak either way'} "
-                         f"({pv}, {mc.get('preferred_model')} fits best)"),
+                         f"({_evidence_words(s, amp.get('p_viscous'))})"),
     }.get(verdict, f"{verdict} ({pv})")
+    d = s.get("damper")
+    if isinstance(d, dict) and d.get("status") in ("recommended", "viscous-stands"):
+        return line  # its linear equivalent at the design amplitude is in the damper block
     ceq = s.get("c_equivalent")
     why = (s.get("missing") or {}).get("c_equivalent") if isinstance(
         s.get("missing"), dict) else None
@@ -293,6 +313,22 @@ def _damping_law_line(s: dict[str, Any]) -> str:
     return line
 
 
+def _evidence_words(s: dict[str, Any], p_viscous: Any) -> str:
+    """What the laws' evidence alone says, without contradicting an open verdict: which way it
+    leans and how strongly (P(one viscous c) against the most probable other law)."""
+    rows = (s.get("damping_models") or {}).get("comparison")
+    rows = [r for r in rows if isinstance(r, dict) and isinstance(r.get("weight"), (int, float))
+            and r.get("model") != "viscous"] if isinstance(rows, list) else []
+    other = max(rows, key=lambda r: r["weight"], default=None)
+    if not isinstance(p_viscous, (int, float)):
+        return "no law evidence"
+    alt = (f"; most probable other law {other['model']}, P = {other['weight']:.2g}"
+           if other is not None else "")
+    lean = ("the laws' evidence alone leans to one viscous c" if p_viscous >= 0.5
+            else "the laws' evidence alone is split")
+    return f"{lean}: P(one viscous c) = {p_viscous:.2g}{alt}; not enough for a verdict"
+
+
 def _rows(s: dict[str, Any]) -> list[tuple[str, str, str, str]]:
     """(quantity, median, 90 % interval, unit) of the headline quantities present in ``s``."""
     out = []
@@ -313,9 +349,13 @@ def _verdict(s: dict[str, Any]) -> str | None:
 
 
 def headline(s: dict[str, Any]) -> str:
-    """One line: c, k and ζ with their 90 % intervals, the verdict and convergence."""
-    parts = [f"{name} = {med} {iv} {unit}".rstrip() for name, med, iv, unit in _rows(s)
-             if name in ("c", "k", "zeta")]
+    """One line: the recommended damper (else c, k and ζ of the viscous posterior, named so
+    when no damper is recommended) with their 90 % intervals, the verdict and convergence."""
+    lead = damper_rows.short(s.get("damper"))
+    parts = [lead] if lead else []
+    if not lead or s["damper"].get("status") == "none":
+        parts += [f"{'viscous ' if lead else ''}{name} = {med} {iv} {unit}".rstrip()
+                  for name, med, iv, unit in _rows(s) if name in ("c", "k", "zeta")]
     v = _verdict(s)
     if v:
         parts.append(f"verdict {v}")
@@ -326,10 +366,18 @@ def headline(s: dict[str, Any]) -> str:
 
 
 def html_table(s: dict[str, Any]) -> str:
-    """A short HTML table of the headline quantities (median, 90 % interval, unit), the verdict
+    """The recommended damper (its rows, :mod:`dampfit.output.damper`) and below it a short
+    HTML table of the viscous quantities (median, 90 % interval, unit), the verdict
     and whether the result converged — what a notebook shows for an analysis. Every value is
     escaped (a summary.json may have been edited)."""
     e = html.escape
+    d = s.get("damper")
+    lead = ""
+    if isinstance(d, dict):
+        body = "".join(f"<tr><td>{e(label)}</td><td>{e(text)}</td></tr>"
+                       for label, text in damper_rows.rows(d))
+        lead = (f"<p><b>{e(damper_rows.title(d))}</b></p><table><tbody>{body}</tbody></table>"
+                f"<p>{e(damper_rows.other_label(s))}:</p>")
     rows = "".join(f"<tr><td>{e(n)}</td><td>{e(m)}</td><td>{e(i)}</td><td>{e(u)}</td></tr>"
                    for n, m, i, u in _rows(s))
     foot = []
@@ -339,6 +387,6 @@ def html_table(s: dict[str, Any]) -> str:
     d = s.get("diagnostics")
     if isinstance(d, dict) and isinstance(d.get("converged"), bool):
         foot.append("converged" if d["converged"] else "<b>NOT converged</b>")
-    return ("<table><thead><tr><th>quantity</th><th>median</th><th>90 % interval</th>"
+    return (lead + "<table><thead><tr><th>quantity</th><th>median</th><th>90 % interval</th>"
             f"<th>unit</th></tr></thead><tbody>{rows}</tbody></table>"
             + (f"<p>{'; '.join(foot)}</p>" if foot else ""))

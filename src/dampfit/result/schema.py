@@ -47,6 +47,36 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
      "band": {"low_hz", "high_hz", "auto"},
      "dominant_frequency_hz": float,
      "mass": {"value", "sd", "unit"},              # kg; value null if not given
+     "damper": null | {                            # THE recommendation (dampfit.damping.damper)
+             "status": "recommended" | "viscous-stands" | "none",
+                   # recommended: verdict adequate (law viscous) or amplitude-dependent
+                   # (the law the verdict names); viscous-stands: inconclusive (law
+                   # viscous, not_ruled_out says what); none: misfit, no verdict, or a
+                   # dependence no law describes (law null; reason and try)
+             "verdict", "law": "viscous" | "coulomb" | "quadratic" | "power" | null,
+             "force": str,                       # e.g. "F = c_alpha·|v|^alpha·sgn(v)"
+             "coefficients": {NAME: {"unit", "symbol", "mean", "sd", "q05", "q50",
+                   "q95"}},   # the law's own posterior, SI: c [N s/m], F_c [N],
+                   # c2 [N s^2/m^2], c_alpha [N (s/m)^alpha], alpha [1]; viscous: c;
+                   # coulomb: c, F_c; quadratic: c, c2; power: c_alpha, alpha.
+                   # Without mass only the mass-free ones (alpha), the others per kg:
+             "per_unit_mass": {NAME_per_kg: {…}},  # only without mass
+             "mass": {"value", "sd", "unit"}, "k": {"unit": "N/m", …} | null,
+             "f_n": {"unit": "Hz", …},
+             "measured_range": {"displacement_m": [lo, hi],  # the analysed window's
+                   "velocity_m_s": [lo, hi]},    # amplitudes, v = omega_n·A
+             "design_amplitude": {"displacement_m", "velocity_m_s",
+                   "source": "--amplitude" | "middle of the measured range"},
+                   # middle: sqrt(lo·hi)
+             "c_linear": {"unit": "N s/m", …} | null,  # equivalent linear c = 2·m·rho(A)
+             "zeta_linear": {"unit": "1", …},    #   and zeta at the design amplitude
+             "linear_within_10pct_m": [lo, hi] | null,  # where the law's median c_eq(A)
+                   # stays within ±10 % of c_linear's median, searched over
+                   # [lo/10, 10·hi] of the measured range
+             "reason": str, "not_ruled_out": str | null, "try": str | null,
+             "missing": str | null,              # without mass: what needs it
+             "posterior": {"method", "converged", "note"},  # how the draws were made
+             "draws": {"group": "damper", "n"} | null},   # posterior.nc's group
      "parameters": {                               # posterior summaries
              "c": {"unit": "N s/m", "mean", "sd", "q05", "q50", "q95", "r_hat",
                    "ess_bulk", "crlb_sd"},
@@ -73,10 +103,14 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "single_viscous_c_adequate", "amplitude_dependence": {"detected",
              "p_viscous", "slope_ln_p_vs_ln_amplitude", …}, "residual_whiteness": {…},
              "adequacy", "warning"},             # verdict: dampfit.damping.checks
-     "damping_models": {"comparison": [...], "models": {law: {…}}, "preferred_model",
+     "damping_models": {"comparison": [...], "models": {law: {"parameters",
+                   "least_squares", "posterior", "ln_evidence", "fem", "force",
+                   "coefficients": [{"name", "unit", "symbol", "needs_mass"}],
+                   "style": {"colour"}}}, "preferred_model", "model_prior",
              "chosen_model", …},               # each law's parameters and weight
      "amplitude_curve": {"windows": [{"amplitude_m", "zeta", "zeta_sd", "f_d_hz",
-             "f_d_sd_hz", …}], "slope", "backbone", …},     # ζ(A) and f(A)
+             "f_d_sd_hz", …}], "slope", "backbone",      # ζ(A) and f(A)
+             "models": {law: {"zeta_eq", "c_eq", "colour"}}, …},
      "c_equivalent": null | {"model", "c", "zeta", "amplitude_m", "note",
              "recorded_amplitude_range_m", "extrapolated"},
      "n_modes": int,                               # modes found (1 … max modes)
@@ -114,8 +148,14 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "acceptance_fraction", "warnings": [str]},
      "provenance": {"seed", "options", "date", "python", "versions"}}
 
-``model_checks``, ``damping_models`` and ``amplitude_curve`` are null when the damping-law
-assessment could not run.
+``model_checks``, ``damping_models``, ``amplitude_curve`` and ``damper`` are null when the
+damping-law assessment could not run. Of status "none" every number of ``damper`` is null and
+``coefficients`` is empty. posterior.nc holds, besides the arviz groups (and ``modes`` with
+several modes), the group ``damper`` when its status is not "none": one dimension ``draw``
+(a seeded, thinned subset of the law's posterior, at most 4000), variables in SI — ``mass``
+[kg], ``k`` [N/m] (with a mass), ``f_n`` [Hz], each coefficient NAME (or NAME_per_kg),
+``c_linear`` [N s/m] (with a mass) and ``zeta_linear`` [1] at the design amplitude — and
+attributes ``law``, ``design_amplitude_m``.
 
 Top-level keys of a campaign's summary (several recordings of one damper,
 :mod:`dampfit.campaign`)::

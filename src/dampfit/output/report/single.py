@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from dampfit.files.folder import DEMO_MARKER
+from dampfit.output import damper as damper_rows
 from dampfit.output.document import Block
 from dampfit.output.report.checks import amplitude, model_checks
 from dampfit.output.report.modes import modes_blocks
@@ -41,23 +42,25 @@ from dampfit.result.schema import parse_json, unique_warnings
 __all__ = ["BASELINES", "build_single", "crlb_sd"]
 
 #: The seed paper's baselines by summary key, as the methods table names them.
-BASELINES = {"log_decrement": "logarithmic decrement (paper eqs 9, 13, 15)",
-             "envelope_pipeline": "envelope pipeline (paper eqs 3, 4; Fig. 20)"}
+BASELINES = {"log_decrement": "logarithmic decrement, seed paper baseline (paper eqs 9, 13, 15)",
+             "envelope_pipeline": "envelope pipeline, seed paper baseline (paper eqs 3, 4; "
+                                  "Fig. 20)"}
 
 
 def build_single(data: dict[str, Any], directory: Path, now: str) -> tuple[str, list[Block]]:
     """(title, blocks) of the report of a single-recording folder (:func:`dampfit.output.
-    report.build.load`'s ``data``): status box, headline, result table, methods, provenance,
-    figures, noise model, diagnostics, model checks, amplitude dependence, verification,
+    report.build.load`'s ``data``): the recommended damper, status box, headline, result
+    table, methods, provenance, figures, noise model, diagnostics, model checks, amplitude dependence, verification,
     how to reproduce and cite; with several modes, the modes after the methods."""
     s = data["summary"]
     path = get(s, "input", "path")
     title = f"dampfit damping report — {Path(path).name if isinstance(path, str) else directory.name}"
     b: list[Block] = [("h1", title)]
-    b += _status(s) + _headline(s)
+    b += _damper_box(s) + _status(s) + _headline(s)
 
     crlb = s.get("crlb")
-    b += [("h2", "Result: posterior of c, k, u₀, ζ, f_n")] + _parameter_table(s, MAIN)
+    b += [("h2", f"Result: {damper_rows.other_label(s)} of c, k, u₀, ζ, f_n")]
+    b += _parameter_table(s, MAIN)
     b.append(("p", ["Median and 90 % equal-tailed interval of the posterior draws, with the "
                     "digits the interval's width supports; sd the posterior standard deviation; "
                     "R-hat (rank-normalised) and bulk ESS from arviz."]))
@@ -159,16 +162,29 @@ def _status(s: dict) -> list[Block]:
     return [("box", "ok", "Converged, no warnings", [[f"Diagnostics: {facts}."]])]
 
 
+def _damper_box(s: dict) -> list[Block]:
+    """The first box: the recommended damper (:mod:`dampfit.output.damper`) — what goes into
+    the model — or why none is recommended and what to try."""
+    d = s.get("damper")
+    if not isinstance(d, dict):
+        return []
+    cls = {"recommended": "ok", "viscous-stands": "note"}.get(d.get("status"), "bad")
+    items = [[("b", f"{label}: "), text] for label, text in damper_rows.rows(d)]
+    return [("box", cls, damper_rows.title(d), items)]
+
+
 def _headline(s: dict) -> list[Block]:
     params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
-    spans: list = []
+    d = s.get("damper") if isinstance(s.get("damper"), dict) else None
+    bold = d is None or d.get("law") == "viscous"  # the headline only when it is the damper
+    spans: list = [] if d is None else [f"{damper_rows.other_label(s)}: "]
     for name in MAIN:
         q = params.get(name)
         if isinstance(q, dict) and isnum(q.get("q50")):
             sym, unit = NAMES[name].split(",")[0], q.get("unit") or UNITS[name]
-            spans += ["; "] if spans else []
-            spans += [("b", f"{sym} = {median(q)}" + (f" {unit}" if unit != "1" else "")),
-                      f" (90 % interval {bracket(q)})"]
+            spans += ["; "] if len(spans) > (d is not None) else []
+            value = f"{sym} = {median(q)}" + (f" {unit}" if unit != "1" else "")
+            spans += [("b", value) if bold else value, f" (90 % interval {bracket(q)})"]
     if not spans:
         return [("p", ["No posterior summary in summary.json."])]
     out: list[Block] = [("p", spans + ["."])]
@@ -285,7 +301,7 @@ def _methods(s: dict, directory: Path) -> list[Block]:
     params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
     head = (["method"] + [f"{sym} [{UNITS[n]}]" for sym, n in
                           (("c", "c"), ("ζ", "zeta"), ("f_n", "f_n"), ("p", "p"))] + ["note"])
-    rows = [["posterior median"] + [median(params[n]) if isinstance(params.get(n), dict) else "—"
+    rows = [["viscous posterior median"] + [median(params[n]) if isinstance(params.get(n), dict) else "—"
                                     for n in ("c", "zeta", "f_n", "p")]
             + ["90 % intervals in the table above"]]
     ls = s.get("least_squares")
@@ -294,7 +310,7 @@ def _methods(s: dict, directory: Path) -> list[Block]:
             v, sd = ls.get(name), ls.get(f"{name}_sd")
             return estimate(s, name, v) + (f" ± {number(sd, 2)}" if isnum(sd) and isnum(v) else "")
 
-        rows.append(["least squares", pm("c"), pm("zeta"), estimate(s, "f_n", ls.get("f_n")),
+        rows.append(["least squares (viscous)", pm("c"), pm("zeta"), estimate(s, "f_n", ls.get("f_n")),
                      estimate(s, "p", ls.get("p")),
                      "± 1σ from the Jacobian" + ("" if ls.get("converged", True) else "; NOT converged")])
     bases = s.get("baselines") if isinstance(s.get("baselines"), dict) else {}
