@@ -100,7 +100,7 @@ def test_a_disagreeing_baseline_is_noted_in_the_summary_and_the_text():
 
 
 def test_an_agreeing_supported_baseline_carries_no_caveat():
-    line = next(x for x in render.text(summary()).splitlines() if "envelope (paper)" in x)
+    line = next(x for x in render.text(summary()).splitlines() if "envelope (seed paper baseline)" in x)
     assert "reliable" not in line and "disagrees" not in line
 
 

@@ -66,5 +66,5 @@ def test_the_cli_text_prints_the_backbone_only_when_the_frequency_drifts():
     steady = summary_of(softening(0.0))
     lines = render._backbone_lines(drifting)
     assert lines[0].startswith("  backbone") and "softening" in lines[0]
-    assert lines[1].startswith("  drift followed  zeta = ")
+    assert lines[1].startswith("  drift followed (viscous, frequency drift modelled)  zeta = ")
     assert render._backbone_lines(steady) == []

@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from dampfit.damping.checks import ZETA_RATIO_MATTERS
 from dampfit.damping.quantities import summarise
 from dampfit.model import laws
 
@@ -180,13 +181,17 @@ def not_ruled_out(ctx: dict[str, Any], measured: tuple[float, float]) -> str:
     if ctx.get("no_decay"):
         return ("no damping at all: the decay rate cannot be told from 0, so the viscous c "
                 "is an upper bound")
-    parts = []
+    parts, bounded = [], ""
     bound = ctx.get("bound")
-    if isinstance(bound, (int, float)) and np.isfinite(bound) and bound > 1:
+    where = f"between {lo:.3g} and {hi:.3g} m displacement amplitude"
+    source = ctx.get("bound_source") or "windowed slope"
+    if isinstance(bound, (int, float)) and np.isfinite(bound) and bound >= ZETA_RATIO_MATTERS:
         parts.append(f"an amplitude-dependent damping with ζ changing by up to {_factor(bound)} "
-                     f"between {lo:.3g} and {hi:.3g} m displacement amplitude "
-                     f"({ctx.get('bound_source') or 'windowed slope'}, 90 %)")
-    elif bound is None or not np.isfinite(bound):
+                     f"{where} ({source}, 90 %)")
+    elif isinstance(bound, (int, float)) and np.isfinite(bound):
+        bounded = (f" (an amplitude dependence is bounded: ζ changes by at most "
+                   f"{_factor(max(bound, 1.0))} {where}, {source}, 90 %)")
+    else:
         parts.append(f"an amplitude-dependent damping of any size: the recorded amplitudes "
                      f"({lo:.3g}–{hi:.3g} m) give no slope of ζ against amplitude")
     best, weight = ctx.get("best_nonlinear"), ctx.get("best_weight")
@@ -198,7 +203,7 @@ def not_ruled_out(ctx: dict[str, Any], measured: tuple[float, float]) -> str:
                      + ("n/a" if p is None else f"{p:.2g}") + ")")
     if not parts:
         parts.append("an amplitude dependence below what these data resolve")
-    return "; ".join(parts) + " cannot be ruled out"
+    return "; ".join(parts) + " cannot be ruled out" + bounded
 
 
 def misfit_advice(criteria: dict[str, Any]) -> str:
@@ -292,9 +297,8 @@ def _reason(verdict: str, name: str, first: str, ctx: dict[str, Any], d: LawDraw
     if verdict == "adequate":
         return f"one viscous c describes the whole decay: {first}{approx}"
     if verdict == "inconclusive":
-        return ("the recording cannot tell whether one viscous c is adequate "
-                f"({first}), so the viscous c stands for the measured amplitude range "
-                f"only{approx}")
+        return (f"the recording cannot tell whether one viscous c is adequate: {first}; the "
+                f"viscous c stands for the measured amplitude range only{approx}")
     w = ctx.get("weight")
     pw = f" (P = {w:.2g})" if isinstance(w, (int, float)) and np.isfinite(w) else ""
     return (f"damping depends on amplitude and the {name} law describes it best{pw}: "

@@ -169,8 +169,8 @@ def text(s: dict[str, Any]) -> str:
 
 #: Rows of each mode's block (:func:`_modes_lines`): key, label; c and k for the mass's mode.
 _MODE_ROWS = (("f_n", "f_n    [Hz]"), ("zeta", "zeta   [1]"), ("eta", "eta    [1]"),
-              ("delta", "Lambda [1]"), ("Q", "Q      [1]"), ("c", "c      [N s/m]"),
-              ("k", "k      [N/m]"))
+              ("delta", "Lambda [1]"), ("Q", "Q      [1]"),
+              ("c", "c      [N s/m] (this mode's viscous c)"), ("k", "k      [N/m]"))
 
 
 def _modes_lines(s: dict[str, Any]) -> list[str]:
@@ -196,8 +196,10 @@ def _modes_lines(s: dict[str, Any]) -> list[str]:
                                                   for x in ("q05", "q50", "q95")):
                 continue
             med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
+            label, _, what = label.partition(" (")
             lines.append(f"    {label:13s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
-                         f"   R-hat {_f(q.get('r_hat'), '.4f')}")
+                         f"   R-hat {_f(q.get('r_hat'), '.4f')}"
+                         + (f"   ({what}" if what else ""))
     ray = s.get("rayleigh")
     if isinstance(ray, dict) and isinstance(ray.get("statement"), str):
         lines.append(f"  Rayleigh        alpha = {_with_interval(ray.get('alpha') or {})} 1/s, "
