@@ -42,6 +42,7 @@ def unit_of(model: str, name: str) -> str:
         return UNITS[name]
     law = models.LAWS.get(model)
     units = {c.name: c.unit for c in law.coefficients} if law is not None else {}
+    units.update({f"{n}/m": f"({u})/kg" for n, u in list(units.items())})
     return units.get(name, "")
 
 
@@ -64,7 +65,7 @@ def draws(model: str, theta: np.ndarray, a0: np.ndarray, m: np.ndarray | None,
     w = np.exp(theta[:, law.omega_index])
     out: dict[str, np.ndarray] = {"p0": np.exp(theta[:, 0]), "f_n": w / (2 * np.pi), "u0": a0}
     phys = law.physical(theta, a0, m)
-    if law.shape_prior is None:  # one decay rate: it is p, and ζ = p/ω
+    if isinstance(law, models.Viscous):  # one decay rate: it is p, and ζ = p/ω
         out["p"] = out["p0"]
         out["zeta"] = physics.quantities(out["p0"], w)["zeta"]
     elif law.shape_name not in phys:  # a shape parameter that is no coefficient (a fraction)

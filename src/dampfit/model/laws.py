@@ -339,7 +339,9 @@ class Law:
         Per unit mass (always): ``p_viscous`` = c/(2m) [1/s]; coulomb ``mu_c`` = F_c/m [m/s²];
         quadratic ``beta`` = c₂/m [1/m]; power ``gamma`` = c_α/m [(m/s)^{1−α}/s] and ``alpha``
         [1]. With ``mass`` [kg] also ``c`` [N·s/m], ``F_c`` [N], ``c2`` [N·s²/m²], ``c_alpha``
-        [N·(s/m)^α]. ω [rad/s] = exp(θ[ln ω]). Inverts (K2)–(K3).
+        [N·(s/m)^α]. ω [rad/s] = exp(θ[ln ω]). Inverts (K2)–(K3). A law added with
+        :func:`register` returns each coefficient NAME that needs the mass per unit mass as
+        ``"NAME/m"`` from :meth:`_coefficients`; with a mass NAME = m·(NAME/m) is added.
         """
         th = np.asarray(theta, dtype=float)
         p0, w = np.exp(th[..., 0]), np.exp(th[..., self.omega_index])
@@ -352,6 +354,9 @@ class Law:
             for src, dst in (("mu_c", "F_c"), ("beta", "c2"), ("gamma", "c_alpha")):
                 if src in out:
                     out[dst] = m * out[src]
+            for c in self.coefficients:  # a new law's per-unit-mass "NAME/m" → NAME
+                if c.per_mass and c.name not in out and f"{c.name}/m" in out:
+                    out[c.name] = m * out[f"{c.name}/m"]
         return out
 
 

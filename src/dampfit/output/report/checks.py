@@ -56,8 +56,11 @@ CRITERIA_WORDS = {
     "phase_drift": "the frequency drifts along the decay", "few_cycles": "too few cycles",
     "no_decay": "no decay measured (forced or self-sustained vibration?)",
 }
-#: Parameters shown per damping law in the laws table (first present set wins).
-_LAW_PARAMS = ("c", "F_c", "mu_c", "c2", "beta", "c_alpha", "gamma", "alpha")
+#: Per-unit-mass forms of the four built-in laws' coefficients, shown after the law's own
+#: coefficients (which each law names in summary.json: ``damping_models.models.<law>.
+#: coefficients``, :attr:`dampfit.model.laws.Law.coefficients`); a registered law's are
+#: ``NAME/m``.
+_PER_MASS = ("mu_c", "beta", "gamma")
 _MC_KNOWN = ("warning", "verdict", "verdict_reasons", "verdict_law", "preferred_model",
              "chosen_model", "requested_model", "single_viscous_c_adequate", "residual_whiteness",
              "amplitude_dependence", "adequacy", "decay")
@@ -77,11 +80,14 @@ def _laws(s: dict) -> list[Block]:
         if not isinstance(m, dict):
             continue
         par = m.get("parameters") if isinstance(m.get("parameters"), dict) else {}
-        shown = [(k, par[k]) for k in _LAW_PARAMS if isinstance(par.get(k), dict)]
+        own = _coefficients(m)
+        keys = list(own) + [k for k in _PER_MASS + tuple(f"{n}/m" for n in own) if k not in own]
+        shown = [(k, par[k]) for k in keys if isinstance(par.get(k), dict)]
         if "k" not in par:  # no mass: the viscous part is the decay rate p₀ (ζ for viscous)
             lead = "zeta" if law == "viscous" else "p0"
             shown = ([(lead, par[lead])] if isinstance(par.get(lead), dict) else []) + shown
-        text = "; ".join(f"{_SYMBOL.get(k, k)} = {with_interval(q, q.get('unit') or '')}"
+        text = "; ".join(f"{own.get(k) or _SYMBOL.get(k, k)} = "
+                         f"{with_interval(q, q.get('unit') or '')}"
                          for k, q in shown) or "—"
         w = get(weights, law, "weight")
         post = m.get("posterior") if isinstance(m.get("posterior"), dict) else {}
@@ -105,6 +111,18 @@ def _laws(s: dict) -> list[Block]:
                        "note"], rows),
             ("p", ["Weight: posterior probability of each law from its log evidence; parameters "
                    "with their units; ζ_eq the energy-equivalent viscous damping ratio."])]
+
+
+def _coefficients(entry: dict) -> dict[str, str]:
+    """The law's own coefficients (name → symbol) as its summary entry names them; the four
+    built-in laws' for an older summary.json without them."""
+    listed = entry.get("coefficients")
+    if isinstance(listed, list):
+        out = {c["name"]: c.get("symbol") if isinstance(c.get("symbol"), str) else c["name"]
+               for c in listed if isinstance(c, dict) and isinstance(c.get("name"), str)}
+        if out:
+            return out
+    return {k: _SYMBOL[k] for k in ("c", "F_c", "c2", "c_alpha", "alpha")}
 
 
 _SYMBOL = {"p0": "p₀", "c": "c", "F_c": "F_c", "mu_c": "μ_c", "c2": "c₂", "beta": "β", "c_alpha": "c_α",
