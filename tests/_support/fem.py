@@ -97,3 +97,71 @@ def write_modal_summary(folder, modes=MODES, layout="list", **kw):
                         ("modes_rayleigh" if layout == "list" else "rayleigh"): ray})
     path.write_text(json.dumps(summary))
     return folder
+
+
+# -- the damper section (issue 32; notes/damper_spec.md) -------------------------------------
+
+#: Known nonlinear dampers on the seed paper's system (SI): ζ_eq ≈ 0.005–0.01 at U0.
+LAW_CASES = {
+    "power": {"c_alpha": 0.53, "alpha": 0.5},
+    "coulomb": {"c": 0.2, "F_c": 0.06},
+    "quadratic": {"c": 0.2, "c2": 1.6},
+    "viscous": {"c": C},
+}
+_UNITS = {"c": "N s/m", "F_c": "N", "c2": "N s^2/m^2", "c_alpha": "N (s/m)^alpha", "alpha": "1"}
+
+
+def stats(value, unit, spread=0.02):
+    """An interval entry (mean, sd, q05, q50, q95) around ``value`` with a relative ``spread``."""
+    v = float(value)
+    return {"unit": unit, "mean": v, "sd": spread * abs(v), "q05": v - 1.645 * spread * abs(v),
+            "q50": v, "q95": v + 1.645 * spread * abs(v)}
+
+
+def damper_section(law, coeffs, mass=M, k=K, amplitude=(0.3 * U0, U0), status=None,
+                   verdict=None, design=None, spread=0.02):
+    """summary["damper"] per the contract for ``law`` with the known ``coeffs`` (SI): measured
+    displacement range ``amplitude`` [m] (v = ω·A), design amplitude its middle, c_linear the
+    law's c_eq there (K2)."""
+    from dampfit.fem.damper import c_equivalent
+
+    w = math.sqrt(k / mass)
+    lo, hi = amplitude
+    a_d = design if design is not None else 0.5 * (lo + hi)
+    status = status or "recommended"
+    if law is None or status == "none":
+        c_lin = None
+    else:
+        c_lin = c_equivalent(law, coeffs, w, a_d)
+    crit = 2 * math.sqrt(k * mass)
+    return {
+        "status": status,
+        "verdict": verdict or ("adequate" if law == "viscous" else "amplitude-dependent"),
+        "law": None if status == "none" else law,
+        "force": "test",
+        "coefficients": {} if status == "none" else {
+            n: {**stats(v, _UNITS[n], spread), "symbol": n} for n, v in coeffs.items()},
+        "mass": {"value": mass, "sd": 0.0, "unit": "kg"},
+        "k": stats(k, "N/m", 0.002), "f_n": stats(w / (2 * math.pi), "Hz", 0.001),
+        "measured_range": {"displacement_m": [lo, hi], "velocity_m_s": [w * lo, w * hi]},
+        "design_amplitude": {"displacement_m": a_d, "velocity_m_s": w * a_d,
+                             "source": "middle of the measured range"},
+        "c_linear": None if c_lin is None else stats(c_lin, "N s/m", spread),
+        "zeta_linear": None if c_lin is None else stats(c_lin / crit, "1", spread),
+        "linear_within_10pct_m": None,
+        "reason": "test damper",
+        "not_ruled_out": None, "try": None if status != "none" else "a longer recording",
+        "draws": None,
+    }
+
+
+def write_damper_summary(folder, law, coeffs=None, status=None, **kw):
+    """:func:`write_summary` (viscous parameters c = C) plus the damper section of ``law``."""
+    write_summary(folder)
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["damper"] = damper_section(law, LAW_CASES.get(law, {}) if coeffs is None
+                                       else coeffs, status=status, **kw)
+    summary["model_checks"] = {"verdict": summary["damper"]["verdict"]}
+    path.write_text(json.dumps(summary))
+    return folder

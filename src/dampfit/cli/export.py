@@ -29,20 +29,38 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulated time [s] (default: the analysed window)")
     parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")
+    parser.add_argument("--law", metavar="LAW",
+                        help="'viscous': a linear dashpot (under a non-viscous verdict the "
+                             "equivalent linear c at the design amplitude, with a warning); "
+                             "default: the recommended damper of summary.json")
+    parser.add_argument("--force-law", metavar="LAW",
+                        help="write LAW (viscous, coulomb, quadratic, power) whatever the "
+                             "verdict; needed when no damper is recommended (a misfit)")
 
 
 def command(args: argparse.Namespace) -> int:
     """Write the deck and print what it holds; exit code 0."""
+    import shlex
+    import sys
+
     from dampfit.fem.export import export
 
+    command = "dampfit " + shlex.join(sys.argv[1:]) if sys.argv[1:2] == ["export"] else None
     out, info = export(args.folder, args.format, args.out, units=args.units,
                        quantile=args.quantile, gravity=args.gravity, duration=args.duration,
-                       force=args.force)
+                       force=args.force, law=getattr(args, "law", None),
+                       force_law=getattr(args, "force_law", None), command=command)
+    dmp = info["damper"]
+    for warning in dmp.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     s, u = info["sdof"], units_mod.get(info["units"])
     print(f"wrote {out} ({FORMATS[args.format][0]}, units {u.name}, posterior quantile "
           f"{info['quantile']:g}{', gravity' if info['gravity'] else ''})")
-    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, c = {s.c:.6g} N s/m, u0 = {s.u0:.6g} m "
-          f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
+    coeffs = ", ".join(f"{k} = {v:.6g}" for k, v in dmp.coefficients.items())
+    print(f"  damper: {dmp.law} law ({coeffs}; SI), verdict {dmp.verdict or 'not recorded'}")
+    cname = "c_eq at the design amplitude" if dmp.nonlinear else "c"
+    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, {cname} = {s.c:.6g} N s/m, u0 = "
+          f"{s.u0:.6g} m (zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
     print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
           f"output every {info['output_dt']:.4g} s")
     md = info.get("modal")

@@ -35,6 +35,7 @@ from typing import Any
 
 from dampfit.files.atomic import atomic_write_text, check_output_file
 from dampfit.errors import InputError
+from dampfit.fem import damper as damper_mod
 from dampfit.fem import sdof as sdof_mod
 from dampfit.result.schema import number
 from dampfit.fem import timestep
@@ -114,7 +115,8 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
 
 def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
           gravity: bool = False, duration: float | None = None,
-          name: str | None = None) -> tuple[str, dict[str, Any]]:
+          name: str | None = None, law: str | None = None, force_law: str | None = None,
+          command: str | None = None) -> tuple[str, dict[str, Any]]:
     """Text of the ``fmt`` deck for result ``folder`` (or an analysis :func:`dampfit.load` read
     from one) and a plain-data description of it.
 
@@ -122,6 +124,10 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
     summary.json field the deck uses is checked first (type, finite, range; see
     :func:`dampfit.result.schema.number`), so a bad value is one error line and no deck.
+
+    The damper is the summary's recommendation, ``law="viscous"`` a linear dashpot,
+    ``force_law`` any law (:func:`dampfit.fem.damper.choose`); ``command`` (the command line
+    that asked for the deck) is written into its header with the damper's sentences.
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -129,6 +135,8 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
+    dmp, sdof = _damper(summary, path, sdof, law, force_law, quantile)
+    header = damper_mod.describe(dmp, command)
     dur = run_duration(summary, duration, path)
     fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
@@ -141,16 +149,16 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     if fmt == "lsdyna":
         from dampfit.fem.lsdyna import deck
 
-        text = deck(sdof, system, dur, dt, output_dt)
+        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
     elif fmt == "opensees":
         from dampfit.fem.opensees import script
 
         text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1],
-                      modal=modal)
+                      modal=modal, damper=dmp, header=header)
     else:
         from dampfit.fem.calculix import deck
 
-        text = deck(sdof, system, dur, dt, output_dt)
+        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
     if modal is not None and fmt != "opensees":
         text = _with_modal(text, fmt, modal, system)
     note = sdof.source.get("campaign")
@@ -158,8 +166,31 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
         text = _with_note(text, fmt, note)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
             "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
-            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal}
+            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal,
+            "damper": dmp}
     return text, info
+
+
+def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
+    """(damper, system): the damper the deck writes and the system with its linear c — the
+    dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
+    (``damper.c_linear``, else c_eq at u0), which the decks only report."""
+    import dataclasses
+
+    dmp = damper_mod.choose(summary, path, law, force_law, viscous_c=sdof.c)
+    if dmp.nonlinear:
+        if abs(quantile - 0.5) > 1e-12:
+            raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "
+                             "coefficients' medians (quantiles of correlated coefficients are no "
+                             "damper); use --draws N for its uncertainty")
+        c = (dmp.c_linear or {}).get("q50")
+        if c is None:
+            a = (dmp.design or {}).get("displacement_m", abs(sdof.u0))
+            c = damper_mod.c_equivalent(dmp.law, dmp.coefficients, sdof.omega_n, a)
+        return dmp, dataclasses.replace(sdof, c=c)
+    if dmp.coefficients["c"] != sdof.c:
+        return dmp, dataclasses.replace(sdof, c=dmp.coefficients["c"])
+    return dmp, sdof
 
 
 def _with_modal(text: str, fmt: str, modal: dict[str, Any], system) -> str:
@@ -191,7 +222,9 @@ def _with_note(text: str, fmt: str, note: str) -> str:
 
 def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
            units: str = "SI", quantile: float = 0.5, gravity: bool = False,
-           duration: float | None = None, force: bool = False) -> tuple[Path, dict[str, Any]]:
+           duration: float | None = None, force: bool = False, law: str | None = None,
+           force_law: str | None = None,
+           command: str | None = None) -> tuple[Path, dict[str, Any]]:
     """Write the ``fmt`` deck of ``result`` (a result folder, or an analysis :func:`dampfit.load`
     read from one) to ``out`` (default: ``FOLDER/sdof_FORMAT.EXT``); return (path, description).
 
@@ -206,7 +239,8 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     path = Path(out) if out else folder / FORMATS[fmt][1]
     if out:
         check_output_file(path, force)
-    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name)
+    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name,
+                       law=law, force_law=force_law, command=command)
     if not out:
         check_output_file(path, force)
     atomic_write_text(path, text)
