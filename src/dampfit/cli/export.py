@@ -40,12 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def command(args: argparse.Namespace) -> int:
     """Write the deck and print what it holds; exit code 0."""
-    import shlex
     import sys
 
     from dampfit.fem.export import export
 
-    command = "dampfit " + shlex.join(sys.argv[1:]) if sys.argv[1:2] == ["export"] else None
+    command = _command(args)
     out, info = export(args.folder, args.format, args.out, units=args.units,
                        quantile=args.quantile, gravity=args.gravity, duration=args.duration,
                        force=args.force, law=getattr(args, "law", None),
@@ -70,3 +69,25 @@ def command(args: argparse.Namespace) -> int:
               + ", ".join(f"{r['zeta']['q50']:.3g} at {r['f_n']['q50']:.4g} Hz"
                           for r in md["modes"]) + ")")
     return 0
+
+
+def _command(args: argparse.Namespace) -> str:
+    """The export command line of ``args`` (every option that differs from its default), as a
+    shell would run it: what the deck's header records (sanitised by each writer)."""
+    import shlex
+
+    words = ["dampfit", "export", str(args.folder), "--format", args.format]
+    for option, value, default in (("--units", args.units, "SI"),
+                                   ("--quantile", args.quantile, 0.5),
+                                   ("--duration", args.duration, None),
+                                   ("--law", getattr(args, "law", None), None),
+                                   ("--force-law", getattr(args, "force_law", None), None),
+                                   ("--draws", getattr(args, "draws", None), None),
+                                   ("--seed", getattr(args, "seed", None), None)):
+        if value != default:
+            words += [option, f"{value:g}" if isinstance(value, float) else str(value)]
+    if args.gravity:
+        words.append("--gravity")
+    if args.out:
+        words += ["--out", str(args.out)]
+    return shlex.join(words)
