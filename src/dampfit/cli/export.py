@@ -33,6 +33,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="'viscous': a linear dashpot (under a non-viscous verdict the "
                              "equivalent linear c at the design amplitude, with a warning); "
                              "default: the recommended damper of summary.json")
+    parser.add_argument("--draws", type=int, metavar="N",
+                        help="write N posterior draws of the system and damper: a folder "
+                             "(default DIR/sdof_FORMAT_draws) of draws.csv and N decks "
+                             "(1 <= N <= 1000)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the choice of draws (default 0)")
     parser.add_argument("--force-law", metavar="LAW",
                         help="write LAW (viscous, coulomb, quadratic, power) whatever the "
                              "verdict; needed when no damper is recommended (a misfit)")
@@ -42,14 +48,25 @@ def command(args: argparse.Namespace) -> int:
     """Write the deck and print what it holds; exit code 0."""
     import sys
 
+    import numpy as np
+
     from dampfit.fem.export import export
 
-    command = _command(args)
     out, info = export(args.folder, args.format, args.out, units=args.units,
                        quantile=args.quantile, gravity=args.gravity, duration=args.duration,
                        force=args.force, law=getattr(args, "law", None),
-                       force_law=getattr(args, "force_law", None), command=command)
+                       force_law=getattr(args, "force_law", None),
+                       draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     dmp = info["damper"]
+    if "rows" in info:  # --draws
+        for warning in dmp.warnings:
+            print(f"warning: {warning}", file=sys.stderr)
+        z = np.array([r["zeta_eq_at_design"] for r in info["rows"]])
+        print(f"wrote {out}: draws.csv and {info['n']} {FORMATS[args.format][0]}s of the "
+              f"{info['law']} damper (posterior draws, seed {info['seed']}, units {info['units']})")
+        print(f"  zeta_eq at the design amplitude over the draws: median {np.median(z):.4g}, "
+              f"5-95 % [{np.quantile(z, 0.05):.4g}, {np.quantile(z, 0.95):.4g}]")
+        return 0
     for warning in dmp.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     s, u = info["sdof"], units_mod.get(info["units"])
@@ -70,24 +87,3 @@ def command(args: argparse.Namespace) -> int:
                           for r in md["modes"]) + ")")
     return 0
 
-
-def _command(args: argparse.Namespace) -> str:
-    """The export command line of ``args`` (every option that differs from its default), as a
-    shell would run it: what the deck's header records (sanitised by each writer)."""
-    import shlex
-
-    words = ["dampfit", "export", str(args.folder), "--format", args.format]
-    for option, value, default in (("--units", args.units, "SI"),
-                                   ("--quantile", args.quantile, 0.5),
-                                   ("--duration", args.duration, None),
-                                   ("--law", getattr(args, "law", None), None),
-                                   ("--force-law", getattr(args, "force_law", None), None),
-                                   ("--draws", getattr(args, "draws", None), None),
-                                   ("--seed", getattr(args, "seed", None), None)):
-        if value != default:
-            words += [option, f"{value:g}" if isinstance(value, float) else str(value)]
-    if args.gravity:
-        words.append("--gravity")
-    if args.out:
-        words += ["--out", str(args.out)]
-    return shlex.join(words)

@@ -43,7 +43,7 @@ from dampfit.fem import units as units_mod
 from dampfit.errors import shown
 from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "build", "export", "output_interval", "run_duration"]
+__all__ = ["FORMATS", "build", "canonical_command", "export", "output_interval", "run_duration"]
 
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
@@ -116,7 +116,7 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
 def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
           gravity: bool = False, duration: float | None = None,
           name: str | None = None, law: str | None = None, force_law: str | None = None,
-          command: str | None = None) -> tuple[str, dict[str, Any]]:
+          command: str | None = None, variant=None) -> tuple[str, dict[str, Any]]:
     """Text of the ``fmt`` deck for result ``folder`` (or an analysis :func:`dampfit.load` read
     from one) and a plain-data description of it.
 
@@ -128,6 +128,8 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     The damper is the summary's recommendation, ``law="viscous"`` a linear dashpot,
     ``force_law`` any law (:func:`dampfit.fem.damper.choose`); ``command`` (the command line
     that asked for the deck) is written into its header with the damper's sentences.
+    ``variant(sdof, damper) -> (sdof, damper, header lines)`` replaces the system and damper
+    before the deck is written (one posterior draw: :mod:`dampfit.fem.draws`).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -136,7 +138,11 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
     dmp, sdof = _damper(summary, path, sdof, law, force_law, quantile)
-    header = damper_mod.describe(dmp, command)
+    header = damper_mod.describe(dmp, command or canonical_command(
+        folder, fmt, units, quantile, gravity, duration, law, force_law))
+    if variant is not None:
+        sdof, dmp, extra = variant(sdof, dmp)
+        header = list(extra) + header
     dur = run_duration(summary, duration, path)
     fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
@@ -169,6 +175,27 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
             "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal,
             "damper": dmp}
     return text, info
+
+
+def canonical_command(folder: Path, fmt: str, units: str = "SI", quantile: float = 0.5,
+                      gravity: bool = False, duration: float | None = None,
+                      law: str | None = None, force_law: str | None = None,
+                      extra: tuple[str, ...] = ()) -> str:
+    """The ``dampfit export`` command that writes this deck, as a shell runs it: the resolved
+    folder and every option that differs from its default (``--out`` aside: the file name is
+    not part of the deck), the same whether the deck was asked for on the command line or
+    from Python. ``dampfit verify`` records the same string (``script.export_command``)."""
+    import shlex
+
+    words = ["dampfit", "export", str(Path(folder).resolve()), "--format", fmt]
+    for option, value, default in (("--units", units, "SI"), ("--quantile", quantile, 0.5),
+                                   ("--duration", duration, None), ("--law", law, None),
+                                   ("--force-law", force_law, None)):
+        if value != default:
+            words += [option, repr(value) if isinstance(value, float) else str(value)]
+    if gravity:
+        words.append("--gravity")
+    return shlex.join(words + list(extra))
 
 
 def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
@@ -223,8 +250,8 @@ def _with_note(text: str, fmt: str, note: str) -> str:
 def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
            units: str = "SI", quantile: float = 0.5, gravity: bool = False,
            duration: float | None = None, force: bool = False, law: str | None = None,
-           force_law: str | None = None,
-           command: str | None = None) -> tuple[Path, dict[str, Any]]:
+           force_law: str | None = None, command: str | None = None,
+           draws: int | None = None, seed: int = 0) -> tuple[Path, dict[str, Any]]:
     """Write the ``fmt`` deck of ``result`` (a result folder, or an analysis :func:`dampfit.load`
     read from one) to ``out`` (default: ``FOLDER/sdof_FORMAT.EXT``); return (path, description).
 
@@ -236,6 +263,16 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     folder = folder_of(result)
+    if draws is not None:  # N posterior draws: a folder of decks and draws.csv
+        from dampfit.fem import draws as draws_mod
+
+        draws_mod.check_count(draws)
+        command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,
+                                               law, force_law, ("--draws", str(draws),
+                                                                "--seed", str(seed)))
+        return draws_mod.write(folder, fmt, draws, seed, out, force, units=units,
+                               quantile=quantile, gravity=gravity, duration=duration, law=law,
+                               force_law=force_law, command=command)
     path = Path(out) if out else folder / FORMATS[fmt][1]
     if out:
         check_output_file(path, force)
