@@ -165,3 +165,94 @@ def write_damper_summary(folder, law, coeffs=None, status=None, **kw):
     summary["model_checks"] = {"verdict": summary["damper"]["verdict"]}
     path.write_text(json.dumps(summary))
     return folder
+
+
+def simulate_law(law, coeffs, t, mass=M, k=K, u0=U0):
+    """Free decay m·ü + F(u̇) + k·u = 0 from rest at ``u0`` (DOP853, rtol 1e-10) at times
+    ``t`` [s] from 0: (u [m], v [m/s], a [m/s²]); the damper force of :mod:`dampfit.fem.damper`."""
+    from scipy.integrate import solve_ivp
+
+    from dampfit.fem.damper import force
+
+    def rhs(_, y):
+        return [y[1], -(k * y[0] + float(force(law, coeffs, y[1]))) / mass]
+
+    sol = solve_ivp(rhs, (0.0, float(t[-1])), [u0, 0.0], t_eval=t, method="DOP853",
+                    rtol=1e-10, atol=1e-13, max_step=0.01)
+    u, v = sol.y
+    a = -(k * u + force(law, coeffs, v)) / mass
+    return u, v, a
+
+
+def write_damper_result(folder, law, span=20.0, fs=200.0, coeffs=None, noise=0.0):
+    """A result folder of a free decay damped by ``law`` (released at rest at U0 at the window
+    start T0): signals.npz of the true motion, summary.json with the viscous fit of the start
+    rate, the damper section and an amplitude_curve of the law's ζ(A) (sd 3 %)."""
+    from dampfit.fem.damper import c_equivalent, theta
+    from dampfit.model.laws import get
+
+    coeffs = LAW_CASES[law] if coeffs is None else coeffs
+    tau = np.arange(int(span * fs) + 1) / fs
+    u, _, a = simulate_law(law, coeffs, tau)
+    w = math.sqrt(K / M)
+    p0 = float(np.exp(theta(law, coeffs, M, w, U0)[0]))
+    rng = np.random.default_rng(2)
+    sig = {"t": T0 + tau, "accel": a + noise * rng.standard_normal(tau.size), "accel_model": a,
+           "displacement": u, "displacement_model": u, "fs": np.float64(fs),
+           "p": np.float64(p0), "omega_d": np.float64(w), "t0": np.float64(T0)}
+    folder.mkdir(parents=True, exist_ok=True)
+    np.savez(folder / "signals.npz", **sig)
+    e_end = float(get(law).envelope(theta(law, coeffs, M, w, U0), np.array([span]), xp=np)[0][0])
+    entry = lambda unit, v: stats(v, unit, 0.0)  # noqa: E731
+    c_start = c_equivalent(law, coeffs, w, U0)
+    crit = 2 * math.sqrt(K * M)
+    amps = np.geomspace(U0 * e_end * 1.05, U0 * 0.95, 8)
+    windows = [{"amplitude_m": float(A), "zeta": c_equivalent(law, coeffs, w, A) / crit,
+                "zeta_sd": 0.03 * c_equivalent(law, coeffs, w, A) / crit} for A in amps]
+    summary = {"dampfit_version": "test", "window": {"start_s": T0, "end_s": T0 + span},
+               "input": {"sample_rate_hz": fs}, "mass": {"value": M, "sd": 0.0, "unit": "kg"},
+               "parameters": {"c": entry("N s/m", c_start), "k": entry("N/m", K),
+                              "u0": entry("m", U0), "p": entry("1/s", p0)},
+               "amplitude_curve": {"windows": windows},
+               "damper": damper_section(law, coeffs, amplitude=(U0 * e_end, U0))}
+    summary["model_checks"] = {"verdict": summary["damper"]["verdict"]}
+    (folder / "summary.json").write_text(json.dumps(summary))
+    return folder
+
+
+def write_damper_draws(folder, law, n=400, spread=0.05, seed=3):
+    """posterior.nc with a ``damper`` group of ``n`` joint draws around the case's coefficients
+    (lognormal, relative sd ``spread``; m fixed, k 0.2 %), c_linear and ζ_linear at the design
+    amplitude from (K2); the summary's c_linear/zeta_linear become those draws' quantiles.
+    Returns the ζ_linear draws."""
+    import arviz as az
+    import xarray as xr
+
+    from dampfit.fem.damper import c_equivalent
+
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    sec = summary["damper"]
+    rng = np.random.default_rng(seed)
+    base = {k: v["q50"] for k, v in sec["coefficients"].items()}
+    draws = {name: v * np.exp(spread * rng.standard_normal(n)) for name, v in base.items()}
+    mass = np.full(n, M)
+    k = K * (1 + 0.002 * rng.standard_normal(n))
+    a_d = sec["design_amplitude"]["displacement_m"]
+    c_lin = np.array([c_equivalent(law, {q: draws[q][i] for q in draws}, math.sqrt(k[i] / M), a_d)
+                      for i in range(n)])
+    zeta = c_lin / (2 * np.sqrt(k * mass))
+    ds = xr.Dataset({name: ("draw", x) for name, x in {**draws, "mass": mass, "k": k,
+                                                       "c_linear": c_lin,
+                                                       "zeta_linear": zeta}.items()},
+                    coords={"draw": np.arange(n)}, attrs={"law": law,
+                                                          "design_amplitude_m": a_d})
+    post = xr.Dataset({"c": (("chain", "draw"), rng.standard_normal((1, 10)))},
+                      coords={"chain": [0], "draw": np.arange(10)})
+    az.InferenceData(posterior=post, damper=ds).to_netcdf(str(folder / "posterior.nc"))
+    for key, x in (("c_linear", c_lin), ("zeta_linear", zeta)):
+        q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+        sec[key].update(q05=float(q05), q50=float(q50), q95=float(q95))
+    sec["draws"] = {"group": "damper", "n": n}
+    path.write_text(json.dumps(summary))
+    return zeta

@@ -162,3 +162,111 @@ def test_opensees_script_constants_are_the_coefficients_in_deck_units(tmp_path, 
         assert ns["law_c_alpha"] == pytest.approx(coeffs["c_alpha"] * F / V ** 0.5, rel=1e-12)
     else:
         assert ns["law_c"] == pytest.approx(coeffs["c"] * F / V, rel=1e-12)
+
+
+# -- verify: the exported nonlinear deck against the measurement, the linear dashpot beside --
+
+
+@pytest.mark.usefixtures("requires_opensees")
+@pytest.mark.parametrize("law", NONLINEAR)
+def test_verify_runs_the_nonlinear_deck_and_beats_the_linear_dashpot(tmp_path, capsys, law):
+    """A decay damped by the law (DOP853): the exported deck's envelope within 1.5 % (log rms)
+    of the measured trend and every ζ(A) window inside its 90 % band; the linear dashpot at
+    the design amplitude is worse on both, and both are in verification.json and the table."""
+    from tests._support.fem import write_damper_result
+
+    folder = write_damper_result(tmp_path / law, law)
+    code, out, err = run(["verify", folder], capsys)
+    assert code == 0, err
+    rep = json.loads((folder / "verification.json").read_text())
+    d = rep["damper"]
+    assert d["law"] == law and rep["linear_script"]["law"] == "viscous"
+    ex, lin = d["exported"], d["linear"]
+    assert ex["envelope"]["rms_vs_trend"] < 0.015
+    assert lin["envelope"]["rms_vs_trend"] > 2 * ex["envelope"]["rms_vs_trend"]
+    assert d["exported_beats_linear"] is True
+    assert ex["zeta_amplitude"]["n"] >= 5
+    assert ex["zeta_amplitude"]["n_inside"] == ex["zeta_amplitude"]["n"]
+    assert lin["zeta_amplitude"]["n_inside"] < lin["zeta_amplitude"]["n"]
+    assert "linear dashpot" in out and (folder / "verify.png").stat().st_size > 10_000
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_draws_draw_a_band_around_the_measured_envelope(tmp_path, capsys):
+    from tests._support.fem import write_damper_draws, write_damper_result
+
+    folder = write_damper_result(tmp_path / "p", "power", span=10.0)
+    write_damper_draws(folder, "power", spread=0.05)
+    code, out, err = run(["verify", folder, "--draws", "8", "--seed", "1"], capsys)
+    assert code == 0, err
+    band = json.loads((folder / "verification.json").read_text())["draws"]
+    assert band["n"] == 8 and band["seed"] == 1 and band["law"] == "power"
+    assert band["fraction_trend_inside"] > 0.8 and band["median_relative_width"] > 0.005
+    assert "8 posterior draws" in out
+
+
+# -- export --draws ----------------------------------------------------------------------------
+
+
+def test_export_draws_is_seeded_bounded_and_readable(tmp_path, capsys):
+    from tests._support.fem import write_damper_draws
+
+    folder = write_damper_summary(tmp_path / "p", "power")
+    write_damper_draws(folder, "power")
+    code, out, err = run(["export", folder, "--format", "lsdyna", "--draws", "5"], capsys)
+    assert code == 0, err
+    target = folder / "sdof_lsdyna_draws"
+    files = sorted(p.name for p in target.iterdir())
+    assert files == ["draw_0001.k", "draw_0002.k", "draw_0003.k", "draw_0004.k",
+                     "draw_0005.k", "draws.csv"]
+    first = (target / "draws.csv").read_bytes()
+    for i in range(1, 6):  # each deck is the law of its row
+        text = (target / f"draw_{i:04d}.k").read_text()
+        assert f"Posterior draw {i} of 5 (seed 0" in text and "--draws 5" in text
+        assert lsdyna.read_deck(text)["damper_curve"]
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--draws", "5"], capsys)
+    assert_one_line_error(code, err, match="exists; use --force")
+    assert run(["export", folder, "--format", "lsdyna", "--draws", "5", "--force"], capsys)[0] == 0
+    assert (target / "draws.csv").read_bytes() == first  # same seed, same draws
+    assert run(["export", folder, "--format", "lsdyna", "--draws", "5", "--seed", "2",
+                "--force"], capsys)[0] == 0
+    assert (target / "draws.csv").read_bytes() != first
+    for bad, match in (("0", "from 1 to 1000"), ("1001", "from 1 to 1000"),
+                       ("-3", "from 1 to 1000"), ("999", "holds 400 damper draws")):
+        code, _, err = run(["export", folder, "--format", "opensees", "--draws", bad], capsys)
+        assert_one_line_error(code, err, match=match)
+    code, _, err = run(["export", folder, "--format", "opensees", "--draws", "5",
+                        "--seed", "-1"], capsys)
+    assert_one_line_error(code, err, match="--seed")
+    plain = write_damper_summary(tmp_path / "nodraws", "power")
+    write_summary(plain)  # no posterior.nc at all
+    code, _, err = run(["export", plain, "--format", "opensees", "--draws", "5"], capsys)
+    assert_one_line_error(code, err, match="posterior.nc")
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("requires_opensees")
+def test_fifty_draws_run_and_their_zeta_eq_spread_is_the_posteriors(tmp_path, capsys):
+    """--draws 50: 50 OpenSees decks that run; ζ_eq at the design amplitude measured from each
+    run's decay has the 5–95 % spread of the posterior's ζ_linear (within 20 % of the
+    interval's width at each end)."""
+    from tests._support.fem import write_damper_draws
+
+    folder = write_damper_summary(tmp_path / "p", "power")
+    write_damper_draws(folder, "power", spread=0.06)
+    sec = json.loads((folder / "summary.json").read_text())["damper"]
+    a_d = sec["design_amplitude"]["displacement_m"]
+    code, _, err = run(["export", folder, "--format", "opensees", "--draws", "50",
+                        "--duration", "4"], capsys)
+    assert code == 0, err
+    target = folder / "sdof_opensees_draws"
+    zetas = []
+    for i in range(1, 51):
+        text = (target / f"draw_{i:04d}.py").read_text()
+        res = opensees.run_steps(text, 1.15 * a_d, 0.0, 1e-3, 4000)
+        amps, z = response.zeta_of_amplitude(res["t"], res["u"], math.sqrt(K / M), smooth=4)
+        zetas.append(float(np.interp(a_d, amps[::-1], z[::-1])))
+    lo, hi = np.quantile(zetas, [0.05, 0.95])
+    q05, q95 = sec["zeta_linear"]["q05"], sec["zeta_linear"]["q95"]
+    width = q95 - q05
+    assert abs(lo - q05) < 0.2 * width and abs(hi - q95) < 0.2 * width
