@@ -170,6 +170,11 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     note = sdof.source.get("campaign")
     if note:
         text = _with_note(text, fmt, note)
+    from dampfit.fem.modal import modal_note
+
+    seen = None if summary.get("kind") == "campaign" else modal_note(summary)
+    if seen:
+        text = _with_note(text, fmt, seen)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
             "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
             "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal,
