@@ -118,26 +118,25 @@ def _variant(draws: dict[str, Any], i: int, n: int, seed: int, design_m: float |
     return apply
 
 
-def write(folder: Path, fmt: str, n: int, seed: int, out: str | Path | None, force: bool,
-          **options) -> tuple[Path, dict[str, Any]]:
+def write(build, folder: Path, fmt: str, ext: str, n: int, seed: int,
+          out: str | Path | None, force: bool, **options) -> tuple[Path, dict[str, Any]]:
     """Write the draws' table and decks (module docstring) into the folder ``out`` (default
     ``folder/sdof_FORMAT_draws``): staged in a hidden sibling folder and moved in at the end;
     an existing folder is replaced only with ``force`` and only if it holds nothing but a
-    previous draws export (draws.csv, draw_*). Returns (folder, description)."""
-    from dampfit.fem import export as fem_export
-
+    previous draws export (draws.csv, draw_*). ``build`` is
+    :func:`dampfit.fem.export.build` (handed in: export calls this module). Returns (folder,
+    description)."""
     n, seed = check_count(n), check_seed(seed)
     target = Path(out) if out else folder / f"sdof_{fmt}_draws"
     _check_target(target, force)
-    ext = fem_export.FORMATS[fmt][1].rsplit(".", 1)[1]
-    text, info = fem_export.build(folder, fmt, name=f"draw_0001.{ext}", **options)
+    text, info = build(folder, fmt, name=f"draw_0001.{ext}", **options)
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
     texts, rows = {}, []
     for i in range(n):
         name = f"draw_{i + 1:04d}.{ext}"
-        t, inf = fem_export.build(folder, fmt, name=name, **options,
+        t, inf = build(folder, fmt, name=name, **options,
                                   variant=_variant(draws, i, n, seed, design))
         texts[name] = t
         rows.append(_row(i, draws, inf, design, name))
@@ -213,26 +212,26 @@ def _publish(target: Path, texts: dict[str, str], force: bool) -> None:
         raise InputError(f"cannot write {shown(target)}: {exc.strerror or exc}") from None
 
 
-def verify_band(folder: Path, summary: dict[str, Any], n: int, seed: int,
+def verify_band(build, folder: Path, summary: dict[str, Any], n: int, seed: int,
                 start: dict[str, float], dt: float, n_steps: int, t: np.ndarray,
                 u_meas: np.ndarray, interior: tuple[float, float]) -> dict[str, Any]:
     """Run the OpenSees script of each of ``n`` draws (seeded as export's) from the start
     state ``start`` for ``n_steps`` of ``dt`` and compare the band of their envelopes with the
     measured envelope's trend over ``interior``: the 5 % and 95 % quantiles of the draws'
-    |u| at each measured peak time (ln-interpolated between each run's own peaks)."""
+    |u| at each measured peak time (ln-interpolated between each run's own peaks); ``build``
+    is :func:`dampfit.fem.export.build`."""
     from scipy.signal import savgol_filter
 
-    from dampfit.fem import export as fem_export
     from dampfit.fem import opensees, response
 
-    _, info = fem_export.build(folder, "opensees", "SI", 0.5, False, n_steps * dt)
+    _, info = build(folder, "opensees", "SI", 0.5, False, n_steps * dt)
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
     tm, am = response.envelope(t, u_meas, *interior)
     curves = []
     for i in range(n):
-        text, _ = fem_export.build(folder, "opensees", "SI", 0.5, False, n_steps * dt,
+        text, _ = build(folder, "opensees", "SI", 0.5, False, n_steps * dt,
                                    name=opensees.SCRIPT_NAME,
                                    variant=_variant(draws, i, n, seed, design))
         res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)

@@ -18,6 +18,24 @@ most T/50) and the fixed time step comes from :func:`dampfit.fem.timestep.choose
 (≥ 200 steps per period, phase error ≤ 1e-3 rad at the end). With ``--gravity`` the mass
 hangs under g = 9.80665 m/s² and is released from static equilibrium + u0.
 
+**The damper** (issue 32; :mod:`dampfit.fem.damper`) is summary.json's recommendation
+(``damper``): the law with its coefficients' medians — LS-DYNA *MAT_DAMPER_NONLINEAR_VISCOUS
+with its force–velocity *DEFINE_CURVE (symmetric, through 0, to 5× the fastest measured
+velocity; the deck says where it is extrapolated), OpenSees ``Viscous c_alpha alpha`` or a
+``Parallel`` material (quadratic: Viscous α = 1 + Viscous α = 2; Coulomb: Viscous + an
+ElasticPP friction element, its stick stiffness stated), CalculiX (linear *DASHPOT only) the
+linear c at the design amplitude with that limitation stated. Every deck's header gives the
+verdict, the law and its coefficients, the measured amplitude range, the notes and the
+command that writes it (:func:`canonical_command`). ``law="viscous"`` (``--law viscous``)
+writes a linear dashpot: under a non-viscous verdict the equivalent linear c at the design
+amplitude (``damper.c_linear``), with a warning (stderr and deck); ``force_law``
+(``--force-law LAW``) any law, and is needed when no damper is recommended (a misfit). A
+summary without a ``damper`` section (written before it existed) gives the viscous posterior
+c as before, with a note in the deck. ``--draws N`` writes N posterior draws instead
+(:mod:`dampfit.fem.draws`: a folder of ``draws.csv`` and N decks). Modes that are seen but
+not identified (``modes_seen``, ``"identified": false``) never reach a deck; the deck names
+them (:func:`dampfit.fem.modal.modal_note`).
+
 A campaign folder (several recordings of one damper) gives the population damper
 (:func:`dampfit.fem.sdof.load`); the deck says so in a comment line near its top, with the
 number of tests and the predictive interval of c for a new test. Its duration is the longest
@@ -275,7 +293,8 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
         command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,
                                                law, force_law, ("--draws", str(draws),
                                                                 "--seed", str(seed)))
-        return draws_mod.write(folder, fmt, draws, seed, out, force, units=units,
+        return draws_mod.write(build, folder, fmt, FORMATS[fmt][1].rsplit(".", 1)[1], draws,
+                               seed, out, force, units=units,
                                quantile=quantile, gravity=gravity, duration=duration, law=law,
                                force_law=force_law, command=command)
     path = Path(out) if out else folder / FORMATS[fmt][1]

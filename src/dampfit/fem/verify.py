@@ -33,6 +33,15 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    α/2 + β·ω_i²/2 and the measured ζ_i (:func:`modal_run`; ``modal_damping`` in
    verification.json, a block of the table).
 
+7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
+   runs as such (its start state from the measured acceleration of the first three periods,
+   :func:`_start_state`); beside it the linear dashpot at the design amplitude (``dampfit
+   export DIR --format opensees --law viscous``, ``linear_script``). For both: the
+   log-envelope rms against the measured peaks and their trend, the measured scatter, and
+   ζ(A) at the ``amplitude_curve`` windows against their 90 % bands (``damper`` in
+   verification.json, verify.png, the table). ``--draws N`` also runs N posterior draws
+   and draws the 5–95 % band of their envelopes (:func:`dampfit.fem.draws.verify_band`).
+
 Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
 ``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
 link is replaced itself, never its target), is a directory, has a name the file system cannot
@@ -174,8 +183,9 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
                                     ident.omega_n, (t[0] + edge, t[-1] - edge), script["damper"])
     if draws:
         from dampfit.fem import draws as draws_mod
+        from dampfit.fem.export import build
 
-        band = draws_mod.verify_band(folder, summary, draws, seed, start, dt, n_steps, t,
+        band = draws_mod.verify_band(build, folder, summary, draws, seed, start, dt, n_steps, t,
                                      sig["displacement"], (t[0] + edge, t[-1] - edge))
         report["draws"], arrays["band"] = band["report"], band["arrays"]
     return {"report": report, "arrays": arrays}
