@@ -97,3 +97,162 @@ def write_modal_summary(folder, modes=MODES, layout="list", **kw):
                         ("modes_rayleigh" if layout == "list" else "rayleigh"): ray})
     path.write_text(json.dumps(summary))
     return folder
+
+
+# -- the damper section (issue 32; notes/damper_spec.md) -------------------------------------
+
+#: Known nonlinear dampers on the seed paper's system (SI): ζ_eq ≈ 0.005–0.01 at U0.
+LAW_CASES = {
+    "power": {"c_alpha": 0.53, "alpha": 0.5},
+    "coulomb": {"c": 0.2, "F_c": 0.06},
+    "quadratic": {"c": 0.2, "c2": 1.6},
+    "viscous": {"c": C},
+}
+_UNITS = {"c": "N s/m", "F_c": "N", "c2": "N s^2/m^2", "c_alpha": "N (s/m)^alpha", "alpha": "1"}
+
+
+def stats(value, unit, spread=0.02):
+    """An interval entry (mean, sd, q05, q50, q95) around ``value`` with a relative ``spread``."""
+    v = float(value)
+    return {"unit": unit, "mean": v, "sd": spread * abs(v), "q05": v - 1.645 * spread * abs(v),
+            "q50": v, "q95": v + 1.645 * spread * abs(v)}
+
+
+def damper_section(law, coeffs, mass=M, k=K, amplitude=(0.3 * U0, U0), status=None,
+                   verdict=None, design=None, spread=0.02):
+    """summary["damper"] per the contract for ``law`` with the known ``coeffs`` (SI): measured
+    displacement range ``amplitude`` [m] (v = ω·A), design amplitude its middle, c_linear the
+    law's c_eq there (K2)."""
+    from dampfit.fem.damper import c_equivalent
+
+    w = math.sqrt(k / mass)
+    lo, hi = amplitude
+    a_d = design if design is not None else 0.5 * (lo + hi)
+    status = status or "recommended"
+    if law is None or status == "none":
+        c_lin = None
+    else:
+        c_lin = c_equivalent(law, coeffs, w, a_d)
+    crit = 2 * math.sqrt(k * mass)
+    return {
+        "status": status,
+        "verdict": verdict or ("adequate" if law == "viscous" else "amplitude-dependent"),
+        "law": None if status == "none" else law,
+        "force": "test",
+        "coefficients": {} if status == "none" else {
+            n: {**stats(v, _UNITS[n], spread), "symbol": n} for n, v in coeffs.items()},
+        "mass": {"value": mass, "sd": 0.0, "unit": "kg"},
+        "k": stats(k, "N/m", 0.002), "f_n": stats(w / (2 * math.pi), "Hz", 0.001),
+        "measured_range": {"displacement_m": [lo, hi], "velocity_m_s": [w * lo, w * hi]},
+        "design_amplitude": {"displacement_m": a_d, "velocity_m_s": w * a_d,
+                             "source": "middle of the measured range"},
+        "c_linear": None if c_lin is None else stats(c_lin, "N s/m", spread),
+        "zeta_linear": None if c_lin is None else stats(c_lin / crit, "1", spread),
+        "linear_within_10pct_m": None,
+        "reason": "test damper",
+        "not_ruled_out": None, "try": None if status != "none" else "a longer recording",
+        "draws": None,
+    }
+
+
+def write_damper_summary(folder, law, coeffs=None, status=None, **kw):
+    """:func:`write_summary` (viscous parameters c = C) plus the damper section of ``law``."""
+    write_summary(folder)
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    summary["damper"] = damper_section(law, LAW_CASES.get(law, {}) if coeffs is None
+                                       else coeffs, status=status, **kw)
+    summary["model_checks"] = {"verdict": summary["damper"]["verdict"]}
+    path.write_text(json.dumps(summary))
+    return folder
+
+
+def simulate_law(law, coeffs, t, mass=M, k=K, u0=U0):
+    """Free decay m·ü + F(u̇) + k·u = 0 from rest at ``u0`` (DOP853, rtol 1e-10) at times
+    ``t`` [s] from 0: (u [m], v [m/s], a [m/s²]); the damper force of :mod:`dampfit.fem.damper`."""
+    from scipy.integrate import solve_ivp
+
+    from dampfit.fem.damper import force
+
+    def rhs(_, y):
+        return [y[1], -(k * y[0] + float(force(law, coeffs, y[1]))) / mass]
+
+    sol = solve_ivp(rhs, (0.0, float(t[-1])), [u0, 0.0], t_eval=t, method="DOP853",
+                    rtol=1e-10, atol=1e-13, max_step=0.01)
+    u, v = sol.y
+    a = -(k * u + force(law, coeffs, v)) / mass
+    return u, v, a
+
+
+def write_damper_result(folder, law, span=20.0, fs=200.0, coeffs=None, noise=0.0):
+    """A result folder of a free decay damped by ``law`` (released at rest at U0 at the window
+    start T0): signals.npz of the true motion, summary.json with the viscous fit of the start
+    rate, the damper section and an amplitude_curve of the law's ζ(A) (sd 3 %)."""
+    from dampfit.fem.damper import c_equivalent, theta
+    from dampfit.model.laws import get
+
+    coeffs = LAW_CASES[law] if coeffs is None else coeffs
+    tau = np.arange(int(span * fs) + 1) / fs
+    u, _, a = simulate_law(law, coeffs, tau)
+    w = math.sqrt(K / M)
+    p0 = float(np.exp(theta(law, coeffs, M, w, U0)[0]))
+    rng = np.random.default_rng(2)
+    sig = {"t": T0 + tau, "accel": a + noise * rng.standard_normal(tau.size), "accel_model": a,
+           "displacement": u, "displacement_model": u, "fs": np.float64(fs),
+           "p": np.float64(p0), "omega_d": np.float64(w), "t0": np.float64(T0)}
+    folder.mkdir(parents=True, exist_ok=True)
+    np.savez(folder / "signals.npz", **sig)
+    e_end = float(get(law).envelope(theta(law, coeffs, M, w, U0), np.array([span]), xp=np)[0][0])
+    entry = lambda unit, v: stats(v, unit, 0.0)  # noqa: E731
+    c_start = c_equivalent(law, coeffs, w, U0)
+    crit = 2 * math.sqrt(K * M)
+    amps = np.geomspace(U0 * e_end * 1.05, U0 * 0.95, 8)
+    windows = [{"amplitude_m": float(A), "zeta": c_equivalent(law, coeffs, w, A) / crit,
+                "zeta_sd": 0.03 * c_equivalent(law, coeffs, w, A) / crit} for A in amps]
+    summary = {"dampfit_version": "test", "window": {"start_s": T0, "end_s": T0 + span},
+               "input": {"sample_rate_hz": fs}, "mass": {"value": M, "sd": 0.0, "unit": "kg"},
+               "parameters": {"c": entry("N s/m", c_start), "k": entry("N/m", K),
+                              "u0": entry("m", U0), "p": entry("1/s", p0)},
+               "amplitude_curve": {"windows": windows},
+               "damper": damper_section(law, coeffs, amplitude=(U0 * e_end, U0))}
+    summary["model_checks"] = {"verdict": summary["damper"]["verdict"]}
+    (folder / "summary.json").write_text(json.dumps(summary))
+    return folder
+
+
+def write_damper_draws(folder, law, n=400, spread=0.05, seed=3):
+    """posterior.nc with a ``damper`` group of ``n`` joint draws around the case's coefficients
+    (lognormal, relative sd ``spread``; m fixed, k 0.2 %), c_linear and ζ_linear at the design
+    amplitude from (K2); the summary's c_linear/zeta_linear become those draws' quantiles.
+    Returns the ζ_linear draws."""
+    import arviz as az
+    import xarray as xr
+
+    from dampfit.fem.damper import c_equivalent
+
+    path = folder / "summary.json"
+    summary = json.loads(path.read_text())
+    sec = summary["damper"]
+    rng = np.random.default_rng(seed)
+    base = {k: v["q50"] for k, v in sec["coefficients"].items()}
+    draws = {name: v * np.exp(spread * rng.standard_normal(n)) for name, v in base.items()}
+    mass = np.full(n, M)
+    k = K * (1 + 0.002 * rng.standard_normal(n))
+    a_d = sec["design_amplitude"]["displacement_m"]
+    c_lin = np.array([c_equivalent(law, {q: draws[q][i] for q in draws}, math.sqrt(k[i] / M), a_d)
+                      for i in range(n)])
+    zeta = c_lin / (2 * np.sqrt(k * mass))
+    ds = xr.Dataset({name: ("draw", x) for name, x in {**draws, "mass": mass, "k": k,
+                                                       "c_linear": c_lin,
+                                                       "zeta_linear": zeta}.items()},
+                    coords={"draw": np.arange(n)}, attrs={"law": law,
+                                                          "design_amplitude_m": a_d})
+    post = xr.Dataset({"c": (("chain", "draw"), rng.standard_normal((1, 10)))},
+                      coords={"chain": [0], "draw": np.arange(10)})
+    az.InferenceData(posterior=post, damper=ds).to_netcdf(str(folder / "posterior.nc"))
+    for key, x in (("c_linear", c_lin), ("zeta_linear", zeta)):
+        q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
+        sec[key].update(q05=float(q05), q50=float(q50), q95=float(q95))
+    sec["draws"] = {"group": "damper", "n": n}
+    path.write_text(json.dumps(summary))
+    return zeta

@@ -286,3 +286,55 @@ def test_hostile_modal_summary_is_one_line_and_nothing_written(tmp_path, capsys,
     assert not list(folder.glob("sdof_*")) and not list(folder.glob(".sdof_*"))
     with pytest.raises(InputError):
         modal.modal_damping(_summary(folder))
+
+
+# -- seen, not identified (issue 32): never in a deck or a Rayleigh fit -------------------------
+
+
+def _seen_summary(folder):
+    """Two modes in ``modes``, the second (10 Hz) also listed in ``modes_seen`` (a harmonic),
+    plus a ``modes_seen`` component at 2.847 Hz; ``rayleigh`` null (fewer than two identified).
+    (The ``"identified"`` flag itself is checked on the plain dict below: the result reader
+    of this branch does not know the flag yet; the modes branch adds it to MODE_FLAGS.)"""
+    from tests._support.fem import write_modal_summary
+
+    write_modal_summary(folder, layout="rayleigh")
+    path = folder / "summary.json"
+    s = json.loads(path.read_text())
+    s["rayleigh"] = None
+    s["modes_seen"] = [{"f_n": {"q50": 2.847, "q05": 1.5, "q95": 5.3}, "zeta": None,
+                        "kind": "harmonic", "reason": "4x the mode at 0.7145 Hz"},
+                       {"f_n": dict(s["modes"][1]["f_n"]), "zeta": None, "kind": "basin-filling",
+                        "reason": "the posterior fills its basin"}]
+    path.write_text(json.dumps(s))
+    return folder
+
+
+@pytest.mark.parametrize("fmt", ["lsdyna", "opensees", "calculix"])
+def test_modes_seen_not_identified_reach_no_deck_and_no_rayleigh(tmp_path, fmt):
+    folder = _seen_summary(tmp_path / "r")
+    text, info = build(folder, fmt)
+    assert info["modal"] is None
+    for card in ("DAMPING_PART_MASS", "--modal", "MODAL DAMPING", "alphaM"):
+        assert card not in text
+    flat = " ".join(text.split()).replace("$ ", "").replace("** ", "").replace("# ", "")
+    assert "Seen, not identified as modes" in flat and "2.847 Hz (harmonic)" in flat
+    assert "(basin-filling)" in flat and "No Rayleigh damping: 1 identified mode" in flat
+
+
+def test_a_mode_flagged_not_identified_is_left_out_even_with_a_rayleigh_entry():
+    """Three modes, the 10 Hz one ``"identified": false``: the Rayleigh block holds the two
+    identified ones only, the note names the one left out; with ``rayleigh`` null and one
+    identified mode there is no block at all; an old summary (no flag) keeps every mode."""
+    modes = (MODES[0], (10.0, 0.004), (17.0, 0.006))
+    rows, ray = modal_entries(modes)
+    old = modal.modal_damping({"modes": rows, "rayleigh": ray})
+    assert old["n_modes"] == 3
+    rows[1]["identified"] = False
+    md = modal.modal_damping({"modes": rows, "rayleigh": ray})
+    assert [round(r["f_n"]["q50"]) for r in md["modes"]] == [round(MODES[0][0]), 17]
+    assert "10 Hz (not identified)" in modal.modal_note({"modes": rows, "rayleigh": ray})
+    rows[2]["identified"] = False
+    assert modal.modal_damping({"modes": rows, "rayleigh": None}) is None
+    assert "No Rayleigh damping: 1 identified mode" in modal.modal_note({"modes": rows,
+                                                                          "rayleigh": None})

@@ -573,3 +573,89 @@ def test_export_onto_a_dangling_link_needs_force_and_replaces_the_link(tmp_path,
     assert code == 0, err
     assert not link.is_symlink() and link.read_text().startswith("*KEYWORD")
     assert not (tmp_path / "elsewhere").exists()
+
+
+# -- the damper section (issue 32) ----------------------------------------------------------
+
+HOSTILE_TEXT = f"amplitude-dependent{PAYLOAD}\n*INCLUDE\nevil.k\n** x\n$ y {{os.system('x')}}"
+
+
+def _damper_folder(tmp_path, name, law="power", **sec):
+    from tests._support.fem import write_damper_summary
+
+    folder = write_damper_summary(tmp_path / name, law)
+    path = folder / "summary.json"
+    data = json.loads(path.read_text())
+    data["damper"].update(sec)
+    path.write_text(json.dumps(data))
+    return folder
+
+
+@pytest.mark.parametrize("law", ["power", "coulomb", "quadratic"])
+@pytest.mark.parametrize("fmt", ["lsdyna", "opensees", "calculix"])
+def test_hostile_damper_texts_stay_inert_in_every_deck(tmp_path, law, fmt):
+    """Verdict, design-amplitude source and the command line hold code, quotes and cards: the
+    deck is the clean deck's cards (LS-DYNA, CalculiX) or statements (OpenSees), ASCII, finite."""
+    clean = _damper_folder(tmp_path, "clean", law)
+    evil = _damper_folder(tmp_path, "evil", law, verdict=HOSTILE_TEXT, design_amplitude={
+        "displacement_m": 0.026, "source": HOSTILE_TEXT})
+    a, _ = build(clean, fmt, command="dampfit export clean")
+    b, _ = build(evil, fmt, command=f"dampfit export {HOSTILE_FOLDER}")
+    assert b.isascii() and "nan" not in b.lower().replace("nonlinear", "")
+    if fmt == "opensees":
+        assert _module_shape(a) == _module_shape(b)
+    elif fmt == "lsdyna":
+        assert keyword.parse_deck(a) == keyword.parse_deck(b)
+        assert all(len(line) <= 80 for line in b.splitlines())
+        assert lsdyna.read_deck(a)["damper_curve"] == lsdyna.read_deck(b)["damper_curve"]
+    else:
+        cards = lambda t: [x for x in t.splitlines() if not x.startswith("**")]  # noqa: E731
+        assert cards(a) == cards(b)
+
+
+BAD_DAMPER = [
+    ("damper", '"power"', "damper must be an object"),
+    ("damper.status", '"maybe"', "damper.status must be one of"),
+    ("damper.law", '"rubber"', "damper.law must be one of"),
+    ("damper.coefficients.alpha.q50", "NaN", "damper.coefficients.alpha.q50 must be finite"),
+    ("damper.coefficients.alpha.q50", "7.5", "outside (0, 3]"),
+    ("damper.coefficients.alpha.q50", "-0.5", "must be positive"),
+    ("damper.coefficients.c_alpha.q50", "1e400", "must be finite"),
+    ("damper.coefficients.c_alpha.q50", "true", "must be a number, got true"),
+    ("damper.coefficients.c_alpha", None, "has no 'c_alpha'"),
+    ("damper.measured_range.velocity_m_s", "[2, 1]", "is not [low, high]"),
+    ("damper.measured_range.velocity_m_s", "[0, 1]", "must be positive"),
+    ("damper.measured_range.velocity_m_s", '"fast"', "must be [low, high]"),
+    ("damper.c_linear.q50", '"0.4"', "damper.c_linear.q50 must be a number"),
+    ("damper.design_amplitude.displacement_m", "-1", "must be positive"),
+]
+
+
+@pytest.mark.parametrize("dotted,raw,match", BAD_DAMPER,
+                         ids=[f"{d}={r}" for d, r, _ in BAD_DAMPER])
+@pytest.mark.parametrize("fmt", ["lsdyna", "opensees"])
+def test_export_refuses_a_bad_damper_value(tmp_path, capsys, dotted, raw, match, fmt):
+    folder = set_raw(_damper_folder(tmp_path, "r"), dotted, raw)
+    export_fails(tmp_path, capsys, folder, match, fmt=fmt)
+
+
+@pytest.mark.parametrize("extra,match", [
+    (["--law", "x\n*INCLUDE"], "--law"),
+    (["--force-law", '"""'], "--force-law"),
+    (["--law", "viscous", "--force-law", "power"], "not both"),
+])
+def test_export_bad_law_options_are_one_line(tmp_path, capsys, extra, match):
+    export_fails(tmp_path, capsys, _damper_folder(tmp_path, "r"), match, extra=extra)
+
+
+def test_hostile_huge_coefficients_give_finite_cards_or_one_line(tmp_path, capsys):
+    """A damper at 1e300: a card that cannot hold it is one error line, never inf or nan."""
+    folder = set_raw(_damper_folder(tmp_path, "r"), "damper.coefficients.c_alpha.q50", "1e300")
+    before = snapshot(tmp_path)
+    code, _, err = run(["export", folder, "--format", "lsdyna"], capsys)
+    if code == 0:
+        text = (folder / "sdof_lsdyna.k").read_text()
+        assert "inf" not in text.lower() and "nan" not in text.lower().replace("nonlinear", "")
+    else:
+        assert_one_line_error(code, err, 2)
+        assert_unchanged(before, snapshot(tmp_path))

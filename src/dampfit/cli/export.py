@@ -29,20 +29,54 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="simulated time [s] (default: the analysed window)")
     parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")
+    parser.add_argument("--law", metavar="LAW",
+                        help="'viscous': a linear dashpot (under a non-viscous verdict the "
+                             "equivalent linear c at the design amplitude, with a warning); "
+                             "default: the recommended damper of summary.json")
+    parser.add_argument("--draws", type=int, metavar="N",
+                        help="write N posterior draws of the system and damper: a folder "
+                             "(default DIR/sdof_FORMAT_draws) of draws.csv and N decks "
+                             "(1 <= N <= 1000)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the choice of draws (default 0)")
+    parser.add_argument("--force-law", metavar="LAW",
+                        help="write LAW (viscous, coulomb, quadratic, power) whatever the "
+                             "verdict; needed when no damper is recommended (a misfit)")
 
 
 def command(args: argparse.Namespace) -> int:
     """Write the deck and print what it holds; exit code 0."""
+    import sys
+
+    import numpy as np
+
     from dampfit.fem.export import export
 
     out, info = export(args.folder, args.format, args.out, units=args.units,
                        quantile=args.quantile, gravity=args.gravity, duration=args.duration,
-                       force=args.force)
+                       force=args.force, law=getattr(args, "law", None),
+                       force_law=getattr(args, "force_law", None),
+                       draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
+    dmp = info["damper"]
+    if "rows" in info:  # --draws
+        for warning in dmp.warnings:
+            print(f"warning: {warning}", file=sys.stderr)
+        z = np.array([r["zeta_eq_at_design"] for r in info["rows"]])
+        print(f"wrote {out}: draws.csv and {info['n']} {FORMATS[args.format][0]}s of the "
+              f"{info['law']} damper (posterior draws, seed {info['seed']}, units {info['units']})")
+        print(f"  zeta_eq at the design amplitude over the draws: median {np.median(z):.4g}, "
+              f"5-95 % [{np.quantile(z, 0.05):.4g}, {np.quantile(z, 0.95):.4g}]")
+        return 0
+    for warning in dmp.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     s, u = info["sdof"], units_mod.get(info["units"])
     print(f"wrote {out} ({FORMATS[args.format][0]}, units {u.name}, posterior quantile "
           f"{info['quantile']:g}{', gravity' if info['gravity'] else ''})")
-    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, c = {s.c:.6g} N s/m, u0 = {s.u0:.6g} m "
-          f"(zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
+    coeffs = ", ".join(f"{k} = {v:.6g}" for k, v in dmp.coefficients.items())
+    print(f"  damper: {dmp.law} law ({coeffs}; SI), verdict {dmp.verdict or 'not recorded'}")
+    cname = "c_eq at the design amplitude" if dmp.nonlinear else "c"
+    print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, {cname} = {s.c:.6g} N s/m, u0 = "
+          f"{s.u0:.6g} m (zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
     print(f"  {info['duration']:g} s, step {info['dt']:.4g} s (T/{s.period / info['dt']:.0f}), "
           f"output every {info['output_dt']:.4g} s")
     md = info.get("modal")
@@ -52,3 +86,4 @@ def command(args: argparse.Namespace) -> int:
               + ", ".join(f"{r['zeta']['q50']:.3g} at {r['f_n']['q50']:.4g} Hz"
                           for r in md["modes"]) + ")")
     return 0
+

@@ -17,6 +17,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="time step [s] (default: from the period and the window)")
     parser.add_argument("--out", metavar="FIG",
                         help="figure file, .png/.pdf/.svg/… (default: DIR/verify.png)")
+    parser.add_argument("--draws", type=int, metavar="N",
+                        help="also run N posterior draws of the damper (1 <= N <= 1000) and "
+                             "draw the band of their envelopes")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="seed of the choice of draws (default 0; as export --draws)")
     parser.add_argument("--force", action="store_true",
                         help="replace an existing --out file (a link is replaced, not its target)")
 
@@ -25,7 +30,8 @@ def command(args: argparse.Namespace) -> int:
     """Verify, print the table and what was written; exit code 0."""
     from dampfit.fem.verify import table, verify
 
-    res = verify(args.folder, args.dt, args.out, getattr(args, "force", False))
+    res = verify(args.folder, args.dt, args.out, getattr(args, "force", False),
+                 draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     print(table(res["report"]))
     print(f"\n  written {res['json']}, {res['figure']}")
     refresh = res["report_refresh"]

@@ -8,6 +8,8 @@ Modules (nothing is imported here, so building the CLI stays fast):
 * :mod:`~dampfit.fem.keyword` — fixed-width LS-DYNA cards and their reader;
 * :mod:`~dampfit.fem.lsdyna`, :mod:`~dampfit.fem.opensees`, :mod:`~dampfit.fem.calculix` —
   the decks (and, for OpenSees, the run of that very script in an isolated child process);
+* :mod:`~dampfit.fem.damper` — the damper a deck writes (the recommended law, checked) and its
+  engine elements; :mod:`~dampfit.fem.draws` — posterior draws as decks (export/verify --draws);
 * :mod:`~dampfit.fem.response` — pure numerics of the verification;
 * :mod:`~dampfit.fem.export`, :mod:`~dampfit.fem.verify` — ``dampfit export`` and ``dampfit verify``.
 """

@@ -46,8 +46,15 @@ def real(x: float) -> str:
     return text
 
 
-def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float) -> str:
+def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
+         damper: Any = None, header: tuple[str, ...] | list[str] = ()) -> str:
     """The .inp text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+
+    CalculiX's *DASHPOT is linear: its constant may depend on the frequency (steady-state
+    dynamics) and the temperature, never on the velocity (ccx ``dashpots.f``). A nonlinear
+    ``damper`` (:class:`dampfit.fem.damper.Damper`) is therefore written as the linear c of
+    ``sdof`` — the equivalent linear c at the design amplitude — with that limitation stated
+    in the comments; ``header`` (the damper's sentences) opens the deck.
 
     Outside text (source folder, dampfit version) is sanitised (:mod:`dampfit.fem.sanitize`):
     it only appears inside ``**`` comment lines, never starts a keyword card.
@@ -77,6 +84,13 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
          f"average acceleration (ALPHA=0), fixed increment {dt * T!r} {lab('time')} = T/"
          f"{sdof.period / dt:.0f}, period error {newmark_period_error(sdof.omega_n, dt):.2e}."),
     ]
+    if damper is not None and damper.nonlinear:
+        head[1] = head[1].replace("c = ", "c (equivalent linear c at the design amplitude) = ", 1)
+        head.append(f"LIMITATION: CalculiX has no nonlinear dashpot (*DASHPOT is linear in the "
+                    f"velocity), so this deck carries the equivalent linear c at the design "
+                    f"amplitude, not the measured {damper.law} law; it dissipates the measured "
+                    "energy per cycle at that amplitude only (more or less elsewhere).")
+    head = list(header) + head
     out = [line for text in head for line in calculix_comment(text, limit=None)]
     out += [
         "*HEADING",

@@ -18,6 +18,24 @@ most T/50) and the fixed time step comes from :func:`dampfit.fem.timestep.choose
 (≥ 200 steps per period, phase error ≤ 1e-3 rad at the end). With ``--gravity`` the mass
 hangs under g = 9.80665 m/s² and is released from static equilibrium + u0.
 
+**The damper** (issue 32; :mod:`dampfit.fem.damper`) is summary.json's recommendation
+(``damper``): the law with its coefficients' medians — LS-DYNA *MAT_DAMPER_NONLINEAR_VISCOUS
+with its force–velocity *DEFINE_CURVE (symmetric, through 0, to 5× the fastest measured
+velocity; the deck says where it is extrapolated), OpenSees ``Viscous c_alpha alpha`` or a
+``Parallel`` material (quadratic: Viscous α = 1 + Viscous α = 2; Coulomb: Viscous + an
+ElasticPP friction element, its stick stiffness stated), CalculiX (linear *DASHPOT only) the
+linear c at the design amplitude with that limitation stated. Every deck's header gives the
+verdict, the law and its coefficients, the measured amplitude range, the notes and the
+command that writes it (:func:`canonical_command`). ``law="viscous"`` (``--law viscous``)
+writes a linear dashpot: under a non-viscous verdict the equivalent linear c at the design
+amplitude (``damper.c_linear``), with a warning (stderr and deck); ``force_law``
+(``--force-law LAW``) any law, and is needed when no damper is recommended (a misfit). A
+summary without a ``damper`` section (written before it existed) gives the viscous posterior
+c as before, with a note in the deck. ``--draws N`` writes N posterior draws instead
+(:mod:`dampfit.fem.draws`: a folder of ``draws.csv`` and N decks). Modes that are seen but
+not identified (``modes_seen``, ``"identified": false``) never reach a deck; the deck names
+them (:func:`dampfit.fem.modal.modal_note`).
+
 A campaign folder (several recordings of one damper) gives the population damper
 (:func:`dampfit.fem.sdof.load`); the deck says so in a comment line near its top, with the
 number of tests and the predictive interval of c for a new test. Its duration is the longest
@@ -35,6 +53,7 @@ from typing import Any
 
 from dampfit.files.atomic import atomic_write_text, check_output_file
 from dampfit.errors import InputError
+from dampfit.fem import damper as damper_mod
 from dampfit.fem import sdof as sdof_mod
 from dampfit.result.schema import number
 from dampfit.fem import timestep
@@ -42,7 +61,7 @@ from dampfit.fem import units as units_mod
 from dampfit.errors import shown
 from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "build", "export", "output_interval", "run_duration"]
+__all__ = ["FORMATS", "build", "canonical_command", "export", "output_interval", "run_duration"]
 
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
@@ -114,7 +133,8 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
 
 def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
           gravity: bool = False, duration: float | None = None,
-          name: str | None = None) -> tuple[str, dict[str, Any]]:
+          name: str | None = None, law: str | None = None, force_law: str | None = None,
+          command: str | None = None, variant=None) -> tuple[str, dict[str, Any]]:
     """Text of the ``fmt`` deck for result ``folder`` (or an analysis :func:`dampfit.load` read
     from one) and a plain-data description of it.
 
@@ -122,6 +142,12 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
     summary.json field the deck uses is checked first (type, finite, range; see
     :func:`dampfit.result.schema.number`), so a bad value is one error line and no deck.
+
+    The damper is the summary's recommendation, ``law="viscous"`` a linear dashpot,
+    ``force_law`` any law (:func:`dampfit.fem.damper.choose`); ``command`` (the command line
+    that asked for the deck) is written into its header with the damper's sentences.
+    ``variant(sdof, damper) -> (sdof, damper, header lines)`` replaces the system and damper
+    before the deck is written (one posterior draw: :mod:`dampfit.fem.draws`).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -129,6 +155,12 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
+    dmp, sdof = _damper(summary, path, sdof, law, force_law, quantile)
+    header = damper_mod.describe(dmp, command or canonical_command(
+        folder, fmt, units, quantile, gravity, duration, law, force_law))
+    if variant is not None:
+        sdof, dmp, extra = variant(sdof, dmp)
+        header = list(extra) + header
     dur = run_duration(summary, duration, path)
     fs = _sample_rate(summary, path)
     output_dt = output_interval(sdof.period, fs)
@@ -141,25 +173,74 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     if fmt == "lsdyna":
         from dampfit.fem.lsdyna import deck
 
-        text = deck(sdof, system, dur, dt, output_dt)
+        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
     elif fmt == "opensees":
         from dampfit.fem.opensees import script
 
         text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1],
-                      modal=modal)
+                      modal=modal, damper=dmp, header=header)
     else:
         from dampfit.fem.calculix import deck
 
-        text = deck(sdof, system, dur, dt, output_dt)
+        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
     if modal is not None and fmt != "opensees":
         text = _with_modal(text, fmt, modal, system)
     note = sdof.source.get("campaign")
     if note:
         text = _with_note(text, fmt, note)
+    from dampfit.fem.modal import modal_note
+
+    seen = None if summary.get("kind") == "campaign" else modal_note(summary)
+    if seen:
+        text = _with_note(text, fmt, seen)
     info = {"format": fmt, "units": system.name, "quantile": quantile, "gravity": gravity,
             "mass": sdof.mass, "k": sdof.k, "c": sdof.c, "u0": sdof.u0,
-            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal}
+            "duration": dur, "dt": dt, "output_dt": output_dt, "sdof": sdof, "modal": modal,
+            "damper": dmp}
     return text, info
+
+
+def canonical_command(folder: Path, fmt: str, units: str = "SI", quantile: float = 0.5,
+                      gravity: bool = False, duration: float | None = None,
+                      law: str | None = None, force_law: str | None = None,
+                      extra: tuple[str, ...] = ()) -> str:
+    """The ``dampfit export`` command that writes this deck, as a shell runs it: the resolved
+    folder and every option that differs from its default (``--out`` aside: the file name is
+    not part of the deck), the same whether the deck was asked for on the command line or
+    from Python. ``dampfit verify`` records the same string (``script.export_command``)."""
+    import shlex
+
+    words = ["dampfit", "export", str(Path(folder).resolve()), "--format", fmt]
+    for option, value, default in (("--units", units, "SI"), ("--quantile", quantile, 0.5),
+                                   ("--duration", duration, None), ("--law", law, None),
+                                   ("--force-law", force_law, None)):
+        if value != default:
+            words += [option, repr(value) if isinstance(value, float) else str(value)]
+    if gravity:
+        words.append("--gravity")
+    return shlex.join(words + list(extra))
+
+
+def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
+    """(damper, system): the damper the deck writes and the system with its linear c — the
+    dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
+    (``damper.c_linear``, else c_eq at u0), which the decks only report."""
+    import dataclasses
+
+    dmp = damper_mod.choose(summary, path, law, force_law, viscous_c=sdof.c)
+    if dmp.nonlinear:
+        if abs(quantile - 0.5) > 1e-12:
+            raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "
+                             "coefficients' medians (quantiles of correlated coefficients are no "
+                             "damper); use --draws N for its uncertainty")
+        c = (dmp.c_linear or {}).get("q50")
+        if c is None:
+            a = (dmp.design or {}).get("displacement_m", abs(sdof.u0))
+            c = damper_mod.c_equivalent(dmp.law, dmp.coefficients, sdof.omega_n, a)
+        return dmp, dataclasses.replace(sdof, c=c)
+    if dmp.coefficients["c"] != sdof.c:
+        return dmp, dataclasses.replace(sdof, c=dmp.coefficients["c"])
+    return dmp, sdof
 
 
 def _with_modal(text: str, fmt: str, modal: dict[str, Any], system) -> str:
@@ -191,7 +272,9 @@ def _with_note(text: str, fmt: str, note: str) -> str:
 
 def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
            units: str = "SI", quantile: float = 0.5, gravity: bool = False,
-           duration: float | None = None, force: bool = False) -> tuple[Path, dict[str, Any]]:
+           duration: float | None = None, force: bool = False, law: str | None = None,
+           force_law: str | None = None, command: str | None = None,
+           draws: int | None = None, seed: int = 0) -> tuple[Path, dict[str, Any]]:
     """Write the ``fmt`` deck of ``result`` (a result folder, or an analysis :func:`dampfit.load`
     read from one) to ``out`` (default: ``FOLDER/sdof_FORMAT.EXT``); return (path, description).
 
@@ -203,10 +286,22 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
     folder = folder_of(result)
+    if draws is not None:  # N posterior draws: a folder of decks and draws.csv
+        from dampfit.fem import draws as draws_mod
+
+        draws_mod.check_count(draws)
+        command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,
+                                               law, force_law, ("--draws", str(draws),
+                                                                "--seed", str(seed)))
+        return draws_mod.write(build, folder, fmt, FORMATS[fmt][1].rsplit(".", 1)[1], draws,
+                               seed, out, force, units=units,
+                               quantile=quantile, gravity=gravity, duration=duration, law=law,
+                               force_law=force_law, command=command)
     path = Path(out) if out else folder / FORMATS[fmt][1]
     if out:
         check_output_file(path, force)
-    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name)
+    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name,
+                       law=law, force_law=force_law, command=command)
     if not out:
         check_output_file(path, force)
     atomic_write_text(path, text)

@@ -46,8 +46,8 @@ _NODE_W = [8, 16, 16, 16, 8, 8]
 _EMASS_W = [8, 8, 16, 8]
 _EDISC_W = [8, 8, 8, 8, 8, 16, 8, 16]
 _CURVE_POINT_W = [20, 20]
-#: Curve ids: time-step cap, gravity.
-LC_DT, LC_GRAVITY = 1, 2
+#: Curve ids: time-step cap, gravity, the nonlinear damper's force–velocity table.
+LC_DT, LC_GRAVITY, LC_DAMPER = 1, 2, 3
 
 
 def reference_length(sdof: Sdof) -> float:
@@ -61,8 +61,14 @@ def _comment(text: str) -> list[str]:
 
 
 def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
-         title: str = "dampfit SDOF free decay") -> str:
+         title: str = "dampfit SDOF free decay", damper: Any = None,
+         header: tuple[str, ...] | list[str] = ()) -> str:
     """The .k deck text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+
+    ``damper`` (:class:`dampfit.fem.damper.Damper`) with a nonlinear law replaces
+    *MAT_DAMPER_VISCOUS by *MAT_DAMPER_NONLINEAR_VISCOUS (MID, LCDR) and its force–velocity
+    curve :data:`LC_DAMPER` (:func:`damper_curve`); ``header`` (the damper's sentences) goes
+    into ``$`` comments right after *KEYWORD.
 
     Outside text (source folder, dampfit version, ``title``) is sanitised
     (:mod:`dampfit.fem.sanitize`): it can only appear inside ``$`` comments or as the
@@ -77,7 +83,8 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     y2 = (-ref - sdof.sag + sdof.u0) * L  # released position of the mass node
     offset = (sdof.sag - sdof.u0) * L     # spring elongation at t = 0 (positive = tension)
     end, step, out = duration * T, dt * T, output_dt * T
-    lines = ["*KEYWORD"] + _comments(sdof, units, L, dt, step)
+    lines = ["*KEYWORD"] + [x for text in header for x in _comment(text)]
+    lines += _comments(sdof, units, L, dt, step, damper is not None and damper.nonlinear)
     lines += ["*TITLE", lsdyna_title(title)]
     lines += ["*CONTROL_TERMINATION", kw.header(["endtim", "endcyc", "dtmin", "endeng", "endmas"]),
               kw.card([end, 0, 0.0, 0.0, 0.0])]
@@ -104,7 +111,12 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     lines += ["*SECTION_DISCRETE", kw.header(["secid", "dro", "kd", "v0", "cl", "fd"]),
               kw.card([1, 0, 0.0, 0.0, 0.0, 0.0]), kw.header(["cdl", "tdl"]), kw.card([0.0, 0.0])]
     lines += ["*MAT_SPRING_ELASTIC", kw.header(["mid", "k"]), kw.card([1, k])]
-    lines += ["*MAT_DAMPER_VISCOUS", kw.header(["mid", "dc"]), kw.card([2, c])]
+    if damper is not None and damper.nonlinear:
+        lines += ["*MAT_DAMPER_NONLINEAR_VISCOUS", kw.header(["mid", "lcdr"]),
+                  kw.card([2, LC_DAMPER])]
+        lines += damper_curve(damper, sdof, units, dt)
+    else:
+        lines += ["*MAT_DAMPER_VISCOUS", kw.header(["mid", "dc"]), kw.card([2, c])]
     lines += ["*ELEMENT_DISCRETE",
               kw.header(["eid", "pid", "n1", "n2", "vid", "s", "pf", "offset"], _EDISC_W),
               kw.card([1, 1, 1, 2, 0, 1.0, 0, offset], _EDISC_W),
@@ -120,7 +132,8 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     return "\n".join(lines) + "\n"
 
 
-def _comments(sdof: Sdof, units: UnitSystem, L: float, dt: float, step: float) -> list[str]:
+def _comments(sdof: Sdof, units: UnitSystem, L: float, dt: float, step: float,
+              nonlinear: bool = False) -> list[str]:
     """The deck's ``$`` comments: where it comes from, the identified system (SI), the units,
     the model, the initial displacement and the time step (``dt`` [s], ``step`` in the deck's
     time unit, ``L`` the deck's length per metre)."""
@@ -132,14 +145,16 @@ def _comments(sdof: Sdof, units: UnitSystem, L: float, dt: float, step: float) -
                       f"{ascii_line(src.get('folder', '?'), 300)} (summary.json sha256 "
                       f"{ascii_line(str(src.get('summary_sha256', '?'))[:16])}...), posterior "
                       f"quantile q = {float(src.get('quantile', 0.5)):g}.")
+    cname = "c_eq (linear c at the design amplitude, not written)" if nonlinear else "c"
+    card = "*MAT_DAMPER_NONLINEAR_VISCOUS" if nonlinear else "*MAT_DAMPER_VISCOUS"
     lines += _comment(f"Identified (SI): m = {sdof.mass:.6g} kg, k = {sdof.k:.6g} N/m, "
-                      f"c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, "
+                      f"{cname} = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, zeta = {sdof.zeta:.6g}, "
                       f"f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
     lines += _comment(f"Units of this deck: length {lab('length')}, time {lab('time')}, mass "
                       f"{lab('mass')}, force {lab('force')}; k in {lab('stiffness')}, c in "
                       f"{lab('damping')}.")
     lines += _comment("Node 1 is the fixed anchor; node 2 carries the mass and hangs below it "
-                      "(y up) on a *MAT_SPRING_ELASTIC spring and a *MAT_DAMPER_VISCOUS damper "
+                      f"(y up) on a *MAT_SPRING_ELASTIC spring and a {card} damper "
                       "in parallel (two *ELEMENT_DISCRETE).")
     lines += _comment("Initial displacement: node 2 sits at its released position, u0 above "
                       "static equilibrium, at rest; the spring's OFFSET (initial elongation, "
@@ -150,6 +165,34 @@ def _comments(sdof: Sdof, units: UnitSystem, L: float, dt: float, step: float) -
                       f"{sdof.period / dt:.0f} steps per period, central-difference period error "
                       f"{period_err:.2e}.")
     return lines
+
+
+def damper_curve(damper: Any, sdof: Sdof, units: UnitSystem, dt: float) -> list[str]:
+    """Comments and ``*DEFINE_CURVE_TITLE`` :data:`LC_DAMPER` of the damper's force against
+    elongation rate, in the deck's units (velocity, force): the table of
+    :func:`dampfit.fem.damper.table` over the measured velocity range (else ω·u0/10 … ω·u0)
+    with its steepest segment (through 0) a damping of at most m/Δt, half the explicit
+    stability limit 2m/Δt of a damper on the mass."""
+    from dampfit.fem.damper import TABLE_REACH, table
+    from dampfit.fem.units import factor
+
+    vr = damper.velocity_range or (0.1 * sdof.omega_n * abs(sdof.u0), sdof.omega_n * abs(sdof.u0))
+    tab = table(damper, vr, sdof.mass / dt)
+    V, F = factor("velocity", units), factor("force", units)
+    lv, lf = units.label("velocity"), units.label("force")
+    out = _comment(f"Curve {LC_DAMPER}: damper force [{lf}] against elongation rate [{lv}], "
+                   f"symmetric through (0, 0). Measured |v| {tab['measured'][0] * V:.4g} to "
+                   f"{tab['measured'][1] * V:.4g} {lv}; below and above that the law is "
+                   f"extrapolated (not measured), up to {TABLE_REACH:g}x the fastest measured "
+                   f"velocity ({tab['v_top'] * V:.4g} {lv}), beyond which LS-DYNA extrapolates "
+                   f"the last segment. Between -{tab['v1'] * V:.4g} and {tab['v1'] * V:.4g} "
+                   f"{lv} the curve is a straight line through 0 (its slope <= m/dt, so the "
+                   "explicit step stays stable; for friction this regularises the jump).")
+    out += ["*DEFINE_CURVE_TITLE", "damper force - velocity",
+            kw.header(["lcid", "sidr", "sfa", "sfo", "offa", "offo", "dattyp"]),
+            kw.card([LC_DAMPER, 0, 1.0, 1.0, 0.0, 0.0, 0]), kw.header(["a1", "o1"], _CURVE_POINT_W)]
+    out += [kw.card([float(v * V), float(f * F)], _CURVE_POINT_W) for v, f in zip(tab["v"], tab["F"])]
+    return out
 
 
 def _constant_curve(lcid: int, title: str, value: float, end: float) -> list[str]:
@@ -205,6 +248,8 @@ def read_deck(text: str) -> dict[str, Any]:
         parts[kw.read_int(f[0])] = kw.read_int(f[2])
     springs, dampers = (_materials(get.get(name, [])) for name in ("MAT_SPRING_ELASTIC",
                                                                     "MAT_DAMPER_VISCOUS"))
+    nonlinear = {mid: int(lc) for mid, lc in _materials(get.get("MAT_DAMPER_NONLINEAR_VISCOUS",
+                                                                 [])).items()}
     k = c = offset = 0.0
     for row in get["ELEMENT_DISCRETE"][0]:
         f = kw.split_fields(row, _EDISC_W)
@@ -216,6 +261,10 @@ def read_deck(text: str) -> dict[str, Any]:
         elif mid in dampers:
             c += scale * dampers[mid]
     curves = _curves(blocks)
+    damper_curve_pts = None
+    for mid, lc in nonlinear.items():
+        sfo_d, pts_d = curves[lc]
+        damper_curve_pts = [(v, sfo_d * f) for v, f in pts_d]
     f = kw.split_fields(get["CONTROL_TIMESTEP"][0][0], 10, 8)
     sfo, pts = curves[kw.read_int(f[5])]
     g = 0.0
@@ -236,7 +285,7 @@ def read_deck(text: str) -> dict[str, Any]:
     # spring force on node 2 is −k·(offset + d·ey)·ey and the weight −m·g (along y):
     d_eq = -m * g / k - offset * ey
     return {
-        "mass": m, "k": k, "c": c, "offset": offset, "g": g,
+        "mass": m, "k": k, "c": c, "offset": offset, "g": g, "damper_curve": damper_curve_pts,
         "anchor": x1, "node": x2, "axis_y": ey,
         "duration": kw.read_real(kw.split_fields(get["CONTROL_TERMINATION"][0][0], 10, 1)[0]),
         "dt": sfo * pts[0][1], "dtinit": kw.read_real(f[0], 0.0),

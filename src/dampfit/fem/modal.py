@@ -103,16 +103,21 @@ def modal_damping(summary: dict[str, Any], where: str | Path = "summary.json") -
                          f"{len(modes)}")
     if len(modes) < 2:
         return None
+    seen = _seen_frequencies(summary)
+    identified = [(i, m) for i, m in enumerate(modes) if _identified(m, seen)]
+    new_layout = "modes_seen" in summary or any("identified" in m for m in modes)
+    if len(identified) < 2 or (new_layout and ray is None):
+        return None  # one identified mode, or no Rayleigh fit: no modal block (modal_note)
     rows, mass_mode = [], None
-    for i, m in enumerate(modes):
-        row = {"index": i + 1,
+    for i, m in identified:
+        row = {"index": len(rows) + 1,
                "f_n": _entry(m.get("f_n"), f"modes[{i}].f_n", where, positive=True),
                "zeta": _entry(m.get("zeta"), f"modes[{i}].zeta", where, nonnegative=True)}
         if row["zeta"]["q50"] >= 1.0:
             raise InputError(f"{shown(where)}: modes[{i}].zeta.q50 = {row['zeta']['q50']:g} is "
                              "not below 1: the mode does not oscillate")
         if m.get("mass_mode") is True:
-            mass_mode = i + 1
+            mass_mode = len(rows) + 1
         rows.append(row)
     f = [r["f_n"]["q50"] for r in rows]
     if any(b <= a for a, b in itertools.pairwise(f)):
@@ -121,6 +126,58 @@ def modal_damping(summary: dict[str, Any], where: str | Path = "summary.json") -
     out = {"n_modes": len(rows), "modes": rows, "mass_mode": mass_mode}
     out.update(_rayleigh(ray, rows, where))
     return out
+
+
+def _identified(mode: dict[str, Any], seen: set[float]) -> bool:
+    """Whether a ``modes`` entry may reach a deck: not ``"identified": false`` and not the
+    frequency of a ``modes_seen`` component (a reader of an old summary, without the flag,
+    takes its modes as identified)."""
+    if mode.get("identified") is False:
+        return False
+    f = mode.get("f_n")
+    q50 = f.get("q50") if isinstance(f, dict) else None
+    return not (isinstance(q50, (int, float)) and float(q50) in seen)
+
+
+def _seen_frequencies(summary: dict[str, Any]) -> set[float]:
+    """f_n medians [Hz] of ``modes_seen`` (components seen but not identified as modes)."""
+    out = set()
+    for entry in summary.get("modes_seen") or []:
+        f = entry.get("f_n") if isinstance(entry, dict) else None
+        q50 = f.get("q50") if isinstance(f, dict) else None
+        if isinstance(q50, (int, float)) and not isinstance(q50, bool) and math.isfinite(q50):
+            out.add(float(q50))
+    return out
+
+
+def modal_note(summary: dict[str, Any]) -> str | None:
+    """One sentence for a deck whose summary lists modes that are left out: the components
+    ``modes_seen`` (or flagged ``"identified": false``) and, when no Rayleigh fit was made
+    (``rayleigh`` null: fewer than two identified modes), that the deck has no Rayleigh
+    damping. ``None`` when nothing was left out."""
+    modes, ray = _source(summary)
+    modes = modes if isinstance(modes, list) else []
+    seen = _seen_frequencies(summary)
+    left = [m for m in modes if isinstance(m, dict) and not _identified(m, seen)]
+    parts = []
+    for entry in list(summary.get("modes_seen") or []) + left:
+        if not isinstance(entry, dict):
+            continue
+        f = entry.get("f_n") if isinstance(entry.get("f_n"), dict) else {}
+        q50 = f.get("q50")
+        where = f"{q50:.4g} Hz" if isinstance(q50, (int, float)) and not isinstance(
+            q50, bool) and math.isfinite(q50) else "unknown frequency"
+        kind = ascii_line(entry.get("kind") or entry.get("reason") or "not identified", 80)
+        parts.append(f"{where} ({kind})")
+    if not parts:
+        return None
+    n_id = sum(1 for m in modes if isinstance(m, dict) and _identified(m, seen))
+    note = ("Seen, not identified as modes, and left out of this deck and of any Rayleigh fit: "
+            + "; ".join(parts[:10]) + ".")
+    if ray is None or n_id < 2:
+        note += (f" No Rayleigh damping: {n_id} identified mode"
+                 f"{'' if n_id == 1 else 's'} (a Rayleigh fit needs two).")
+    return note
 
 
 def _rayleigh(ray: Any, rows: list[dict], where: Path) -> dict[str, Any]:

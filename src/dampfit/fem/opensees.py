@@ -180,8 +180,8 @@ _TEMPLATE = '''\
 The exact source folder and dampfit version are SOURCE_FOLDER and DAMPFIT_VERSION below.
 
 Units: length {L}, time {T}, mass {M}, force {F} (k in {K}, c in {C}).
-Model: node 1 fixed, node 2 carries the mass m; a zeroLength element holds an Elastic (k)
-and a Viscous (c, alpha = 1) material in parallel. u is positive up; with gravity the weight
+{damper_doc}Model: node 1 fixed, node 2 carries the mass m; a zeroLength element holds an Elastic (k)
+and {damper_model} in parallel. u is positive up; with gravity the weight
 -m*g is a constant load and the static equilibrium is at -m*g/k. Released at rest from u0
 above static equilibrium, with the consistent initial acceleration (OpenSees' Newmark does
 not compute it). Newmark average acceleration (gamma = 1/2, beta = 1/4) with a fixed step:
@@ -206,8 +206,8 @@ SOURCE_FOLDER = {source_literal}  # result folder the system was read from
 DAMPFIT_VERSION = {version_literal}  # dampfit version that wrote its summary.json
 m = {m!r}  # mass [{M}]
 k = {k!r}  # stiffness [{K}]
-c = {c!r}  # viscous damping [{C}]
-u0 = {u0!r}  # release displacement above static equilibrium [{L}]
+c = {c!r}  # {c_comment} [{C}]
+{damper_values}u0 = {u0!r}  # release displacement above static equilibrium [{L}]
 g = {g!r}  # gravity [{A}] (0: none)
 duration = {duration!r}  # [{T}]
 dt = {dt!r}  # time step [{T}]
@@ -233,7 +233,7 @@ else:
     cli.error("--steps must be a non-negative multiple of --every")
 
 import openseespy.opensees as ops  # after the options: --help and their errors need no OpenSees
-
+{force_def}
 {modal_run}ops.wipe()
 ops.model("basic", "-ndm", 1, "-ndf", 1)
 ops.node(1, 0.0)  # anchor
@@ -241,8 +241,7 @@ ops.node(2, 0.0)  # mass
 ops.fix(1, 1)
 ops.mass(2, m)
 ops.uniaxialMaterial("Elastic", 1, k)
-ops.uniaxialMaterial("Viscous", 2, c, 1.0)  # force = c * velocity**1
-ops.element("zeroLength", 1, 1, 2, "-mat", 1, 2, "-dir", 1, 1)  # spring || damper
+{damper_materials}ops.element("zeroLength", 1, 1, 2, "-mat", 1, 2, "-dir", 1, 1)  # spring || damper
 weight = -m * g
 if g > 0:
     ops.timeSeries("Constant", 1)
@@ -250,7 +249,7 @@ if g > 0:
     ops.load(2, weight)
 ops.setNodeDisp(2, 1, args.u_start, "-commit")
 ops.setNodeVel(2, 1, args.v_start, "-commit")
-ops.setNodeAccel(2, 1, (weight - k * args.u_start - c * args.v_start) / m, "-commit")
+ops.setNodeAccel(2, 1, (weight - k * args.u_start - {force_at_start}) / m, "-commit")
 {transient}
 with open(args.out, "w") as fh:
     fh.write("{header}\\n")
@@ -369,12 +368,16 @@ def modal_step(omega_max: float, output_dt: float) -> float:
 
 
 def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
-           name: str = SCRIPT_NAME, modal: dict[str, Any] | None = None) -> str:
+           name: str = SCRIPT_NAME, modal: dict[str, Any] | None = None,
+           damper: Any = None, header: Sequence[str] = ()) -> str:
     """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI.
 
     ``modal`` (:func:`dampfit.fem.modal.modal_damping` of a summary with several modes) adds
     the ``--modal`` run of the measured modes with Rayleigh damping (:data:`_MODAL_RUN`);
     without it the text is exactly the one-mode script.
+    ``damper`` (:class:`dampfit.fem.damper.Damper`) sets the damper material
+    (:func:`dampfit.fem.damper.opensees_fields`; none: Viscous c, alpha = 1) and ``header``
+    the sentences at the top of the docstring (sanitised).
 
     Text from outside (the source folder, the dampfit version of the summary, ``name``) is
     written into the docstring only through :func:`~dampfit.fem.sanitize.python_comment` and
@@ -384,10 +387,12 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
     src = sdof.source
     folder = str(src.get("folder", "?"))
     version = src.get("dampfit_version") or ""
+    nonlinear = damper is not None and damper.nonlinear
+    cname = "c_eq (linear c at the design amplitude, not in the model)" if nonlinear else "c"
     prov = (f"Source: {python_comment(folder)} (summary.json sha256 "
             f"{python_comment(str(src.get('summary_sha256', '?'))[:16])}...), posterior quantile "
             f"q = {float(src.get('quantile', 0.5)):g}.\nIdentified (SI): m = {sdof.mass:.6g} kg, "
-            f"k = {sdof.k:.6g} N/m, c = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, "
+            f"k = {sdof.k:.6g} N/m, {cname} = {sdof.c:.6g} N*s/m, u0 = {sdof.u0:.6g} m, "
             f"zeta = {sdof.zeta:.6g}, f_n = {sdof.omega_n / (2 * math.pi):.6g} Hz.")
     T = factor("time", units)
     # unit names also land in an f-string of the script: no braces
@@ -407,10 +412,19 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
         "period_error": newmark_period_error(sdof.omega_n, dt),
     }
     fields.update(_modal_fields(modal, units, duration, output_dt, label))
+    from dampfit.fem.damper import opensees_fields
+
+    fields.update(opensees_fields(damper, units, k=fields["k"]))
+    if header:
+        fields["damper_doc"] = "".join(python_comment(t, None) + "\n" for t in header) + "\n"
     for key in ("m", "k", "c", "u0", "g", "duration", "dt"):
         if not math.isfinite(fields[key]):
             raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
-    return _TEMPLATE.format(transient=_TRANSIENT, **fields)
+    transient = _TRANSIENT if damper is None or not damper.nonlinear else _TRANSIENT.replace(
+        'ops.test("NormDispIncr", 1e-12, 10)\nops.algorithm("Linear")',
+        'ops.test("NormDispIncr", 1e-12 * max(abs(args.u_start), 1e-300), 50)\n'
+        'ops.algorithm("Newton")  # the damper is nonlinear: iterate each step')
+    return _TEMPLATE.format(transient=transient, **fields)
 
 
 def run_script(text: str, options: Sequence[str], rows: int,

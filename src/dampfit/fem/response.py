@@ -20,6 +20,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -109,3 +110,98 @@ def peak_decay_rate(t: np.ndarray, y: np.ndarray, start: float | None = None,
     coef = np.polyfit(tp, np.log(np.abs(yp)), 1)
     resid = np.log(np.abs(yp)) - np.polyval(coef, tp)
     return {"p": float(-coef[0]), "n_peaks": int(tp.size), "scatter": float(np.sqrt(np.mean(resid**2)))}
+
+
+#: Peaks of the Savitzky–Golay trend of the measured log envelope (quadratic) [1].
+TREND_PEAKS = 15
+
+
+def envelope(t: np.ndarray, y: np.ndarray, start: float | None = None,
+             stop: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] and absolute values of the extrema of ``y`` (both signs, parabola-refined)
+    with ``start ≤ t ≤ stop``: the displacement envelope sampled twice a period."""
+    t = np.asarray(t, float)
+    y = np.asarray(y, float)
+    ok = np.isfinite(y)
+    tp, yp = _extrema(t[ok], y[ok])
+    keep = np.abs(yp) > 0
+    if start is not None:
+        keep &= tp >= start
+    if stop is not None:
+        keep &= tp <= stop
+    return tp[keep], np.abs(yp[keep])
+
+
+def log_envelope_error(t: np.ndarray, measured: np.ndarray, t_sim: np.ndarray,
+                       simulated: np.ndarray, start: float, stop: float) -> dict[str, Any]:
+    """How far a simulated displacement envelope lies from the measured one over
+    [``start``, ``stop``] [s], on a log scale (a relative error [1]).
+
+    The measured envelope: its extrema (|u| at each half period, :func:`envelope`) and their
+    trend, a Savitzky–Golay smoothing of ln|u_peak| over :data:`TREND_PEAKS` peaks (quadratic;
+    ``scipy.signal.savgol_filter``). The simulated one: ln|u| of its extrema interpolated at
+    the measured peak times. Returned: ``rms_vs_peaks`` = rms(ln A_sim − ln A_meas),
+    ``rms_vs_trend`` = rms(ln A_sim − trend), ``scatter`` = rms(ln A_meas − trend) — the
+    measurement's own scatter about its trend, which no envelope can beat against the peaks —,
+    ``within_scatter`` (rms_vs_trend ≤ scatter), ``max_abs_vs_trend`` and ``n_peaks``.
+    ``None`` values with fewer than 8 measured peaks."""
+    from scipy.signal import savgol_filter
+
+    tm, am = envelope(t, measured, start, stop)
+    ts, as_ = envelope(t_sim, simulated)
+    if tm.size < 8 or ts.size < 2:
+        return {"n_peaks": int(tm.size), "rms_vs_peaks": None, "rms_vs_trend": None,
+                "scatter": None, "within_scatter": None, "max_abs_vs_trend": None}
+    lm = np.log(am)
+    window = min(TREND_PEAKS, tm.size - (1 - tm.size % 2))
+    trend = savgol_filter(lm, window, 2)
+    ls = np.interp(tm, ts, np.log(as_))
+    d_trend = ls - trend
+    scatter = float(np.sqrt(np.mean((lm - trend) ** 2)))
+    rms_trend = float(np.sqrt(np.mean(d_trend ** 2)))
+    return {"n_peaks": int(tm.size), "rms_vs_peaks": float(np.sqrt(np.mean((ls - lm) ** 2))),
+            "rms_vs_trend": rms_trend, "scatter": scatter,
+            "within_scatter": bool(rms_trend <= scatter),
+            "max_abs_vs_trend": float(np.max(np.abs(d_trend)))}
+
+
+def zeta_of_amplitude(t: np.ndarray, y: np.ndarray, omega_n: float,
+                      smooth: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """ζ(A) of a simulated free decay: (amplitudes [m], ζ [1]), amplitude decreasing.
+
+    The local decay rate ρ = −d ln A/dt of the envelope (:func:`envelope`) is the slope of a
+    straight line through ``smooth`` successive peaks (half periods), and ζ = ρ/ω_n at the
+    mean amplitude of those peaks (light damping: ρ = ζ·ω_n, paper eq. 3)."""
+    tp, ap = envelope(t, y)
+    if tp.size < smooth + 1:
+        return np.empty(0), np.empty(0)
+    la = np.log(ap)
+    amps, zetas = [], []
+    for i in range(0, tp.size - smooth + 1):
+        sl = slice(i, i + smooth)
+        slope = np.polyfit(tp[sl], la[sl], 1)[0]
+        amps.append(float(np.exp(np.mean(la[sl]))))
+        zetas.append(float(-slope / omega_n))
+    return np.array(amps), np.array(zetas)
+
+
+def zeta_in_bands(windows: list[dict[str, Any]], amps: np.ndarray, zetas: np.ndarray,
+                  z: float = 1.645) -> dict[str, Any]:
+    """The simulated ζ(A) (``amps`` decreasing, ``zetas``) at the amplitudes of the measured
+    windows ``windows`` (``amplitude_m``, ``zeta``, ``zeta_sd`` of summary.json's
+    ``amplitude_curve``): each window's simulated ζ, its band ζ ± ``z``·sd (90 %) and whether
+    it lies inside; windows outside the simulated amplitude range are left out."""
+    rows = []
+    if amps.size >= 2:
+        order = np.argsort(amps)
+        a, zs = amps[order], zetas[order]
+        for w in windows:
+            A, zm, sd = w["amplitude_m"], w["zeta"], w["zeta_sd"]
+            if not (a[0] <= A <= a[-1]):
+                continue
+            zf = float(np.interp(A, a, zs))
+            rows.append({"amplitude_m": A, "zeta_measured": zm, "band": [zm - z * sd, zm + z * sd],
+                         "zeta_fem": zf, "inside": bool(abs(zf - zm) <= z * sd)})
+    inside = sum(r["inside"] for r in rows)
+    return {"windows": rows, "n_inside": inside, "n": len(rows),
+            "fraction_inside": inside / len(rows) if rows else None}
