@@ -128,7 +128,8 @@ def _coefficients(law: laws.Law, d: LawDraws) -> tuple[dict, dict, dict]:
             draws[c.name] = x
         else:
             x = np.asarray(per_kg[c.name], dtype=float)
-            per[f"{c.name}_per_kg"] = _q(x, f"({c.unit})/kg", symbol=f"{c.symbol}/m")
+            unit = f"({c.unit})/kg" if any(ch in c.unit for ch in " /^") else f"{c.unit}/kg"
+            per[f"{c.name}_per_kg"] = _q(x, unit, symbol=f"{c.symbol}/m")
             draws[f"{c.name}_per_kg"] = x
     return coef, per, draws
 
