@@ -233,3 +233,48 @@ def test_the_notebook_table_leads_with_the_damper():
     s = with_damper()
     s["damper"]["reason"] = "<script>x</script>"
     assert "<script>" not in render.html_table(s)
+
+
+def test_the_damper_frequency_is_the_mean_over_the_window_of_the_drifting_phase():
+    """ω̄ = (ψ(τ₁) − ψ(τ₀))/T of (K4) — not ω alone when an odd Legendre term is fitted."""
+    from dampfit.damping.damper import mean_omega
+
+    law = LAWS["power"].with_phase(3)
+    tau = np.linspace(0.0, 40.0, 4001)
+    theta = np.array([[math.log(0.05), 0.5, math.log(W), 0.8, -1.3, 0.4]])
+    psi = law.phase(theta, tau, xp=np)[0][0]
+    assert mean_omega(law, theta, 40.0)[0] == pytest.approx((psi[-1] - psi[0]) / 40.0)
+    assert mean_omega(law, theta, 40.0)[0] != pytest.approx(W, rel=1e-4)
+
+
+def _paths(obj, path=()):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _paths(v, path + (k,))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            yield from _paths(v, path + (i,))
+    yield path
+
+
+def test_an_edited_damper_section_renders_everywhere_without_a_crash():
+    """Every field of summary.json's damper (a user may edit it) replaced by an odd value: the
+    terminal, the notebook table, the headline and the report's first box still render."""
+    from dampfit.output.report.single import build_single
+
+    import copy
+
+    base = with_damper()
+    for path in [p for p in _paths(base["damper"]) if p] + [()]:
+        for odd in (None, "<odd>", {}, [1, "a"], float("nan"), True):
+            s = copy.deepcopy(base)
+            if path:
+                parent = s["damper"]
+                for k in path[:-1]:
+                    parent = parent[k]
+                parent[path[-1]] = odd
+            else:
+                s["damper"] = odd
+            render.text(s), render.html_table(s), render.headline(s)
+            title, blocks = build_single({"summary": s}, __import__("pathlib").Path("."), "now")
+            assert blocks[0][0] == "h1"

@@ -1,5 +1,5 @@
 """A new damping law is one class: a fifth law defined only here, registered with
-:func:`dampfit.model.laws.register`, is fitted, sampled, compared, reported, offered by
+:func:`dampfit.model.registry.register`, is fitted, sampled, compared, reported, offered by
 ``--model`` and can be the recommended damper — with no edit anywhere else.
 
 The law is the power law with its exponent fixed at 1/2, F = c_h·|v|^½·sgn(v): its averaged
@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from dampfit.damping import assess, damper
-from dampfit.model import laws
+from dampfit.model import laws, registry
 from dampfit.model.laws import Coefficient, lam
 from dampfit.output.report.checks import model_checks
 from dampfit.signal import prepare
@@ -66,11 +66,11 @@ class HalfPower(laws.Law):
 
 @pytest.fixture()
 def half_power():
-    law = laws.register(HalfPower())
+    law = registry.register(HalfPower())
     try:
         yield law
     finally:
-        laws.unregister(law.name)
+        registry.unregister(law.name)
 
 
 @pytest.fixture(scope="module")
@@ -84,15 +84,15 @@ def recording():
 
 def test_registration_is_checked_and_undone():
     before = laws.names()
-    law = laws.register(HalfPower())
+    law = registry.register(HalfPower())
     assert laws.names() == before + ("half-power",) and "half-power" in laws.MODELS
-    assert sum(laws.prior_weights().values()) == pytest.approx(1.0)
+    assert sum(registry.prior_weights().values()) == pytest.approx(1.0)
     with pytest.raises(ValueError, match="already registered"):
-        laws.register(HalfPower())
-    laws.unregister(law.name)
-    assert laws.names() == before and laws.prior_weights()["viscous"] == 0.5
+        registry.register(HalfPower())
+    registry.unregister(law.name)
+    assert laws.names() == before and registry.prior_weights()["viscous"] == 0.5
     with pytest.raises(ValueError, match="cannot be removed"):
-        laws.unregister("viscous")
+        registry.unregister("viscous")
 
 
 def test_the_command_line_offers_a_registered_law(half_power):

@@ -18,7 +18,8 @@ Modules: :mod:`~dampfit.model.laws` (laws, averaged envelopes, c_eq),
 :mod:`~dampfit.inference.law_fit` (least squares, evidence), :mod:`~dampfit.damping.evidence`,
 :mod:`~dampfit.inference.law_sampler` (emcee / Laplace draws), :mod:`~dampfit.damping.curve`
 (ζ(amplitude)), :mod:`~dampfit.damping.checks`, :mod:`~dampfit.damping.quantities`,
-:mod:`~dampfit.damping.summary`;
+:mod:`~dampfit.damping.summary`, :mod:`~dampfit.damping.damper` (the one recommended damper:
+``Analysis.damper``);
 :mod:`~dampfit.damping.assessment` holds :func:`assess`.
 """
 

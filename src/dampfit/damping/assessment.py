@@ -77,6 +77,7 @@ class DampingAssessment:
     decay: dict | None = None  # law_fit.decay_test of the viscous fit: is a decay measured?
     mass_draws: dict[str, np.ndarray | None] = field(default_factory=dict)  # [kg] per law
     mass_sd: float = 0.0  # [kg]
+    span_s: float | None = None  # [s] τ₁ − τ₀ of the fitted window (the phase terms' scale)
 
     @property
     def preferred(self) -> str:
@@ -257,7 +258,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
         slope=curve.slope(wins), window_cycles=float(cyc), amplitudes=amps, mass=mass,
         quantities=qts, t0=float(fd.t0), warnings=warns,
         pipeline_psd_ratio=(float(noise_model.psd_ratio) if noise_model is not None else None),
-        decay=decay, mass_draws=mds, mass_sd=mass_sd,
+        decay=decay, mass_draws=mds, mass_sd=mass_sd, span_s=float(fd.tau[-1] - fd.tau[0]),
     )
     out.adequacy = _adequacy(out, prep, fd, data, n_cyc, noise_of, white_r=r_white, ls=ls)
     law = out.adequacy.get("law")

@@ -11,8 +11,10 @@ the law it names, that law's posterior draws (θ, a₀ and the mass) and the rec
 * the law's **coefficients** (:attr:`dampfit.model.laws.Law.coefficients`, SI units) as
   median and 90 % interval of the law's own posterior draws, with the mass draws
   (:meth:`dampfit.model.laws.Law.physical` inverts (K2)–(K3));
+* ``f_n`` and k = m·ω̄² from the mean frequency ω̄ over the window (:func:`mean_omega`: the
+  law's ω corrected for its frequency-drift phase terms);
 * the **measured range**: displacement amplitudes [lo, hi] of the analysed window and the
-  velocity amplitudes ω·A (first-order averaging, u̇ = −a·ω·sin ψ);
+  velocity amplitudes ω̄·A (first-order averaging, u̇ = −a·ω·sin ψ);
 * the **equivalent linear c** at the design amplitude A_d (``--amplitude``, else the middle of
   the measured range on a log scale, √(lo·hi)): c_lin = 2·m·ρ(A_d) per draw (Jacobsen 1930;
   (K2) of :mod:`dampfit.model.laws`), ζ_lin = ρ(A_d)/ω;
@@ -43,7 +45,8 @@ from dampfit.damping.checks import ZETA_RATIO_MATTERS
 from dampfit.damping.quantities import summarise
 from dampfit.model import laws
 
-__all__ = ["LawDraws", "Damper", "recommend", "MAX_DRAWS", "WITHIN", "SEARCH_FACTOR"]
+__all__ = ["LawDraws", "Damper", "recommend", "from_assessment", "mean_omega", "MAX_DRAWS",
+           "WITHIN", "SEARCH_FACTOR"]
 
 #: Most draws kept for posterior.nc's ``damper`` group.
 MAX_DRAWS = 4000
@@ -59,7 +62,8 @@ _GRID, _CURVE_DRAWS = 481, 1000
 class LawDraws:
     """Posterior draws of one law: θ (N, k), start amplitude a₀ (N,) [m], mass (N,) [kg] or
     None; ``method`` ("emcee", "laplace"), ``converged``, ``note`` (why its intervals are
-    approximate, "" when they are not)."""
+    approximate, "" when they are not); ``span_s`` [s] the window the phase terms of θ span
+    (needed when θ carries frequency-drift terms, :func:`mean_omega`)."""
 
     law: str
     theta: np.ndarray
@@ -68,6 +72,7 @@ class LawDraws:
     method: str = "emcee"
     converged: bool = True
     note: str = ""
+    span_s: float | None = None  # [s] the fitted window τ₁ − τ₀ (the phase terms' x scale)
 
 
 @dataclass(frozen=True)
@@ -128,9 +133,23 @@ def _coefficients(law: laws.Law, d: LawDraws) -> tuple[dict, dict, dict]:
             draws[c.name] = x
         else:
             x = np.asarray(per_kg[c.name], dtype=float)
-            per[f"{c.name}_per_kg"] = _q(x, f"({c.unit})/kg", symbol=f"{c.symbol}/m")
+            unit = f"({c.unit})/kg" if any(ch in c.unit for ch in " /^") else f"{c.unit}/kg"
+            per[f"{c.name}_per_kg"] = _q(x, unit, symbol=f"{c.symbol}/m")
             draws[f"{c.name}_per_kg"] = x
     return coef, per, draws
+
+
+def mean_omega(law: laws.Law, theta: np.ndarray, span_s: float | None) -> np.ndarray:
+    """The mean angular frequency [rad/s] over the window of each θ draw: with the
+    frequency-drift phase ψ = ω·τ + Σ c_j·P_j(x) of (K4), P_j(±1) = (±1)^j, the phase gained
+    over the window T is ω·T + 2·Σ_{j odd} c_j, so ω̄ = ω + (2/T)·Σ_{j odd} c_j (ω alone is
+    not the mean frequency when an odd-degree term is fitted)."""
+    w = np.exp(theta[:, law.omega_index])
+    if span_s and np.isfinite(span_s) and span_s > 0:
+        for j in range(law.phase_count(theta)):
+            if (j + 2) % 2:
+                w = w + 2.0 * theta[:, law.omega_index + 1 + j] / span_s
+    return w
 
 
 def _numbers(name: str, d: LawDraws, measured: tuple[float, float], amplitude: float | None,
@@ -139,7 +158,7 @@ def _numbers(name: str, d: LawDraws, measured: tuple[float, float], amplitude: f
     c_lin, ζ_lin, ±10 % range) and its draws."""
     law = laws.get(name, d.theta)
     theta, a0 = np.asarray(d.theta, float), np.asarray(d.a0, float)
-    w = np.exp(theta[:, law.omega_index])
+    w = mean_omega(law, theta, d.span_s)
     w_med = float(np.median(w))
     lo, hi = measured
     a_d = float(amplitude) if amplitude is not None else float(np.sqrt(lo * hi))
@@ -274,7 +293,7 @@ def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
     keep = _thin(len(draws.a0), seed)
     d = LawDraws(name, np.asarray(draws.theta)[keep], np.asarray(draws.a0)[keep],
                  None if draws.mass is None else np.asarray(draws.mass)[keep],
-                 draws.method, draws.converged, draws.note)
+                 draws.method, draws.converged, draws.note, draws.span_s)
     numbers, arrays = _numbers(name, d, (float(lo), float(hi)), amplitude, mass, mass_sd)
     section: dict[str, Any] = {"status": "viscous-stands" if verdict == "inconclusive"
                                else "recommended", "verdict": v, "law": name, **numbers}
@@ -328,7 +347,7 @@ def from_assessment(a: Any, viscous: LawDraws | None, *, amplitude: float | None
             elif not post.converged:
                 note = f"posterior NOT converged ({post.stop_reason}), intervals approximate"
             draws = LawDraws(name, post.theta, post.a0, a.mass_draws.get(name), post.method,
-                             bool(post.converged), note)
+                             bool(post.converged), note, getattr(a, "span_s", None))
     fc = (ad.get("fit_checks") or {}).get("viscous") or {}
     crit = ad.get("criteria") or {}
     bound = ad.get("bound") or {}

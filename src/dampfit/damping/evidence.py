@@ -25,7 +25,7 @@ Blocks of a cycle keep the correlated residuals of one cycle together.
 
 **Model prior and verdict.** Prior odds 1 : 1 between "one viscous c" and "amplitude-dependent"
 (1/2 for viscous, 1/6 for each nonlinear law: each law's ``prior_weight``,
-:func:`dampfit.model.laws.prior_weights`). Posterior model probabilities are the
+:func:`dampfit.model.registry.prior_weights`). Posterior model probabilities are the
 ``weight`` column. Amplitude dependence is *detected* when P(viscous | data) <
 :data:`P_VISCOUS_MAX`; the preferred law is then the most probable nonlinear one, else viscous.
 """
@@ -35,15 +35,15 @@ from __future__ import annotations
 import numpy as np
 
 from dampfit.inference import law_fit
-from dampfit.model import laws
+from dampfit.model import laws, registry
 
 __all__ = ["compare", "model_prior", "P_VISCOUS_MAX"]
 
 
 def model_prior() -> dict[str, float]:
     """Prior model probabilities of the registered laws (1 : 1 between viscous and
-    amplitude-dependent for the four built-in ones): :func:`dampfit.model.laws.prior_weights`."""
-    return laws.prior_weights()
+    amplitude-dependent for the four built-in ones): :func:`dampfit.model.registry.prior_weights`."""
+    return registry.prior_weights()
 
 #: Amplitude dependence is reported when P(viscous | data) falls below this.
 P_VISCOUS_MAX = 0.05

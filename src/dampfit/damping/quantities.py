@@ -37,7 +37,7 @@ UNITS = {
 
 def unit_of(model: str, name: str) -> str:
     """Unit of the quantity ``name`` of law ``model``: :data:`UNITS`, else the law's own
-    coefficient units (a law added with :func:`dampfit.model.laws.register`), else ""."""
+    coefficient units (a law added with :func:`dampfit.model.registry.register`), else ""."""
     if name in UNITS:
         return UNITS[name]
     law = models.LAWS.get(model)

@@ -83,13 +83,15 @@ variable-projection profile for every law, sums of laws and several recordings) 
 
 **A new law is one class.** Besides the numerics (:meth:`Law.envelope`, :meth:`Law.local_rate`,
 :meth:`Law._coefficients`, :meth:`Law.force`) a law carries everything the rest of dampfit
-reads about it: ``prior_weight`` (the evidence's model prior, :func:`prior_weights`),
+reads about it: ``prior_weight`` (the evidence's model prior,
+:func:`dampfit.model.registry.prior_weights`),
 ``coefficients`` (:class:`Coefficient`: name, SI unit, symbol, whether it needs the mass —
 summary.json's ``damper`` and the report print them), ``force_text``, ``fem_hint`` (the
-damping-law warning) and ``colour`` (the amplitude figure). :func:`register` adds an instance
-to :data:`LAWS` (``--model`` then offers it, the assessment fits, samples and compares it);
-:func:`unregister` removes it. The FEM writers dispatch on ``Law.name`` and can tabulate any
-law's force–velocity curve with :meth:`Law.force`.
+damping-law warning) and ``colour`` (the amplitude figure).
+:func:`dampfit.model.registry.register` adds an instance to :data:`LAWS` (``--model`` then
+offers it, the assessment fits, samples and compares it); ``unregister`` removes it. The
+FEM writers dispatch on ``Law.name`` and can tabulate any law's force–velocity curve with
+:meth:`Law.force`.
 """
 
 from __future__ import annotations
@@ -100,37 +102,17 @@ from typing import ClassVar
 
 import numpy as np
 
+from dampfit._lazy import LazyModule
 
-class _LazyModule:
-    """``jax.numpy``, imported on first use: the laws' descriptions (names, coefficients,
-    units, force laws, FEM hints, plot styles) are read by the command line and the outputs,
-    which should not pay JAX's import (≈ 2 s) for them. The array methods resolve
-    ``jnp.<name>`` through it on the first call (then from its own attribute cache)."""
-
-    def __init__(self, name: str):
-        self._name = name
-
-    def __getattr__(self, attr: str):
-        import importlib
-
-        value = getattr(importlib.import_module(self._name), attr)
-        self.__dict__[attr] = value
-        return value
-
-
-jnp = _LazyModule("jax.numpy")
-
-
-def gammaln(x):
-    """ln Γ(x) (scipy.special.gammaln, imported on first use)."""
-    from scipy.special import gammaln as _gammaln
-
-    return _gammaln(x)
+#: ``jax.numpy``, imported on first use (:class:`dampfit._lazy.LazyModule`): the laws'
+#: descriptions (names, coefficients, force laws, FEM hints, plot styles) are read by the
+#: command line and the outputs, which should not pay JAX's import (≈ 2 s) for them.
+jnp = LazyModule("jax.numpy")
 
 __all__ = [
     "Law", "Coefficient", "Viscous", "ViscousM1", "Coulomb", "Quadratic", "Power", "LAWS", "get",
-    "names", "prior_weights", "register", "unregister",
-    "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "P_RANGE", "lam", "envelope", "phase",
+    "names", "refresh", "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "P_RANGE", "lam",
+    "envelope", "phase",
     "columns", "local_rate", "c_equivalent", "physical", "omega_index", "n_phase", "log_prior",
 ]
 
@@ -143,6 +125,8 @@ P_RANGE = 1e-6
 
 def lam(alpha):
     """λ(α) = 2^{2+α}·Γ²(1 + α/2)/Γ(2 + α) [1] of (K2) (FEMA 274; NumPy, broadcasts)."""
+    from scipy.special import gammaln  # on first use: the laws' descriptions do not need it
+
     alpha = np.asarray(alpha, dtype=float)
     return np.exp((2 + alpha) * np.log(2.0) + 2 * gammaln(1 + alpha / 2) - gammaln(2 + alpha))
 
@@ -199,7 +183,8 @@ class Law:
     n_columns: ClassVar[int] = 2
     # ---- what the rest of dampfit reads about a law (one place: see "A new law" above)
     #: Prior weight in the evidence comparison (normalised over the registered laws:
-    #: :func:`prior_weights`); viscous 1/2 and the three others 1/6 each is 1 : 1 between
+    #: :func:`dampfit.model.registry.prior_weights`); viscous 1/2 and the three others 1/6
+    #: each is 1 : 1 between
     #: "one viscous c" and "amplitude-dependent".
     prior_weight: ClassVar[float] = 1 / 6
     #: The law's own physical coefficients, in the order they are printed.
@@ -340,8 +325,9 @@ class Law:
         quadratic ``beta`` = c₂/m [1/m]; power ``gamma`` = c_α/m [(m/s)^{1−α}/s] and ``alpha``
         [1]. With ``mass`` [kg] also ``c`` [N·s/m], ``F_c`` [N], ``c2`` [N·s²/m²], ``c_alpha``
         [N·(s/m)^α]. ω [rad/s] = exp(θ[ln ω]). Inverts (K2)–(K3). A law added with
-        :func:`register` returns each coefficient NAME that needs the mass per unit mass as
-        ``"NAME/m"`` from :meth:`_coefficients`; with a mass NAME = m·(NAME/m) is added.
+        :func:`dampfit.model.registry.register` returns each coefficient NAME that needs the
+        mass per unit mass as ``"NAME/m"`` from :meth:`_coefficients`; with a mass
+        NAME = m·(NAME/m) is added.
         """
         th = np.asarray(theta, dtype=float)
         p0, w = np.exp(th[..., 0]), np.exp(th[..., self.omega_index])
@@ -526,9 +512,9 @@ class Power(Law):
 
 
 #: The registered damping laws by name, viscous first (the null model): the four of this
-#: module, and any added with :func:`register`.
+#: module, and any added with :func:`dampfit.model.registry.register`.
 LAWS: dict[str, Law] = {law.name: law for law in (Viscous(), Coulomb(), Quadratic(), Power())}
-#: Their names, viscous first (kept equal to ``tuple(LAWS)`` by :func:`register`).
+#: Their names, viscous first (kept equal to ``tuple(LAWS)`` by :func:`refresh`).
 MODELS = tuple(LAWS)
 #: Name of each law's shape parameter θ[1] (viscous has none).
 SHAPE = {m: law.shape_name for m, law in LAWS.items() if law.shape_name}
@@ -536,9 +522,9 @@ SHAPE = {m: law.shape_name for m, law in LAWS.items() if law.shape_name}
 PRIOR_SHAPE = {m: law.shape_prior for m, law in LAWS.items() if law.shape_prior}
 
 
-def _refresh() -> None:
-    """Bring :data:`MODELS`, :data:`SHAPE` and :data:`PRIOR_SHAPE` up to :data:`LAWS` (the
-    dicts in place, so a module holding them sees the change)."""
+def refresh() -> None:
+    """Bring :data:`MODELS`, :data:`SHAPE`, :data:`PRIOR_SHAPE` up to :data:`LAWS` (the dicts in
+    place; :mod:`dampfit.model.registry` calls it)."""
     global MODELS
     MODELS = tuple(LAWS)
     SHAPE.clear()
@@ -550,43 +536,6 @@ def _refresh() -> None:
 def names() -> tuple[str, ...]:
     """The registered laws' names, viscous first (what ``--model`` accepts besides auto)."""
     return tuple(LAWS)
-
-
-def prior_weights() -> dict[str, float]:
-    """Prior model probabilities [1]: each registered law's :attr:`Law.prior_weight`,
-    normalised to sum 1 (the four laws of this module: 1/2, 1/6, 1/6, 1/6)."""
-    total = sum(law.prior_weight for law in LAWS.values())
-    if abs(total - 1.0) < 1e-12:  # already normalised: the weights as written
-        return {m: law.prior_weight for m, law in LAWS.items()}
-    return {m: law.prior_weight / total for m, law in LAWS.items()}
-
-
-def register(law: Law) -> Law:
-    """Add a damping law (an instance of a :class:`Law` subclass with a new ``name``); it is
-    then fitted, sampled, compared, reported and offered by ``--model`` like the four others.
-    Returns ``law``; :func:`unregister` removes it again. A name already registered is a
-    ``ValueError`` (the four laws of this module cannot be replaced)."""
-    if not isinstance(law, Law) or not law.name or law.name == "auto":
-        raise ValueError("register() takes an instance of a Law subclass with a name")
-    if law.name in LAWS:
-        raise ValueError(f"damping law {law.name!r} is already registered")
-    if not law.coefficients:
-        raise ValueError(f"damping law {law.name!r} declares no coefficients")
-    LAWS[law.name] = law.with_phase(0)
-    _refresh()
-    return law
-
-
-def unregister(name: str) -> None:
-    """Remove a law added by :func:`register` (the four laws of this module stay)."""
-    if name in _BUILT_IN:
-        raise ValueError(f"the built-in damping law {name!r} cannot be removed")
-    LAWS.pop(name, None)
-    _refresh()
-
-
-#: The laws of this module (never removed).
-_BUILT_IN = frozenset(LAWS)
 
 
 def get(model: "str | Law", theta=None) -> Law:
@@ -618,11 +567,8 @@ def phase(model: str, theta, tau, xp=jnp):
 
 
 def envelope(model: str, theta, tau, xp=jnp):
-    """Envelope shape e = a/a₀ [1], rate R = ρ·e [1/s] and R' = dR/de [1/s] at ``tau`` [s] (K3).
-
-    ``theta`` has shape (..., k); the outputs have shape (..., n) for ``tau`` of shape (n,).
-    ``xp`` is the array module: ``jax.numpy`` (default; jit/vmap/grad-safe) or ``numpy``.
-    """
+    """Envelope shape e = a/a₀ [1], rate R = ρ·e [1/s] and R' = dR/de [1/s] at ``tau`` [s]
+    (K3): θ (..., k) → (..., n) for ``tau`` (n,); ``xp`` ``jax.numpy`` (default) or ``numpy``."""
     return get(model).envelope(theta, tau, xp)
 
 
@@ -632,18 +578,14 @@ def columns(model: str, theta, tau, xp=jnp):
 
 
 def local_rate(model: str, theta, ratio):
-    """Local decay rate ρ [1/s] at the amplitude ``ratio`` = a/a₀ [1] (K2); NumPy, broadcasts.
-
-    ``theta`` may be an array of shape (..., k) of draws.
-    """
+    """Local decay rate ρ [1/s] at the amplitude ``ratio`` = a/a₀ [1] (K2) of θ (..., k)
+    draws; NumPy, broadcasts."""
     return get(model).local_rate(theta, ratio)
 
 
 def c_equivalent(model: str, theta, a0, amplitude, mass):
-    """Energy-equivalent viscous c_eq = 2·m·ρ(a) [N·s/m] at displacement ``amplitude`` [m].
-
-    ``a0`` [m] is the displacement amplitude at the window start, ``mass`` [kg] (Jacobsen 1930).
-    """
+    """Energy-equivalent viscous c_eq = 2·m·ρ(a) [N·s/m] at displacement ``amplitude`` [m];
+    ``a0`` [m] the amplitude at the window start, ``mass`` [kg] (Jacobsen 1930)."""
     return get(model).c_equivalent(theta, a0, amplitude, mass)
 
 

@@ -88,7 +88,8 @@ def _linear_row(d: dict[str, Any]) -> tuple[str, str] | None:
     if d.get("law") == "viscous":
         text += "; linear law: the same c at every amplitude"
     elif span:
-        text += f"; within ±10 % of the law's c_eq(A) for {span} displacement"
+        eq = "c_eq(A)" if c is not None else "zeta_eq(A)"
+        text += f"; within ±10 % of the law's {eq} for {span} displacement"
     return ("linear equivalent", text)
 
 
@@ -129,11 +130,13 @@ def other_label(s: dict[str, Any]) -> str:
     d = s.get("damper") if isinstance(s.get("damper"), dict) else None
     if d is None:
         return "posterior"
+    params = s.get("parameters") if isinstance(s.get("parameters"), dict) else {}
+    one = "c" if isinstance(params.get("c"), dict) else "zeta"  # no mass: no c
     if d.get("law") == "viscous":
-        return "viscous posterior (the recommended c)"
+        return f"viscous posterior (the recommended {one})"
     if d.get("verdict") == "misfit":
-        return "viscous posterior (one c; not trustworthy here)"
-    return "viscous posterior (one c; not adequate here)"
+        return f"viscous posterior (one {one}; not trustworthy here)"
+    return f"viscous posterior (one {one}; not adequate here)"
 
 
 def short(d: Any) -> str | None:

@@ -263,7 +263,8 @@ def _estimate_lines(s: dict[str, Any]) -> list[str]:
             lines.append(f"  {label:15s} not computed")
             continue
         extra = f" over {b['n_cycles']} cycles" if b.get("n_cycles") else ""
-        lines.append(f"  {label:15s} c = {_own_spread(b, 'c')}, zeta = {_own_spread(b, 'zeta')}"
+        c = f"c = {_own_spread(b, 'c')}, " if b.get("c") is not None else ""  # no mass: no c
+        lines.append(f"  {label:15s} {c}zeta = {_own_spread(b, 'zeta')}"
                      f"{extra}{_baseline_mark(b)}")
     return lines
 

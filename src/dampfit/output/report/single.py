@@ -168,7 +168,8 @@ def _damper_box(s: dict) -> list[Block]:
     d = s.get("damper")
     if not isinstance(d, dict):
         return []
-    cls = {"recommended": "ok", "viscous-stands": "note"}.get(d.get("status"), "bad")
+    status = d.get("status") if isinstance(d.get("status"), str) else None  # may be edited
+    cls = {"recommended": "ok", "viscous-stands": "note"}.get(status, "bad")
     items = [[("b", f"{label}: "), text] for label, text in damper_rows.rows(d)]
     return [("box", cls, damper_rows.title(d), items)]
 
