@@ -171,9 +171,10 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
         report["modal_damping"] = modal_run(text, md, span, script["name"])
     arrays = {"t": t, "u_fem": u_fem, "a_fem": a_fem, "u_meas": sig["displacement"],
               "a_meas": sig["accel"], "period": ident.period}
-    damper_runs(folder, summary, script, start, (dt, n_steps), (t, sig["displacement"]),
-                 (t_fem, fem["u"]), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed),
-                 report, arrays)
+    w2 = ident.omega_n ** 2  # envelopes from the accelerations (verify_damper.damper_runs)
+    damper_runs(folder, summary, script, start, (dt, n_steps), (t, sig["accel"] / w2),
+                (t_fem, fem["a"] / w2), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed),
+                report, arrays)
     return {"report": report, "arrays": arrays}
 
 
