@@ -302,3 +302,20 @@ def test_real_cantilever_nonlinear_deck_beats_the_linear_dashpot(tmp_path, capsy
     d = json.loads((folder / "verification.json").read_text())["damper"]
     ex, lin = d["exported"]["envelope"], d["linear"]["envelope"]
     assert ex["rms_vs_trend"] < 0.5 * lin["rms_vs_trend"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_of_a_misfit_runs_the_viscous_dashpot_export_would_force(tmp_path, capsys):
+    from tests._support.fem import write_result
+
+    folder = write_result(tmp_path / "m")
+    s = json.loads((folder / "summary.json").read_text())
+    from tests._support.fem import damper_section
+
+    s["damper"] = damper_section(None, {}, status="none", verdict="misfit")
+    (folder / "summary.json").write_text(json.dumps(s))
+    code, _, err = run(["verify", folder], capsys)
+    assert code == 0, err
+    rep = json.loads((folder / "verification.json").read_text())
+    assert rep["damper"]["law"] == "viscous" and "--force-law viscous" in rep["script"][
+        "export_command"]

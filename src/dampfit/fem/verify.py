@@ -39,7 +39,8 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    export DIR --format opensees --law viscous``, :func:`dampfit.fem.verify_damper.linear_script`). For both: the
    log-envelope rms against the measured peaks and their trend, the measured scatter, and
    ζ(A) at the ``amplitude_curve`` windows against their 90 % bands (``damper`` in
-   verification.json, verify.png, the table). ``--draws N`` also runs N posterior draws
+   verification.json, verify.png, the table); a misfit (no damper recommended) runs the
+   viscous posterior dashpot, the deck of ``export --force-law viscous``. ``--draws N`` also runs N posterior draws
    and draws the 5–95 % band of their envelopes (:func:`dampfit.fem.draws.verify_band`).
 
 Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
@@ -272,8 +273,13 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
         duration = None
     except InputError:
         duration = span
-    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, duration, name=SCRIPT_NAME)
-    command = fem_export.canonical_command(folder, "opensees", duration=duration)
+    sec = summary.get("damper")
+    # a misfit exports nothing by default: verify then runs the viscous posterior dashpot
+    forced = "viscous" if isinstance(sec, dict) and sec.get("status") == "none" else None
+    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, duration, name=SCRIPT_NAME,
+                                  force_law=forced)
+    command = fem_export.canonical_command(folder, "opensees", duration=duration,
+                                           force_law=forced)
     record = {"name": SCRIPT_NAME, "format": "opensees", "units": info["units"],
               "quantile": info["quantile"], "gravity": info["gravity"],
               "duration_s": info["duration"],
