@@ -35,13 +35,15 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
 
 7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
    runs as such (its start state from the measured acceleration of the first three periods,
-   :func:`dampfit.fem.verify_damper.start_state`); beside it the linear dashpot at the design amplitude (``dampfit
-   export DIR --format opensees --law viscous``, :func:`dampfit.fem.verify_damper.linear_script`). For both: the
-   log-envelope rms against the measured peaks and their trend, the measured scatter, and
-   ζ(A) at the ``amplitude_curve`` windows against their 90 % bands (``damper`` in
-   verification.json, verify.png, the table); a misfit (no damper recommended) runs the
-   viscous posterior dashpot, the deck of ``export --force-law viscous``. ``--draws N`` also runs N posterior draws
-   and draws the 5–95 % band of their envelopes (:func:`dampfit.fem.draws.verify_band`).
+   :func:`dampfit.fem.verify_damper.start_state`); beside it the linear dashpot at the design
+   amplitude (``dampfit export DIR --format opensees --law viscous``,
+   :func:`dampfit.fem.verify_damper.linear_script`). For both: the log-envelope rms against
+   the measured peaks and their trend, the measured scatter, and ζ(A) at the
+   ``amplitude_curve`` windows against their 90 % bands (``damper`` in verification.json,
+   verify.png, the table); a misfit (no damper recommended) runs the viscous posterior
+   dashpot, the deck of ``export --force-law viscous``. ``--draws N`` also runs N posterior
+   draws and draws the 5–95 % band of their envelopes
+   (:func:`dampfit.fem.draws.verify_band`).
 
 Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
 ``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
