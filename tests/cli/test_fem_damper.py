@@ -319,3 +319,14 @@ def test_verify_of_a_misfit_runs_the_viscous_dashpot_export_would_force(tmp_path
     rep = json.loads((folder / "verification.json").read_text())
     assert rep["damper"]["law"] == "viscous" and "--force-law viscous" in rep["script"][
         "export_command"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+@pytest.mark.parametrize("law", NONLINEAR)
+def test_nonlinear_deck_runs_from_a_zero_crossing(tmp_path, law):
+    """Started at u = 0 with the velocity of amplitude U0 (verify's start can be any phase):
+    Newton's tolerance is relative to the start amplitude, so the run converges and decays."""
+    folder = write_damper_summary(tmp_path / law, law)
+    text, info = build(folder, "opensees")
+    res = opensees.run_steps(text, 0.0, U0 * math.sqrt(K / M), info["dt"], 3000)
+    assert np.max(np.abs(res["u"])) == pytest.approx(U0, rel=0.02)
