@@ -270,3 +270,63 @@ def test_fifty_draws_run_and_their_zeta_eq_spread_is_the_posteriors(tmp_path, ca
     q05, q95 = sec["zeta_linear"]["q05"], sec["zeta_linear"]["q95"]
     width = q95 - q05
     assert abs(lo - q05) < 0.2 * width and abs(hi - q95) < 0.2 * width
+
+
+# -- a real amplitude-dependent recording ------------------------------------------------------
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("requires_opensees")
+def test_real_cantilever_nonlinear_deck_beats_the_linear_dashpot(tmp_path, capsys):
+    """The ADXL357 50 cm cantilever (amplitude-dependent, SOURCES.md: m_eff ≈ 0.037 kg):
+    the exported deck is the recommended nonlinear law, and its envelope error in verify is
+    below the linear dashpot's (measured: quadratic 1.3 % against 14 %, scatter 0.33 %;
+    paper/damper_verify.py). A summary from before the damper section gets one built from
+    its damping_models (tests/_support/fem.py)."""
+    from tests._support.fem import damper_from_summary
+    from tests._support.requirements import REAL, require
+
+    path = REAL / ("cantilever-adxl357-demirkaya/tests_for_comparing_1st_nfreq/50cm_adxl/"
+                   "08-12_11-46-55_adxl6cmfromtip2cmID/accelerometer_data.npy")
+    require(path.is_file(), f"the real recordings are not at {REAL}")
+    folder = tmp_path / "c50"
+    assert main(["analyze", str(path), "--mass", "0.037", "--out", str(folder)]) == 0
+    s = json.loads((folder / "summary.json").read_text())
+    if "damper" not in s:
+        s["damper"] = damper_from_summary(s)
+        (folder / "summary.json").write_text(json.dumps(s))
+    assert s["damper"]["verdict"] == "amplitude-dependent" and s["damper"]["law"] != "viscous"
+    assert main(["export", str(folder), "--format", "lsdyna"]) == 0
+    assert "*MAT_DAMPER_NONLINEAR_VISCOUS" in (folder / "sdof_lsdyna.k").read_text()
+    assert main(["verify", str(folder)]) == 0
+    d = json.loads((folder / "verification.json").read_text())["damper"]
+    ex, lin = d["exported"]["envelope"], d["linear"]["envelope"]
+    assert ex["rms_vs_trend"] < 0.5 * lin["rms_vs_trend"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+def test_verify_of_a_misfit_runs_the_viscous_dashpot_export_would_force(tmp_path, capsys):
+    from tests._support.fem import write_result
+
+    folder = write_result(tmp_path / "m")
+    s = json.loads((folder / "summary.json").read_text())
+    from tests._support.fem import damper_section
+
+    s["damper"] = damper_section(None, {}, status="none", verdict="misfit")
+    (folder / "summary.json").write_text(json.dumps(s))
+    code, _, err = run(["verify", folder], capsys)
+    assert code == 0, err
+    rep = json.loads((folder / "verification.json").read_text())
+    assert rep["damper"]["law"] == "viscous" and "--force-law viscous" in rep["script"][
+        "export_command"]
+
+
+@pytest.mark.usefixtures("requires_opensees")
+@pytest.mark.parametrize("law", NONLINEAR)
+def test_nonlinear_deck_runs_from_a_zero_crossing(tmp_path, law):
+    """Started at u = 0 with the velocity of amplitude U0 (verify's start can be any phase):
+    Newton's tolerance is relative to the start amplitude, so the run converges and decays."""
+    folder = write_damper_summary(tmp_path / law, law)
+    text, info = build(folder, "opensees")
+    res = opensees.run_steps(text, 0.0, U0 * math.sqrt(K / M), info["dt"], 3000)
+    assert np.max(np.abs(res["u"])) == pytest.approx(U0, rel=0.02)

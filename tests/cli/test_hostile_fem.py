@@ -659,3 +659,30 @@ def test_hostile_huge_coefficients_give_finite_cards_or_one_line(tmp_path, capsy
     else:
         assert_one_line_error(code, err, 2)
         assert_unchanged(before, snapshot(tmp_path))
+
+
+@pytest.mark.parametrize("extra,match", [
+    (["--draws", "0"], "from 1 to 1000"), (["--draws", "1001"], "from 1 to 1000"),
+    (["--draws", "-5"], "from 1 to 1000"), (["--draws", "1e3"], "invalid int value"),
+    (["--draws", "10**9"], "invalid int value"),
+])
+def test_hostile_draw_counts_are_one_line_before_any_work(tmp_path, capsys, extra, match,
+                                                          no_opensees_needed):
+    folder = _damper_folder(tmp_path, "r")
+    for command in (["export", folder, "--format", "lsdyna"], ["verify", folder]):
+        before = snapshot(tmp_path)
+        code, _, err = run([*command, *extra], capsys)
+        assert_one_line_error(code, err, 2, match)
+        assert_unchanged(before, snapshot(tmp_path))
+
+
+def test_export_draws_out_that_is_a_file_or_foreign_folder_is_refused(tmp_path, capsys):
+    folder = _damper_folder(tmp_path, "r")
+    (tmp_path / "afile").write_text("keep")
+    export_fails(tmp_path, capsys, folder, "not a folder",
+                 extra=["--draws", "2", "--out", str(tmp_path / "afile"), "--force"])
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    export_fails(tmp_path, capsys, folder, "not a dampfit draws export",
+                 extra=["--draws", "2", "--out", str(foreign), "--force"])

@@ -314,9 +314,13 @@ def _legacy(summary, path, law, force_law, viscous_c) -> Damper:
                          "recommended a damper); re-run 'dampfit analyze' to export another law")
     if viscous_c is None:
         raise InputError(f"{shown(path)} has no damper section and no viscous c")
-    note = ("summary.json has no damper section (written before dampfit recommended a damper): "
-            "the viscous posterior c is written, with no check of the damping law; re-run "
-            "'dampfit analyze' for the recommended damper.")
+    if summary.get("kind") == "campaign":
+        note = ("A campaign recommends no damping law: the population's viscous c is written "
+                "(check each test's verdict before using a linear dashpot).")
+    else:
+        note = ("summary.json has no damper section (written before dampfit recommended a "
+                "damper): the viscous posterior c is written, with no check of the damping "
+                "law; re-run 'dampfit analyze' for the recommended damper.")
     return Damper("viscous", {"c": viscous_c}, verdict=_verdict(summary), notes=(note,))
 
 

@@ -214,12 +214,14 @@ def _publish(target: Path, texts: dict[str, str], force: bool) -> None:
 
 def verify_band(build, folder: Path, summary: dict[str, Any], n: int, seed: int,
                 start: dict[str, float], dt: float, n_steps: int, t: np.ndarray,
-                u_meas: np.ndarray, interior: tuple[float, float]) -> dict[str, Any]:
+                u_meas: np.ndarray, interior: tuple[float, float],
+                omega_n: float) -> dict[str, Any]:
     """Run the OpenSees script of each of ``n`` draws (seeded as export's) from the start
     state ``start`` for ``n_steps`` of ``dt`` and compare the band of their envelopes with the
     measured envelope's trend over ``interior``: the 5 % and 95 % quantiles of the draws'
-    |u| at each measured peak time (ln-interpolated between each run's own peaks); ``build``
-    is :func:`dampfit.fem.export.build`."""
+    |a|/ω_n² at each measured peak time (ln-interpolated between each run's own peaks; the
+    measured ``u_meas`` is |a|/ω_n² as well, :func:`dampfit.fem.verify_damper.damper_runs`);
+    ``build`` is :func:`dampfit.fem.export.build`."""
     from scipy.signal import savgol_filter
 
     from dampfit.fem import opensees, response
@@ -235,7 +237,7 @@ def verify_band(build, folder: Path, summary: dict[str, Any], n: int, seed: int,
                                    name=opensees.SCRIPT_NAME,
                                    variant=_variant(draws, i, n, seed, design))
         res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)
-        ts, as_ = response.envelope(t[0] + res["t"], res["u"])
+        ts, as_ = response.envelope(t[0] + res["t"], res["a"] / omega_n ** 2)
         curves.append(np.exp(np.interp(tm, ts, np.log(as_))) if ts.size >= 2 else
                       np.full(tm.size, np.nan))
     c = np.array(curves)

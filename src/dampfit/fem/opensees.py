@@ -422,7 +422,8 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
             raise InputError(f"{key} = {fields[key]!r} in {units.name} units is not a finite number")
     transient = _TRANSIENT if damper is None or not damper.nonlinear else _TRANSIENT.replace(
         'ops.test("NormDispIncr", 1e-12, 10)\nops.algorithm("Linear")',
-        'ops.test("NormDispIncr", 1e-12 * max(abs(args.u_start), 1e-300), 50)\n'
+        'ops.test("NormDispIncr", 1e-12 * max(math.hypot(args.u_start + m * g / k, '
+        'args.v_start * math.sqrt(m / k)), 1e-300), 50)  # relative to the start amplitude\n'
         'ops.algorithm("Newton")  # the damper is nonlinear: iterate each step')
     return _TEMPLATE.format(transient=transient, **fields)
 

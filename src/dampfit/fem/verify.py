@@ -35,12 +35,15 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
 
 7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
    runs as such (its start state from the measured acceleration of the first three periods,
-   :func:`_start_state`); beside it the linear dashpot at the design amplitude (``dampfit
-   export DIR --format opensees --law viscous``, ``linear_script``). For both: the
-   log-envelope rms against the measured peaks and their trend, the measured scatter, and
-   ζ(A) at the ``amplitude_curve`` windows against their 90 % bands (``damper`` in
-   verification.json, verify.png, the table). ``--draws N`` also runs N posterior draws
-   and draws the 5–95 % band of their envelopes (:func:`dampfit.fem.draws.verify_band`).
+   :func:`dampfit.fem.verify_damper.start_state`); beside it the linear dashpot at the design
+   amplitude (``dampfit export DIR --format opensees --law viscous``,
+   :func:`dampfit.fem.verify_damper.linear_script`). For both: the log-envelope rms against
+   the measured peaks and their trend, the measured scatter, and ζ(A) at the
+   ``amplitude_curve`` windows against their 90 % bands (``damper`` in verification.json,
+   verify.png, the table); a misfit (no damper recommended) runs the viscous posterior
+   dashpot, the deck of ``export --force-law viscous``. ``--draws N`` also runs N posterior
+   draws and draws the 5–95 % band of their envelopes
+   (:func:`dampfit.fem.draws.verify_band`).
 
 Refusals (exit 2, one line) all come before anything is written: OpenSeesPy unusable; a
 ``--out`` that exists (a symbolic link too, even a dangling one) without ``--force`` (with it a
@@ -69,7 +72,6 @@ import hashlib
 import json
 import math
 import os
-import shlex
 from pathlib import Path
 from typing import Any
 
@@ -80,6 +82,7 @@ from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response
 from dampfit.fem import sdof as sdof_mod
+from dampfit.fem.verify_damper import damper_lines, damper_runs, envelope_words, start_state
 from dampfit.errors import shown
 from dampfit.result.files import REPORT_MARKERS, written_by_dampfit
 from dampfit.result.schema import is_campaign
@@ -117,7 +120,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     span = float(t[-1] - t[0])
     dt, n_steps, period_error = _step(ident, span, spacing, dt)
     text, script = exported_script(folder, summary, span)
-    start = _start_state(tau, sig, ident.period, script["damper"]["law"])
+    start = start_state(tau, sig, ident.period, script["damper"]["law"])
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
     script["run_options"] = fem["options"]
     t_fem = t[0] + fem["t"]
@@ -171,105 +174,16 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
         report["modal_damping"] = modal_run(text, md, span, script["name"])
     arrays = {"t": t, "u_fem": u_fem, "a_fem": a_fem, "u_meas": sig["displacement"],
               "a_meas": sig["accel"], "period": ident.period}
-    runs = {"exported": (t_fem, fem["u"])}
-    if script["damper"]["law"] != "viscous":  # the linear dashpot beside it
-        lin_text, lin = linear_script(folder, script)
-        res = opensees.run_steps(lin_text, start["u"], start["v"], dt, n_steps, name=lin["name"])
-        lin["run_options"] = res["options"]
-        runs["linear"] = (t_fem, res["u"])
-        arrays["u_linear"] = np.interp(t, t_fem, res["u"])
-        report["linear_script"] = lin
-    report["damper"] = damper_check(summary, folder, t, sig["displacement"], runs,
-                                    ident.omega_n, (t[0] + edge, t[-1] - edge), script["damper"])
-    if draws:
-        from dampfit.fem import draws as draws_mod
-        from dampfit.fem.export import build
-
-        band = draws_mod.verify_band(build, folder, summary, draws, seed, start, dt, n_steps, t,
-                                     sig["displacement"], (t[0] + edge, t[-1] - edge))
-        report["draws"], arrays["band"] = band["report"], band["arrays"]
+    w2 = ident.omega_n ** 2  # envelopes from the accelerations (verify_damper.damper_runs)
+    damper_runs(folder, summary, script, start, (dt, n_steps), (t, sig["accel"] / w2),
+                (t_fem, fem["a"] / w2), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed),
+                report, arrays)
     return {"report": report, "arrays": arrays}
 
 
-#: Periods of the measured acceleration a nonlinear damper's start state is fitted to.
-START_PERIODS = 3.0
 
 
-def _start_state(tau: np.ndarray, sig: dict[str, Any], period: float, law: str) -> dict:
-    """The start state (:func:`dampfit.fem.response.initial_state`): of a viscous damper from
-    the fitted model over the window (its model is that decay); of a nonlinear one from the
-    measured acceleration over the first :data:`START_PERIODS` periods — the viscous model's
-    amplitude at the window start is a compromise over the whole nonlinear decay (6 % low on
-    the phone spring), while over three periods the decay is a constant rate to O(ζ·ω·3T)."""
-    if law == "viscous":
-        return response.initial_state(tau, sig["accel_model"], sig["p"], sig["omega_d"],
-                                      tau0=tau[0])
-    sel = tau <= tau[0] + START_PERIODS * period
-    return response.initial_state(tau[sel], sig["accel"][sel], sig["p"], sig["omega_d"],
-                                  tau0=tau[0])
 
-
-def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: np.ndarray,
-                 runs: dict[str, tuple[np.ndarray, np.ndarray]], omega_n: float,
-                 interior: tuple[float, float], damper: dict[str, Any]) -> dict[str, Any]:
-    """The damper verified (issue 32): for each run (``exported``: the deck export writes,
-    ``linear``: its linear dashpot at the design amplitude, when the exported law is not
-    viscous) the displacement envelope against the measured one over the interior
-    (:func:`dampfit.fem.response.log_envelope_error`: log-envelope rms against the peaks and
-    against their trend, and the measured scatter) and ζ(A) of the run at the amplitudes of
-    summary.json's ``amplitude_curve`` windows against their 90 % bands
-    (:func:`dampfit.fem.response.zeta_in_bands`)."""
-    windows = _amplitude_windows(summary, folder / "summary.json")
-    out: dict[str, Any] = {"law": damper["law"], "coefficients": damper["coefficients"],
-                           "verdict": damper["verdict"], "unit": "1 (difference of ln |u|)",
-                           "interior_s": [float(interior[0]), float(interior[1])]}
-    for name, (ts, us) in runs.items():
-        env = response.log_envelope_error(t, u_meas, ts, us, *interior)
-        amps, zetas = response.zeta_of_amplitude(ts, us, omega_n)
-        out[name] = {"envelope": env, "zeta_amplitude": response.zeta_in_bands(windows, amps,
-                                                                              zetas)}
-    if "linear" in runs:
-        a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("exported", "linear"))
-        out["exported_beats_linear"] = None if a is None or b is None else bool(a < b)
-    return out
-
-
-def _amplitude_windows(summary: dict[str, Any], path: Path) -> list[dict[str, float]]:
-    """The ζ(A) windows of summary.json's ``amplitude_curve`` (``amplitude_m``, ``zeta``,
-    ``zeta_sd``, each checked); empty without a curve."""
-    from dampfit.result.schema import number
-
-    curve = summary.get("amplitude_curve")
-    wins = curve.get("windows") if isinstance(curve, dict) else None
-    if not isinstance(wins, list):
-        return []
-    out = []
-    for i, w in enumerate(wins):
-        if not isinstance(w, dict) or any(w.get(k) is None for k in ("amplitude_m", "zeta",
-                                                                      "zeta_sd")):
-            continue
-        out.append({"amplitude_m": number(w["amplitude_m"], f"amplitude_curve.windows[{i}]."
-                                          "amplitude_m", path, positive=True),
-                    "zeta": number(w["zeta"], f"amplitude_curve.windows[{i}].zeta", path),
-                    "zeta_sd": number(w["zeta_sd"], f"amplitude_curve.windows[{i}].zeta_sd",
-                                      path, nonnegative=True)})
-    return out
-
-
-def linear_script(folder: Path, script: dict[str, Any]) -> tuple[str, dict[str, Any]]:
-    """The linear dashpot's script beside a nonlinear export: ``dampfit export DIR --format
-    opensees --law viscous`` (the equivalent linear c at the design amplitude), named
-    ``sdof_opensees_linear.py``, with the export's duration."""
-    from dampfit.fem import export as fem_export
-
-    name = "sdof_opensees_linear.py"
-    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, script["duration_s"],
-                                  name=name, law="viscous")
-    return text, {"name": name, "law": "viscous", "c": info["sdof"].c,
-                  "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
-                  "export_command": f"dampfit export {shlex.quote(str(folder.resolve()))} "
-                                    f"--format opensees --law viscous --duration "
-                                    f"{script['duration_s']!r} --out {name}"}
 
 
 #: Periods of the lowest mode the ``--modal`` run of verify lasts (at most the window).
@@ -361,8 +275,13 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
         duration = None
     except InputError:
         duration = span
-    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, duration, name=SCRIPT_NAME)
-    command = fem_export.canonical_command(folder, "opensees", duration=duration)
+    sec = summary.get("damper")
+    # a misfit exports nothing by default: verify then runs the viscous posterior dashpot
+    forced = "viscous" if isinstance(sec, dict) and sec.get("status") == "none" else None
+    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, duration, name=SCRIPT_NAME,
+                                  force_law=forced)
+    command = fem_export.canonical_command(folder, "opensees", duration=duration,
+                                           force_law=forced)
     record = {"name": SCRIPT_NAME, "format": "opensees", "units": info["units"],
               "quantile": info["quantile"], "gravity": info["gravity"],
               "duration_s": info["duration"],
@@ -413,27 +332,13 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
                    f"{law} damper) vs measurement — displacement NMSE "
                    f"{_fmt(rep['displacement']['vs_measured']['nmse'])}, acceleration NMSE "
                    f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}; "
-                   + _envelope_words(rep), fontsize=9)
+                   + envelope_words(rep), fontsize=9)
     path = Path(path)
     fmt = figure_format(path)
     atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=110, format=fmt), suffix=f".{fmt}",
                  shown=shown)
     return path
 
-
-def _envelope_words(rep: dict[str, Any]) -> str:
-    """'log-envelope rms …' of the exported (and linear) run, for the title and the table."""
-    d = rep.get("damper") or {}
-    parts = []
-    for key, label in (("exported", "exported"), ("linear", "linear dashpot")):
-        env = (d.get(key) or {}).get("envelope") or {}
-        if env.get("rms_vs_trend") is not None:
-            parts.append(f"{label} {100 * env['rms_vs_trend']:.2g} %")
-    env = ((d.get("exported") or {}).get("envelope") or {})
-    if not parts:
-        return "envelope: too few peaks"
-    return ("log-envelope rms vs the measured trend: " + ", ".join(parts)
-            + f" (measured scatter {100 * env['scatter']:.2g} %)")
 
 
 def figure_format(path: str | os.PathLike) -> str:
@@ -481,7 +386,7 @@ def table(rep: dict[str, Any]) -> str:
     diff = "n/a" if rel is None else f"{100 * rel:+.3f} %"
     lines += ["", (f"  decay rate p [1/s]: FEM peaks {_fmt(d['fem_peaks'], '.6g')}, identified "
                    f"{_fmt(d['identified_q50'], '.6g')} (posterior median), difference {diff}")]
-    lines += _damper_lines(rep)
+    lines += damper_lines(rep)
     md = rep.get("modal_damping")
     if md:
         lines += ["", (f"  modal damping (--modal run): Rayleigh alpha = {md['alpha']['q50']:.4g} "
@@ -496,27 +401,6 @@ def table(rep: dict[str, Any]) -> str:
                          f"{'' if m['zeta_in_measured_interval'] else ' (outside its 90 % interval)'}")
     return "\n".join(lines)
 
-
-def _damper_lines(rep: dict[str, Any]) -> list[str]:
-    """The table's block of the damper verified (envelope and ζ(A), linear beside)."""
-    d = rep.get("damper")
-    if not d:
-        return []
-    lines = ["", f"  damper: {d['law']} law (verdict {d['verdict'] or 'not recorded'}); "
-             + _envelope_words(rep)]
-    for key, label in (("exported", "exported deck"), ("linear", "linear dashpot")):
-        if key not in d:
-            continue
-        z, env = d[key]["zeta_amplitude"], d[key]["envelope"]
-        inside = "n/a" if not z["n"] else f"{z['n_inside']}/{z['n']}"
-        lines.append(f"    {label:15s} envelope rms vs peaks {_fmt(env['rms_vs_peaks'])}, vs trend "
-                     f"{_fmt(env['rms_vs_trend'])}; zeta(A) inside the measured 90 % bands: "
-                     f"{inside}")
-    band = rep.get("draws")
-    if band:
-        lines.append(f"    {band['n']} posterior draws: measured envelope trend inside their "
-                     f"5-95 % band at {100 * band['fraction_trend_inside']:.0f} % of the peaks")
-    return lines
 
 
 def _refuse_campaign(folder: Path, summary: dict) -> None:

@@ -1,0 +1,138 @@
+"""Is the exported nonlinear damper the measured one? (issue 32, "Done when": the real
+amplitude-dependent recordings)
+
+For each amplitude-dependent real recording in ``../shared/data/real`` — the phone on a spring
+(``phone-spring-metalcupcake5/raw_data.csv``, m = 0.3255 kg) and the three ADXL357 50 cm
+cantilevers (``cantilever-adxl357-demirkaya/tests_for_comparing_1st_nfreq/50cm_adxl/*``,
+m_eff ≈ 0.037 kg: 0.236·m_beam + 5 g tip, SOURCES.md) — it
+
+1. analyses the recording with the defaults (``dampfit analyze FILE --mass KG --out DIR``;
+   ``--reuse`` keeps a folder that already holds a summary.json);
+2. exports the recommended damper for LS-DYNA and OpenSees (``dampfit export DIR --format
+   lsdyna|opensees``) and records the law the decks carry;
+3. verifies (``dampfit verify DIR``): the exported OpenSees deck and, beside it, the linear
+   dashpot at the design amplitude, each run from the measured start state, their
+   displacement envelopes (|a|/ω_n² at every half period) against the measured one over the
+   interior of the window;
+4. writes one markdown table (default ``paper/results/damper_verify.md``): the law, the
+   log-envelope rms error of the nonlinear deck and of the linear dashpot against the trend of
+   the measured envelope, the measurement's own scatter about that trend, and how many ζ(A)
+   windows of ``amplitude_curve`` each run falls inside of.
+
+The result folders need summary.json's ``damper`` section (dampfit ≥ the version that
+recommends a damper): the script says so and stops for a folder without one. Runs each
+command as a child process of this checkout (``python -m dampfit``), so it measures what a
+user runs. Not part of CI (several minutes a recording).
+
+Usage (from the checkout root)::
+
+    nice -n 19 python paper/damper_verify.py --work /tmp/damper-verify [--reuse]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+ADXL50 = "cantilever-adxl357-demirkaya/tests_for_comparing_1st_nfreq/50cm_adxl"
+#: (label, recording relative to REAL, mass [kg]) — masses from REAL/SOURCES.md.
+RECORDINGS = [("phone spring", "phone-spring-metalcupcake5/raw_data.csv", 0.3255)] + [
+    (f"ADXL357 50 cm {run}", f"{ADXL50}/{run}_adxl6cmfromtip2cmID/accelerometer_data.npy", 0.037)
+    for run in ("08-12_11-46-55", "08-12_11-47-32", "08-12_11-49-09")]
+
+
+def dampfit(*args: str) -> subprocess.CompletedProcess:
+    """``python -m dampfit ARGS`` with this checkout's source first; raises on failure."""
+    src = Path(__file__).resolve().parents[1] / "src"
+    env = {**os.environ, "PYTHONPATH": f"{src}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
+           "MPLBACKEND": "Agg"}
+    proc = subprocess.run([sys.executable, "-m", "dampfit", *args], capture_output=True,
+                          text=True, env=env)
+    if proc.returncode != 0:
+        raise RuntimeError(f"dampfit {' '.join(args[:2])} failed: {proc.stderr.strip()[-400:]}")
+    return proc
+
+
+def one(label: str, path: Path, mass: float, folder: Path, reuse: bool) -> dict:
+    """Analyse, export and verify one recording; its row of the table."""
+    if not (reuse and (folder / "summary.json").is_file()):
+        dampfit("analyze", str(path), "--mass", repr(mass), "--out", str(folder), "--force")
+    summary = json.loads((folder / "summary.json").read_text())
+    if "damper" not in summary:
+        raise SystemExit(f"{folder}/summary.json has no damper section: re-run with a dampfit "
+                         "that recommends a damper (without --reuse)")
+    for fmt in ("lsdyna", "opensees"):
+        dampfit("export", str(folder), "--format", fmt, "--force")
+    dampfit("verify", str(folder), "--force")
+    rep = json.loads((folder / "verification.json").read_text())
+    d = rep["damper"]
+    row = {"recording": label, "mass_kg": mass, "verdict": summary["damper"]["verdict"],
+           "law": d["law"], "coefficients": d["coefficients"]}
+    for key in ("exported", "linear"):
+        if key in d:
+            env, z = d[key]["envelope"], d[key]["zeta_amplitude"]
+            row[key] = {"rms_vs_trend": env["rms_vs_trend"], "rms_vs_peaks": env["rms_vs_peaks"],
+                        "zeta_inside": f"{z['n_inside']}/{z['n']}"}
+            row["scatter"] = env["scatter"]
+    return row
+
+
+def _pct(x) -> str:
+    return "n/a" if x is None else f"{100 * x:.2f} %"
+
+
+def table(rows: list[dict]) -> str:
+    """The markdown table of the rows (log-envelope rms errors in percent)."""
+    out = ["# Exported nonlinear damper vs linear dashpot vs the measurement (issue 32)", "",
+           "Log-envelope rms error against the trend of the measured envelope (Savitzky-Golay "
+           "over 15 peaks), over the interior of the analysed window (three periods left out "
+           "at each end); the measured scatter is the rms of the measured peaks about that "
+           "trend. zeta(A): windows of amplitude_curve whose 90 % band holds the run's zeta.",
+           "", "| recording | verdict | law (deck) | nonlinear deck | linear dashpot | "
+           "measured scatter | zeta(A) nonlinear | zeta(A) linear | nonlinear better | "
+           "within scatter |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        ex, lin = r.get("exported", {}), r.get("linear", {})
+        a, b = ex.get("rms_vs_trend"), lin.get("rms_vs_trend")
+        better = "n/a" if a is None or b is None else ("yes" if a < b else "no")
+        within = "n/a" if a is None else ("yes" if a <= r["scatter"] else "no")
+        out.append(f"| {r['recording']} | {r['verdict']} | {r['law']} | {_pct(a)} | {_pct(b)} | "
+                   f"{_pct(r.get('scatter'))} | {ex.get('zeta_inside', 'n/a')} | "
+                   f"{lin.get('zeta_inside', 'n/a')} | {better} | {within} |")
+    out += ["", "Coefficients (SI, posterior medians):", ""]
+    out += [f"- {r['recording']}: " + ", ".join(f"{k} = {v:.5g}" for k, v in
+                                                r["coefficients"].items()) for r in rows]
+    return "\n".join(out) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--work", type=Path, default=Path("/tmp/damper-verify"),
+                    help="folder of the result folders (default /tmp/damper-verify)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="keep result folders that already hold a summary.json")
+    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" /
+                    "damper_verify.md")
+    args = ap.parse_args(argv)
+    args.work.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for i, (label, rel, mass) in enumerate(RECORDINGS):
+        path = REAL / rel
+        if not path.is_file():
+            print(f"missing {path}; skipped", file=sys.stderr)
+            continue
+        print(f"{label} …", file=sys.stderr, flush=True)
+        rows.append(one(label, path, mass, args.work / f"r{i}", args.reuse))
+    args.out.write_text(table(rows))
+    (args.out.with_suffix(".json")).write_text(json.dumps(rows, indent=2) + "\n")
+    print(f"wrote {args.out}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

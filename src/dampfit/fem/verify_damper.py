@@ -1,0 +1,168 @@
+"""The damper's part of ``dampfit verify`` (issue 32; :mod:`dampfit.fem.verify`): the start
+state of a nonlinear damper, the linear dashpot run beside the exported deck, the envelope and
+ζ(A) comparisons with the measurement, the draws' band, and their lines in the table.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import shlex
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from dampfit.fem import response
+
+__all__ = ["START_PERIODS", "damper_check", "damper_lines", "damper_runs", "envelope_words",
+           "linear_script", "start_state"]
+
+
+def damper_runs(folder, summary, script, start, steps, measured, exported, omega_n, interior,
+                draws, report, arrays) -> None:
+    """The damper's part of :func:`dampfit.fem.verify.run`, added to ``report`` and
+    ``arrays``: the linear dashpot's run beside a nonlinear export, :func:`damper_check` and
+    the draws' band.
+
+    The envelopes compared are displacement amplitudes from the accelerations, |a|/ω_n²
+    (``measured`` and ``exported`` are handed in so): the measured acceleration is what the
+    sensor measured, while its double integral carries the baseline wander of the
+    integration (on the phone spring its peaks scatter by tens of percent near the end); for
+    a lightly damped oscillation the displacement amplitude is |a|/ω² to O(ζ²), for the
+    simulated runs alike."""
+    from dampfit.fem import opensees
+
+    (dt, n_steps), (t, u_meas), (t_fem, _), (n_draws, seed) = steps, measured, exported, draws
+    runs = {"exported": exported}
+    if script["damper"]["law"] != "viscous":  # the linear dashpot beside it
+        lin_text, lin = linear_script(folder, script)
+        res = opensees.run_steps(lin_text, start["u"], start["v"], dt, n_steps, name=lin["name"])
+        lin["run_options"] = res["options"]
+        runs["linear"] = (t_fem, res["a"] / omega_n ** 2)
+        arrays["u_linear"] = np.interp(t, t_fem, res["u"])
+        report["linear_script"] = lin
+    report["damper"] = damper_check(summary, folder, t, u_meas, runs, omega_n, interior,
+                                    script["damper"])
+    if n_draws:
+        from dampfit.fem import draws as draws_mod
+        from dampfit.fem.export import build
+
+        band = draws_mod.verify_band(build, folder, summary, n_draws, seed, start, dt, n_steps,
+                                     t, u_meas, interior, omega_n)
+        report["draws"], arrays["band"] = band["report"], band["arrays"]
+
+
+#: Periods of the measured acceleration a nonlinear damper's start state is fitted to.
+START_PERIODS = 3.0
+
+
+def start_state(tau: np.ndarray, sig: dict[str, Any], period: float, law: str) -> dict:
+    """The start state (:func:`dampfit.fem.response.initial_state`): of a viscous damper from
+    the fitted model over the window (its model is that decay); of a nonlinear one from the
+    measured acceleration over the first :data:`START_PERIODS` periods — the viscous model's
+    amplitude at the window start is a compromise over the whole nonlinear decay (6 % low on
+    the phone spring), while over three periods the decay is a constant rate to O(ζ·ω·3T)."""
+    if law == "viscous":
+        return response.initial_state(tau, sig["accel_model"], sig["p"], sig["omega_d"],
+                                      tau0=tau[0])
+    sel = tau <= tau[0] + START_PERIODS * period
+    return response.initial_state(tau[sel], sig["accel"][sel], sig["p"], sig["omega_d"],
+                                  tau0=tau[0])
+
+def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: np.ndarray,
+                 runs: dict[str, tuple[np.ndarray, np.ndarray]], omega_n: float,
+                 interior: tuple[float, float], damper: dict[str, Any]) -> dict[str, Any]:
+    """The damper verified (issue 32): for each run (``exported``: the deck export writes,
+    ``linear``: its linear dashpot at the design amplitude, when the exported law is not
+    viscous) the displacement envelope against the measured one over the interior
+    (:func:`dampfit.fem.response.log_envelope_error`: log-envelope rms against the peaks and
+    against their trend, and the measured scatter) and ζ(A) of the run at the amplitudes of
+    summary.json's ``amplitude_curve`` windows against their 90 % bands
+    (:func:`dampfit.fem.response.zeta_in_bands`)."""
+    windows = _amplitude_windows(summary, folder / "summary.json")
+    out: dict[str, Any] = {"law": damper["law"], "coefficients": damper["coefficients"],
+                           "verdict": damper["verdict"], "unit": "1 (difference of ln |u|)",
+                           "interior_s": [float(interior[0]), float(interior[1])]}
+    for name, (ts, us) in runs.items():
+        env = response.log_envelope_error(t, u_meas, ts, us, *interior)
+        amps, zetas = response.zeta_of_amplitude(ts, us, omega_n)
+        out[name] = {"envelope": env, "zeta_amplitude": response.zeta_in_bands(windows, amps,
+                                                                              zetas)}
+    if "linear" in runs:
+        a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("exported", "linear"))
+        out["exported_beats_linear"] = None if a is None or b is None else bool(a < b)
+    return out
+
+def _amplitude_windows(summary: dict[str, Any], path: Path) -> list[dict[str, float]]:
+    """The ζ(A) windows of summary.json's ``amplitude_curve`` (``amplitude_m``, ``zeta``,
+    ``zeta_sd``, each checked); empty without a curve."""
+    from dampfit.result.schema import number
+
+    curve = summary.get("amplitude_curve")
+    wins = curve.get("windows") if isinstance(curve, dict) else None
+    if not isinstance(wins, list):
+        return []
+    out = []
+    for i, w in enumerate(wins):
+        if not isinstance(w, dict) or any(w.get(k) is None for k in ("amplitude_m", "zeta",
+                                                                      "zeta_sd")):
+            continue
+        out.append({"amplitude_m": number(w["amplitude_m"], f"amplitude_curve.windows[{i}]."
+                                          "amplitude_m", path, positive=True),
+                    "zeta": number(w["zeta"], f"amplitude_curve.windows[{i}].zeta", path),
+                    "zeta_sd": number(w["zeta_sd"], f"amplitude_curve.windows[{i}].zeta_sd",
+                                      path, nonnegative=True)})
+    return out
+
+def linear_script(folder: Path, script: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The linear dashpot's script beside a nonlinear export: ``dampfit export DIR --format
+    opensees --law viscous`` (the equivalent linear c at the design amplitude), named
+    ``sdof_opensees_linear.py``, with the export's duration."""
+    from dampfit.fem import export as fem_export
+
+    name = "sdof_opensees_linear.py"
+    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, script["duration_s"],
+                                  name=name, law="viscous")
+    return text, {"name": name, "law": "viscous", "c": info["sdof"].c,
+                  "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
+                  "export_command": f"dampfit export {shlex.quote(str(folder.resolve()))} "
+                                    f"--format opensees --law viscous --duration "
+                                    f"{script['duration_s']!r} --out {name}"}
+
+def envelope_words(rep: dict[str, Any]) -> str:
+    """'log-envelope rms …' of the exported (and linear) run, for the title and the table."""
+    d = rep.get("damper") or {}
+    parts = []
+    for key, label in (("exported", "exported"), ("linear", "linear dashpot")):
+        env = (d.get(key) or {}).get("envelope") or {}
+        if env.get("rms_vs_trend") is not None:
+            parts.append(f"{label} {100 * env['rms_vs_trend']:.2g} %")
+    env = ((d.get("exported") or {}).get("envelope") or {})
+    if not parts:
+        return "envelope: too few peaks"
+    return ("log-envelope rms vs the measured trend: " + ", ".join(parts)
+            + f" (measured scatter {100 * env['scatter']:.2g} %)")
+
+def damper_lines(rep: dict[str, Any]) -> list[str]:
+    """The table's block of the damper verified (envelope and ζ(A), linear beside)."""
+    d = rep.get("damper")
+    if not d:
+        return []
+    lines = ["", f"  damper: {d['law']} law (verdict {d['verdict'] or 'not recorded'}); "
+             + envelope_words(rep)]
+    for key, label in (("exported", "exported deck"), ("linear", "linear dashpot")):
+        if key not in d:
+            continue
+        z, env = d[key]["zeta_amplitude"], d[key]["envelope"]
+        inside = "n/a" if not z["n"] else f"{z['n_inside']}/{z['n']}"
+        lines.append(f"    {label:15s} envelope rms vs peaks {_fmt(env['rms_vs_peaks'])}, vs trend "
+                     f"{_fmt(env['rms_vs_trend'])}; zeta(A) inside the measured 90 % bands: "
+                     f"{inside}")
+    band = rep.get("draws")
+    if band:
+        lines.append(f"    {band['n']} posterior draws: measured envelope trend inside their "
+                     f"5-95 % band at {100 * band['fraction_trend_inside']:.0f} % of the peaks")
+    return lines
+
+def _fmt(x: float | None, spec: str = ".3g") -> str:
+    return "n/a" if x is None else format(x, spec)
