@@ -374,7 +374,9 @@ def test_parameters_say_which_mode_they_describe_when_the_mass_is_another_s(
     from dampfit.stages.modes import ModesStage
 
     stage = ModesStage(n_modes=2, evidence={"reason": "2 modes by evidence"},
-                       summary={"modes": [{"f_n": 2.0}, {"f_n": 7.0}], "rayleigh": None},
+                       summary={"modes": [{"f_n": 2.0, "mass_mode": mode_of_mass == 0},
+                                          {"f_n": 7.0, "mass_mode": mode_of_mass == 1}],
+                                "rayleigh": None},
                        posterior=types.SimpleNamespace(mode_of_mass=mode_of_mass, idata=None),
                        dominant=0)
     monkeypatch.setattr(pipeline.stages, "modes_stage", lambda *a, **k: stage)
@@ -385,6 +387,7 @@ def test_parameters_say_which_mode_they_describe_when_the_mass_is_another_s(
     assert modes.n_modes == 2 and len(modes.modes) == 2
     if warned:
         assert said == ["'parameters' describe the one-mode analysis of the mode at 2 Hz "
-                        "(mode 1); the mass belongs to mode 2, whose c and k are in modes[1]"]
+                        "(mode 1); the mass belongs to mode 2 (--mode-of-mass), whose c and k are "
+                        "in modes[1]"]
     else:
         assert said == []

@@ -24,8 +24,11 @@ decrement Λ = 2π·p/ω_d and Q = 1/(2ζ) [1]; the acceleration amplitude √(A
 at the window start from the conditional Gaussian of (A_i, B_i) given θ (the decimation
 filter's gain removed). c = 2·m·p [N·s/m], k = m·ω_n² [N/m], c_crit [N·s/m] and
 u₀ = √(A² + B²)/ω_n² [m] (eq. M2) only for the mode the mass belongs to: the mode given, or
-by default the dominant one (the largest signal energy ½·a_i²·Σ_τ e^{−2p_iτ} in the window,
-normally the spectrum's peak); the other modes have no modal mass in a free decay.
+by default (:func:`mode_of_mass_default`, used only when no one-mode analysis names the
+fundamental) the mode with the largest *displacement* energy ½·(a_i/ω_i²)²·Σ_τ e^{−2p_iτ}
+in the window — never the largest acceleration, which grows with ω² and would favour a
+higher mode (issue 34: a 0.23 kg cantilever's 50 Hz second mode was named the mass's, with
+c 6.5× the 7.85 Hz fundamental's); the other modes have no modal mass in a free decay.
 
 Sampling
 --------
@@ -197,10 +200,13 @@ def _make_log_prob(n, fd, lw, temper):
 
 
 def mode_of_mass_default(fit, fd) -> int:
-    """Index (0-based) of the dominant mode of a :class:`~dampfit.inference.modes.ModeFit`:
-    the largest ½·a_i²·Σ_τ e^{−2p_iτ} (a_i its gain-corrected acceleration amplitude)."""
+    """Index (0-based) of the mode of a :class:`~dampfit.inference.modes.ModeFit` with the
+    largest displacement energy ½·(a_i/ω_i²)²·Σ_τ e^{−2p_iτ} (a_i its gain-corrected
+    acceleration amplitude [m/s²], ω_i² = p_i² + ω_d,i² [rad²/s²]): the mode the recording
+    was released in, not the largest acceleration (∝ ω² × displacement)."""
     tau = np.asarray(fd.tau, dtype=float)
-    energy = [0.5 * (a / abs(amplitude_gain(fd, p, w))) ** 2 * np.sum(np.exp(-2 * p * tau))
+    energy = [0.5 * (a / abs(amplitude_gain(fd, p, w)) / (p * p + w * w)) ** 2
+              * np.sum(np.exp(-2 * p * tau))
               for a, p, w in zip(fit.amplitudes, fit.p, fit.omega_d)]
     return int(np.argmax(energy))
 
@@ -366,29 +372,41 @@ def _diagnostics(idata) -> dict:
     return out
 
 
-def modal_summary(sel, post: ModalPosterior) -> dict:
-    """Plain data of a multi-mode analysis (for the outputs): ``n_modes``; ``modes_evidence``
+def modal_summary(sel, post: ModalPosterior, *, keep: int | None = None,
+                  split=()) -> dict:
+    """Plain data of a multi-mode analysis (for the outputs): ``n_modes`` (the identified
+    modes); ``n_components`` K; ``modes_evidence``
     (:meth:`~dampfit.inference.modes_select.ModeSelection.summary`: P(K), the reasons);
-    ``modes`` (:meth:`ModalPosterior.summary`, each with ``crlb_sd`` of f_n, ζ, p, ω_d from
-    :func:`dampfit.inference.modes_close.selection_bounds` and ``least_squares``: the K-mode
-    least-squares f_n [Hz], ζ, p [1/s] with their Laplace 90 % intervals,
+    ``modes`` the components that pass :func:`dampfit.inference.modes_checks.check_components`
+    (``keep`` the fundamental, always kept; ``split`` its split partners, 0-based), each
+    ``"identified": True``, :meth:`ModalPosterior.summary` with ``crlb_sd`` of f_n, ζ, p, ω_d
+    from :func:`dampfit.inference.modes_close.selection_bounds` and ``least_squares``: the
+    K-mode least-squares f_n [Hz], ζ, p [1/s] with their Laplace 90 % intervals,
     :meth:`~dampfit.inference.modes_select.KResult.laplace_intervals` — listed in a warning
-    when the posterior did not converge); ``pairs`` (separation and CRLB
-    inflation of every pair); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary`
-    of the draws, None for one mode); ``mode_of_mass`` (1-based); ``psd_ratio`` r;
-    ``warnings`` and ``notes``."""
+    when the posterior did not converge); ``modes_seen`` the others (``index``, ``f_n``,
+    ``zeta``, ``kind``, ``reason``); ``pairs`` (separation and CRLB inflation of every pair
+    of components); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary` of the
+    identified modes' draws, None below two); ``mode_of_mass`` (1-based component);
+    ``psd_ratio`` r; ``warnings`` and ``notes``."""
     from dampfit import physics_modal
-    from dampfit.inference import modes_close
+    from dampfit.inference import modes_checks, modes_close
 
-    modes = post.summary()
-    for row, bound in zip(modes, modes_close.selection_bounds(sel)):
+    rows = post.summary()
+    for row, bound in zip(rows, modes_close.selection_bounds(sel)):
         row["crlb_sd"] = {q: bound[q]["sd"] for q in ("f_n", "zeta", "p", "omega_d")}
     laplace = sel.chosen.laplace_intervals()
-    for row, est in zip(modes, laplace):
+    for row, est in zip(rows, laplace):
         row["least_squares"] = {q: {"value": est[q][0], "q05": est[q][1], "q95": est[q][2],
                                     "unit": _UNITS.get(q, "1")} for q in ("f_n", "zeta", "p")}
+    fit = sel.chosen.fit
+    failed = modes_checks.check_components(
+        rows, f_d=fit.f_d, p=fit.p, amplitudes=fit.amplitudes, span=sel.span,
+        basins_hz=np.exp(basins(fit.omega_d, sel.band)) / (2 * np.pi), keep=keep, split=split)
+    modes = [dict(row, identified=True, fundamental=i == keep) for i, row in enumerate(rows)
+             if i not in failed]
+    seen = [{"index": i + 1, "f_n": rows[i]["f_n"], "zeta": rows[i]["zeta"], "kind": kind,
+             "reason": why} for i, (kind, why) in sorted(failed.items())]
     pairs, pair_warnings = modes_close.selection_pairs(sel)
-    rayleigh = None
     warns = list(sel.warnings) + pair_warnings + list(post.warnings)
     if not post.converged:
         listed = "; ".join(f"mode {i} f_n {m['f_n'][0]:.5g} Hz [{m['f_n'][1]:.5g}, "
@@ -396,10 +414,19 @@ def modal_summary(sel, post: ModalPosterior) -> dict:
                            f"{m['zeta'][2]:.3g}]" for i, m in enumerate(laplace, start=1))
         warns.append("the modes' least-squares optima with their Laplace 90 % intervals "
                      f"(modes[i].least_squares), to read instead: {listed}")
-    if post.n_modes >= 2:
-        rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n"),
-                                                  post.draws("zeta"))
+    if seen:
+        warns.append("seen, not modes (no zeta row, no Rayleigh, no deck; modes_seen): " + "; ".join(
+            f"{e['f_n']['q50']:.5g} Hz ({e['kind']}: {e['reason']})" for e in seen))
+    if post.mode_of_mass in failed:
+        warns.append(f"the mass's mode (component {post.mode_of_mass + 1}) is not identified "
+                     f"({failed[post.mode_of_mass][0]}): its c and k are not reported")
+    rayleigh = None
+    ident = [i for i in range(post.n_modes) if i not in failed]
+    if len(ident) >= 2:
+        rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n")[:, ident],
+                                                  post.draws("zeta")[:, ident])
         warns += rayleigh["warnings"]
-    return {"n_modes": post.n_modes, "modes_evidence": sel.summary(), "modes": modes,
+    return {"n_modes": len(ident), "n_components": post.n_modes,
+            "modes_evidence": sel.summary(), "modes": modes, "modes_seen": seen,
             "pairs": pairs, "rayleigh": rayleigh, "mode_of_mass": post.mode_of_mass + 1,
             "psd_ratio": 1.0 / post.temper, "warnings": warns, "notes": list(sel.notes)}
