@@ -41,18 +41,20 @@ quantity of every mode come from arviz (walkers as chains).
 Bounded work
 ------------
 In an analysis the run gets a :class:`~dampfit.inference.law_sampler.Budget`
-(:func:`budget`): at most :data:`STEPS_PER_MODE` × K steps, and — when the one-mode (viscous)
-posterior of the same recording was timed — at most :data:`TIME_FACTOR` × its wall time +
-:data:`TIME_ALLOWANCE_S` [s] (the K-mode likelihood is compiled inside the run). A run stopped
-by its budget is returned as it is: ``converged`` False, ``stop_reason`` "step budget
-reached …" or "wall-time budget reached …", and a warning that the modes' intervals are not
-reliable. A run that converges inside the budget is unchanged (the budget only stops a run
-between two blocks). What it stops: the 40 cm cantilever run 11-41-04 (paper/modes.md),
-whose first mode the selection splits into a weak pair — the least squares put the weak
-component at 9.14 Hz, the walkers drift to ≈ 9.36 Hz with ζ down to its prior bound, a
-posterior with more than one mode: after 3000 steps τ ≈ 37 steps and ESS 1335 passed, but
-R-hat stayed 1.05, so the run went on in 50-step blocks towards ``max_steps`` (776 s). A
-wall-time stop depends on the machine's speed; the step budget does not. Without a budget (``budget=None``, the default of :func:`sample`) only
+(:func:`budget`) counted in **steps**: at most :data:`STEPS_PER_MODE` × K steps. Steps, not
+seconds: the same command with the same seed then gives the same numbers on any machine and
+under any load (issue 34: a wall-time budget stopped the same run of a lab cantilever after
+342 steps once and 630 the next, R-hat 1.040 against 1.018). A wall-time limit is opt-in
+(``max_seconds``); a run it stops says so — ``converged`` False, ``stop_reason`` "wall-time
+budget reached … after N steps; ``max_steps`` N reproduces this stop on any machine" — and
+so does a run stopped by its step budget ("step budget reached …"), with a warning that the
+modes' intervals are not reliable. A run that converges inside the budget is unchanged (the
+budget only stops a run between two blocks). What it stops: the 40 cm cantilever run
+11-41-04 (paper/modes.md), whose first mode the selection splits into a weak pair — the
+least squares put the weak component at 9.14 Hz, the walkers drift to ≈ 9.36 Hz with ζ down
+to its prior bound, a posterior with more than one mode: after 3000 steps τ ≈ 37 steps and
+ESS 1335 passed, but R-hat stayed 1.05, so the run went on in 50-step blocks towards
+``max_steps`` (776 s). Without a budget (``budget=None``, the default of :func:`sample`) only
 ``max_steps`` bounds the run.
 """
 
@@ -79,15 +81,10 @@ from dampfit.model import modes as mm
 from dampfit.model import profile
 
 __all__ = ["ModalPosterior", "sample", "budget", "basins", "modal_summary", "mode_of_mass_default",
-           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE", "TIME_FACTOR", "TIME_ALLOWANCE_S"]
+           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE"]
 
 #: Step budget of the modal posterior per mode [steps] (K modes: K × this).
 STEPS_PER_MODE = 4000
-#: Wall-time budget: this many times the one-mode (viscous) posterior's wall time …
-TIME_FACTOR = 10.0
-#: … plus this allowance [s] (compiling the K-mode likelihood, the selection's leftovers).
-TIME_ALLOWANCE_S = 60.0
-
 #: Quantities reported for every mode, and for the mode of the mass only.
 PER_MODE = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "accel_amplitude")
 MASS_MODE = ("c", "k", "c_crit", "u0", "mass")
@@ -240,17 +237,16 @@ def _start(theta, cov, lw, rng, n_walkers) -> np.ndarray:
     return out[:n_walkers]
 
 
-def budget(n_modes: int, viscous_seconds: float | None = None) -> Budget:
+def budget(n_modes: int, max_seconds: float | None = None) -> Budget:
     """The modal posterior's budget of the module docstring for ``n_modes`` modes:
-    :data:`STEPS_PER_MODE` × K steps and, if ``viscous_seconds`` (the one-mode posterior's
-    wall time [s]) is known, :data:`TIME_FACTOR` × it + :data:`TIME_ALLOWANCE_S` [s]."""
+    :data:`STEPS_PER_MODE` × K steps; ``max_seconds`` [s] an opt-in wall-time limit (None:
+    none — the default of an analysis, so that its numbers do not depend on the machine)."""
     k = int(n_modes)
     basis = f"{STEPS_PER_MODE} steps per mode x {k} modes"
     sec = None
-    if viscous_seconds is not None and math.isfinite(viscous_seconds) and viscous_seconds >= 0:
-        sec = TIME_FACTOR * float(viscous_seconds) + TIME_ALLOWANCE_S
-        basis += (f"; {TIME_FACTOR:g} x the one-mode posterior's wall time "
-                  f"{float(viscous_seconds):.3g} s + {TIME_ALLOWANCE_S:g} s")
+    if max_seconds is not None and math.isfinite(max_seconds) and max_seconds > 0:
+        sec = float(max_seconds)
+        basis += f"; a wall-time limit of {sec:.3g} s"
     return Budget(max_steps=STEPS_PER_MODE * k, max_seconds=sec, basis=basis)
 
 
@@ -319,7 +315,8 @@ def _stop_reason(run, wall: float, budget: Budget | None, steps_allowed: int,
         return "converged"
     if run.out_of_time:
         return (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
-                f"{budget.basis})")
+                f"{budget.basis}) after {run.steps} steps; max_steps {run.steps} reproduces "
+                "this stop on any machine")
     if budget is not None and steps_allowed < max_steps and run.steps >= steps_allowed:
         return f"step budget reached ({run.steps} steps = {budget.basis})"
     return f"max_steps reached ({run.steps} steps)"

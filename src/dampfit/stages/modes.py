@@ -92,8 +92,10 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
     ``n_modes`` a fixed K; ``band`` [Hz] the modal band (MS1 by default); ``mass``,
     ``mass_sd`` [kg] give c [N·s/m] and k [N/m] of the mode ``mode_of_mass`` (1-based; the
-    dominant one by default); ``viscous_seconds`` a one-mode posterior's wall time [s], for
-    the work budget (:func:`dampfit.inference.modes_posterior.budget`); ``one_mode`` the
+    fundamental at the one-mode frequency by default); ``viscous_seconds`` a one-mode
+    posterior's wall time [s]: accepted from the callers but no longer a budget (the budget
+    is counted in steps, :func:`dampfit.inference.modes_posterior.budget`, so the numbers do
+    not depend on the machine's load); ``one_mode`` the
     one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
     that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
     verdict (amplitude-dependent or misfit: any close pair there is explained).
@@ -143,7 +145,7 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     post = modes_posterior.sample(
         sel, mass=mass, mass_sd=mass_sd, seed=seed, min_ess=min_ess, max_steps=max_steps,
         mode_of_mass=mode_of_mass if mode_of_mass is not None or dominant is None
-        else dominant + 1, budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
+        else dominant + 1, budget=modes_posterior.budget(sel.n_modes))
     out = modes_posterior.modal_summary(sel, post, keep=dominant, split=partners or ())
     out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
     warns, split = list(out["warnings"]), []
@@ -270,10 +272,11 @@ def modes_disagreement(modes: list[dict], dominant: int | None, ls) -> list[str]
     ``omega_d`` [rad/s]) disagree: the one-mode ζ or f_n outside the modal 90 % interval.
     Stated, never resolved silently: the headline and the mass's c, k stay the one-mode
     analysis's (:func:`one_mode_values`)."""
-    row = next((r for r in modes if dominant is not None and r.get("index") == dominant + 1),
-               None)
-    if row is None:
+    pos = next((n for n, r in enumerate(modes)
+                if dominant is not None and r.get("index") == dominant + 1), None)
+    if pos is None:
         return []
+    row = modes[pos]
     q = physics.quantities(float(ls.p), float(ls.omega_d))
     out = []
     for name, value, unit in (("zeta", float(q["zeta"]), ""), ("f_n", float(q["f_n"]), " Hz")):
@@ -285,8 +288,9 @@ def modes_disagreement(modes: list[dict], dominant: int | None, ls) -> list[str]
     if not out:
         return []
     return [f"the one-mode and the modal analyses disagree on the fundamental (mode "
-            f"{dominant + 1}): " + "; ".join(out) + ". The headline, the damper and modes["
-            f"].c, k are the one-mode analysis's; the modal posterior's c is modes[].c_modal"]
+            f"{dominant + 1}): " + "; ".join(out) + f". The headline, the damper and "
+            f"modes[{pos}].c, k are the one-mode analysis's; the modal posterior's are "
+            f"modes[{pos}].c_modal, k_modal"]
 
 
 #: The quantities of the mass's mode taken from the one-mode analysis (``parameters``).
