@@ -109,3 +109,21 @@ def test_the_mass_s_default_mode_is_the_largest_displacement_not_acceleration():
     accel = [a**2 * np.sum(np.exp(-2 * r * fd.tau)) for a, r in zip(fit.amplitudes, p)]
     assert int(np.argmax(accel)) == 1  # the acceleration would pick the higher mode
     assert MP.mode_of_mass_default(fit, fd) == 0
+
+
+def test_only_a_close_pair_is_flagged_not_one_hundreds_of_cells_apart():
+    """Three modes in 60 s: 5.00 and 5.02 Hz (2 half-power bandwidths, 1.2 cells) and 27.6 Hz,
+    over a thousand cells away: only the close pair is flagged, whatever the third does."""
+    from dampfit.inference import modes_close
+
+    t = np.arange(0.0, SPAN, 0.005)
+    f = np.array([5.0, 5.02, 27.6])
+    zeta = np.array([0.001, 0.001, 0.002])
+    w = 2 * np.pi * f
+    rows, warns = modes_close.pairs(zeta * w, w * np.sqrt(1 - zeta**2),
+                                    [1.0, 0.0, 0.8, 0.3, 0.2, 0.1], t)
+    flagged = {tuple(r["modes"]): r["flagged"] for r in rows}
+    assert flagged == {(1, 2): True, (1, 3): False, (2, 3): False}
+    assert len(warns) == 1 and "modes 1 and 2" in warns[0]
+    far = [r for r in rows if r["modes"] == [1, 3]][0]
+    assert far["separation_resolution"] > 100 and far["inflation_f_n"] < 1.25

@@ -33,6 +33,10 @@ __all__ = ["CONVENTIONS", "FLAG_INFLATION", "inverse_q", "modes_blocks", "severa
 #: :data:`dampfit.inference.modes_close.FLAG_INFLATION` (the report imports no numeric code;
 #: a test holds the two equal).
 FLAG_INFLATION = 1.25
+#: … within these separations (:data:`dampfit.inference.modes_close.CLOSE_HALF_POWER`,
+#: ``CLOSE_CELLS``; a test holds them equal).
+CLOSE_HALF_POWER = 5.0
+CLOSE_CELLS = 5.0
 
 #: The per-mode table's damping columns: summary key, heading.
 CONVENTIONS = (("zeta", "ζ, damping ratio [1]"), ("eta", "η = 2ζ, loss factor [1]"),
@@ -184,8 +188,10 @@ def _pairs(ev: dict) -> list[Block]:
     return [("h3", "Close modes"), ("p", [
         "Separation Δf of each pair in hertz, in half-power bandwidths (Δf over the mean of "
         "the two modes' 2ζ·f_n) and in frequency-resolution cells (Δf·T, T the analysed "
-        "window); the CRLB inflation is how many times wider the bound on f_n and on ζ is "
-        f"than for a lone mode, and a pair is flagged as close when either exceeds {FLAG_INFLATION}."]),
+        "window); the CRLB inflation is how many times wider the pair's bound on f_n and on "
+        "ζ is than for a lone mode, and a pair is flagged as close when it lies within "
+        f"{CLOSE_HALF_POWER:g} half-power bandwidths or {CLOSE_CELLS:g} resolution cells and "
+        f"either inflation exceeds {FLAG_INFLATION}."]),
         ("table", ["modes", "separation [Hz]", "in half-power bandwidths",
                    "in resolution cells 1/T", "CRLB inflation (f_n, ζ)", "flagged"], rows)]
 
