@@ -124,8 +124,17 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     if idx.size < 4 * per:
         return []
     d = sm[idx + half] - sm[idx - half]
-    trend = running_median(d, int(DROP_TREND_PERIODS * per))
-    excess = trend - d  # > 0: more loss than the trend
+    width = int(DROP_TREND_PERIODS * per)
+    trend = running_median(d, width)
+    # the trend before the drop too: a catch within a trend span of the range's end (where
+    # the decay after it reaches the floor) would otherwise pull the centred median down
+    # with it (issue 34: a cantilever caught at 7.7 s was analysed on to 19.4 s)
+    lag = width // 2 + 2 * half
+    past = trend.copy()
+    if idx.size > lag:
+        past[lag:] = trend[:-lag]
+    centred = trend - d
+    excess = np.maximum(trend, past) - d  # > 0: more loss than the trend
     hits = excess > np.log(DROP_FACTOR)
     out = []
     j = 0
@@ -134,7 +143,10 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
             k = j
             while k < idx.size and hits[k]:
                 k += 1
-            m = j + int(np.argmax(excess[j:k]))
+            # at the steepest excess over the centred trend; found against the past trend
+            # alone (which stays exceeded after a catch): at the run's onset
+            m = j + int(np.argmax(centred[j:k])) if centred[j:k].max() > np.log(DROP_FACTOR) \
+                else j
             out.append((float(grid[idx[m]]), float(np.exp(excess[m]))))
             j = k + 2 * half
         else:
