@@ -52,7 +52,8 @@ class Modes:
     ``modes`` one plain dict per mode (by frequency; None for one mode: then the one mode is
     ``parameters``, :meth:`Analysis.summary` fills it in); ``evidence`` summary.json's
     ``modes_evidence``; ``rayleigh`` α [1/s], β [s] (None below two modes); ``idata`` the
-    per-mode posterior (arviz, dimension ``mode``; None for one mode); ``warnings``."""
+    per-mode posterior (arviz, dimension ``mode``: every component; None for one mode);
+    ``warnings``; ``seen`` summary.json's ``modes_seen`` (components that are not modes)."""
 
     n_modes: int = 1
     modes: list | None = None
@@ -60,6 +61,7 @@ class Modes:
     rayleigh: dict | None = None
     idata: Any = None
     warnings: tuple[str, ...] = ()
+    seen: list = field(default_factory=list)
 
 
 #: Quantities of each entry of summary.json's ``modes`` (and of the modes group of
@@ -70,7 +72,8 @@ MODE_QUANTITIES = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "c", "k", "c_
 def modes_of_summary(params: dict[str, Any], crlb: dict | None) -> list[dict[str, Any]]:
     """summary.json's ``modes`` of a one-mode result: the one mode is ``parameters`` (each
     quantity as there, η = 2ζ added), marked as the mass's mode, with the bounds' sd."""
-    row: dict[str, Any] = {"index": 1, "mass_mode": True}
+    row: dict[str, Any] = {"index": 1, "mass_mode": True, "identified": True,
+                           "fundamental": True}
     for name in MODE_QUANTITIES:
         if name == "eta":
             z = params.get("zeta")
@@ -267,12 +270,14 @@ class Analysis(ResultViews):
                         "" if self.sampling.converged else "posterior NOT converged")
 
     def _modes_summary(self, params: dict[str, Any]) -> dict[str, Any]:
-        """``n_modes``, ``modes``, ``modes_evidence`` and ``rayleigh`` (schema docstring)."""
+        """``n_modes``, ``modes`` (the mass's mode, when the fundamental, with the one-mode
+        c and k), ``modes_seen``, ``modes_evidence`` and ``rayleigh`` (schema docstring)."""
         modes = self.modes or Modes(evidence={"max_modes": 1, "screen": None,
                                               "reason": "several modes not looked for"})
-        rows = modes.modes if modes.modes is not None else modes_of_summary(params, self.crlb)
-        return {"n_modes": modes.n_modes, "modes": rows, "modes_evidence": modes.evidence,
-                "rayleigh": modes.rayleigh}
+        rows = stages.one_mode_values(modes.modes, params) if modes.modes is not None \
+            else modes_of_summary(params, self.crlb)
+        return {"n_modes": modes.n_modes, "modes": rows, "modes_seen": list(modes.seen),
+                "modes_evidence": modes.evidence, "rayleigh": modes.rayleigh}
 
     @property
     def modes_posterior(self):

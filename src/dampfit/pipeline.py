@@ -184,15 +184,18 @@ def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                             max_steps=max_steps, viscous_seconds=viscous_seconds,
                             one_mode=(ls.p, ls.omega_d), verdict=verdict)
     evidence = dict(st.evidence)
+    seen = list(st.seen)
     if st.n_modes is None or st.n_modes == 1 or st.posterior is None:
-        return Modes(evidence=evidence, warnings=st.warnings)
+        return Modes(evidence=evidence, warnings=st.warnings, seen=seen)
     out = st.summary
-    warns = list(st.warnings)
+    warns = list(st.warnings) + stages.modes_disagreement(out["modes"], st.dominant, ls)
     nearest, f1 = st.dominant, ls.omega_d / (2 * math.pi)
-    if nearest != st.posterior.mode_of_mass:
+    if nearest is not None and nearest != st.posterior.mode_of_mass:
+        at = [i for i, r in enumerate(out["modes"]) if r.get("mass_mode")]
+        where = f"modes[{at[0]}]" if at else "no entry of modes (not identified)"
         warns.append(f"'parameters' describe the one-mode analysis of the mode at {f1:.4g} Hz "
                      f"(mode {nearest + 1}); the mass belongs to mode "
-                     f"{st.posterior.mode_of_mass + 1}, whose c and k are in "
-                     f"modes[{st.posterior.mode_of_mass}]")
-    return Modes(n_modes=st.n_modes, modes=out["modes"], evidence=evidence,
+                     f"{st.posterior.mode_of_mass + 1} (--mode-of-mass), whose c and k are "
+                     f"in {where}")
+    return Modes(n_modes=st.n_modes, modes=out["modes"], evidence=evidence, seen=seen,
                  rayleigh=out["rayleigh"], idata=st.posterior.idata, warnings=tuple(warns))

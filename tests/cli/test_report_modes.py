@@ -214,7 +214,9 @@ def test_odd_mode_entries_render_and_unusable_modes_are_one_line(two, tmp_path):
 
 
 def test_the_flag_threshold_is_the_analysis_own():
-    from dampfit.inference.modes_close import FLAG_INFLATION
+    from dampfit.inference.modes_close import CLOSE_CELLS, CLOSE_HALF_POWER, FLAG_INFLATION
 
     assert report_modes.FLAG_INFLATION == FLAG_INFLATION
+    assert (report_modes.CLOSE_HALF_POWER, report_modes.CLOSE_CELLS) == (CLOSE_HALF_POWER,
+                                                                         CLOSE_CELLS)
     assert json.dumps(report_modes.CONVENTIONS, ensure_ascii=False).count("[1]") == 4

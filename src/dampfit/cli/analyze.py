@@ -102,6 +102,12 @@ def print_result(an, out: Path, as_json: bool) -> None:
     if not an.converged:
         print("dampfit: WARNING: the result did NOT converge; see diagnostics.warnings in "
               "summary.json before using these numbers", file=sys.stderr)
+    modal = (s.get("modes_evidence") or {}).get("sampling") or {}
+    if modal.get("converged") is False:
+        print(f"dampfit: WARNING: the modal posterior did NOT converge ({modal.get('stop_reason')}"
+              f"; {modal.get('n_steps')} steps): the modes' intervals are not reliable (each "
+              "mode's least_squares is); see modes_evidence.sampling in summary.json",
+              file=sys.stderr)
 
 
 def read_options(args) -> dict:

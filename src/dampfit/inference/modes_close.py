@@ -17,9 +17,13 @@ overlapping) divided by the bound of the same mode fitted alone on the same samp
     g = sd_CRLB(with the other modes) / sd_CRLB(alone)   [1].                               (C2)
 
 For well-separated modes g ≈ 1; as the separation falls below a few bandwidths the errors
-grow as 1/gap to 1/gap³ (the columns become collinear). A pair is **flagged** when g of f_n
-or ζ of either mode exceeds :data:`FLAG_INFLATION`. g is a ratio of bounds on the same
-samples, so the noise level cancels (σ = 1 is used).
+grow as 1/gap to 1/gap³ (the columns become collinear). g of a pair is that of the pair's own
+two-mode design (not of all K modes: a third mode, or the drift, inflating one member says
+nothing about this pair). "Close" means close: a pair is **flagged** only when it lies within
+:data:`CLOSE_HALF_POWER` half-power bandwidths or :data:`CLOSE_CELLS` resolution cells (C1)
+*and* g of f_n or ζ of either member exceeds :data:`FLAG_INFLATION` (issue 34: six warnings
+on one recording for pairs 100–600 cells apart). g is a ratio of bounds on the same samples,
+so the noise level cancels (σ = 1 is used).
 """
 
 from __future__ import annotations
@@ -34,10 +38,15 @@ from dampfit.errors import InputError
 from dampfit.inference import crlb
 
 __all__ = ["pairs", "inflation", "selection_pairs", "selection_bounds", "split_pair",
-           "FLAG_INFLATION", "SPLIT_DAMPING_RATIO", "SPLIT_HALF_POWER"]
+           "FLAG_INFLATION", "CLOSE_HALF_POWER", "CLOSE_CELLS", "SPLIT_DAMPING_RATIO",
+           "SPLIT_HALF_POWER"]
 
-#: CRLB inflation (C2) above which a pair is flagged in the warnings.
+#: CRLB inflation (C2) above which a pair is flagged in the warnings …
 FLAG_INFLATION = 1.25
+#: … when it is also within this many half-power bandwidths [1] …
+CLOSE_HALF_POWER = 5.0
+#: … or this many resolution cells 1/T [1] (C1).
+CLOSE_CELLS = 5.0
 #: A pair at the one-mode frequency closer than this many half-power bandwidths (C1) …
 SPLIT_HALF_POWER = 3.0
 #: … whose damping ratios differ by at least this factor is read as a possibly split mode.
@@ -73,19 +82,20 @@ def pairs(p, omega_d, amplitudes, times, drift_degree: int | None = 0) -> tuple[
     f, zeta = np.asarray(q["f_n"]), np.asarray(q["zeta"])
     t = np.asarray(times, dtype=float)
     span = float(t[-1] - t[0])
-    try:
-        g = inflation(t, [(p[i], wd[i], *amp[i]) for i in range(p.size)], drift_degree)
-    except InputError:  # a singular design: the modes are not separable at all
-        g = [{"f_n": math.inf, "zeta": math.inf} for _ in range(p.size)]
     rows, warns = [], []
     for i, j in itertools.combinations(range(p.size), 2):
+        try:  # the pair's own two-mode design (module docstring)
+            g = inflation(t, [(p[k], wd[k], *amp[k]) for k in (i, j)], drift_degree)
+        except InputError:  # a singular design: the two are not separable at all
+            g = [{"f_n": math.inf, "zeta": math.inf}] * 2
         df = abs(f[j] - f[i])
         half_power = 0.5 * (2 * zeta[i] * f[i] + 2 * zeta[j] * f[j])
-        gf, gz = max(g[i]["f_n"], g[j]["f_n"]), max(g[i]["zeta"], g[j]["zeta"])
-        flagged = bool(gf > FLAG_INFLATION or gz > FLAG_INFLATION)
+        s_hp = float(df / half_power) if half_power > 0 else math.inf
+        gf, gz = max(g[0]["f_n"], g[1]["f_n"]), max(g[0]["zeta"], g[1]["zeta"])
+        near = s_hp < CLOSE_HALF_POWER or df * span < CLOSE_CELLS
+        flagged = bool(near and (gf > FLAG_INFLATION or gz > FLAG_INFLATION))
         rows.append({"modes": [i + 1, j + 1], "separation_hz": float(df),
-                     "separation_half_power": float(df / half_power) if half_power > 0
-                     else math.inf,
+                     "separation_half_power": s_hp,
                      "separation_resolution": float(df * span),
                      "inflation_f_n": float(gf), "inflation_zeta": float(gz),
                      "flagged": flagged})

@@ -24,8 +24,11 @@ decrement Λ = 2π·p/ω_d and Q = 1/(2ζ) [1]; the acceleration amplitude √(A
 at the window start from the conditional Gaussian of (A_i, B_i) given θ (the decimation
 filter's gain removed). c = 2·m·p [N·s/m], k = m·ω_n² [N/m], c_crit [N·s/m] and
 u₀ = √(A² + B²)/ω_n² [m] (eq. M2) only for the mode the mass belongs to: the mode given, or
-by default the dominant one (the largest signal energy ½·a_i²·Σ_τ e^{−2p_iτ} in the window,
-normally the spectrum's peak); the other modes have no modal mass in a free decay.
+by default (:func:`mode_of_mass_default`, used only when no one-mode analysis names the
+fundamental) the mode with the largest *displacement* energy ½·(a_i/ω_i²)²·Σ_τ e^{−2p_iτ}
+in the window — never the largest acceleration, which grows with ω² and would favour a
+higher mode (issue 34: a 0.23 kg cantilever's 50 Hz second mode was named the mass's, with
+c 6.5× the 7.85 Hz fundamental's); the other modes have no modal mass in a free decay.
 
 Sampling
 --------
@@ -38,18 +41,20 @@ quantity of every mode come from arviz (walkers as chains).
 Bounded work
 ------------
 In an analysis the run gets a :class:`~dampfit.inference.law_sampler.Budget`
-(:func:`budget`): at most :data:`STEPS_PER_MODE` × K steps, and — when the one-mode (viscous)
-posterior of the same recording was timed — at most :data:`TIME_FACTOR` × its wall time +
-:data:`TIME_ALLOWANCE_S` [s] (the K-mode likelihood is compiled inside the run). A run stopped
-by its budget is returned as it is: ``converged`` False, ``stop_reason`` "step budget
-reached …" or "wall-time budget reached …", and a warning that the modes' intervals are not
-reliable. A run that converges inside the budget is unchanged (the budget only stops a run
-between two blocks). What it stops: the 40 cm cantilever run 11-41-04 (paper/modes.md),
-whose first mode the selection splits into a weak pair — the least squares put the weak
-component at 9.14 Hz, the walkers drift to ≈ 9.36 Hz with ζ down to its prior bound, a
-posterior with more than one mode: after 3000 steps τ ≈ 37 steps and ESS 1335 passed, but
-R-hat stayed 1.05, so the run went on in 50-step blocks towards ``max_steps`` (776 s). A
-wall-time stop depends on the machine's speed; the step budget does not. Without a budget (``budget=None``, the default of :func:`sample`) only
+(:func:`budget`) counted in **steps**: at most :data:`STEPS_PER_MODE` × K steps. Steps, not
+seconds: the same command with the same seed then gives the same numbers on any machine and
+under any load (issue 34: a wall-time budget stopped the same run of a lab cantilever after
+342 steps once and 630 the next, R-hat 1.040 against 1.018). A wall-time limit is opt-in
+(``max_seconds``); a run it stops says so — ``converged`` False, ``stop_reason`` "wall-time
+budget reached … after N steps; ``max_steps`` N reproduces this stop on any machine" — and
+so does a run stopped by its step budget ("step budget reached …"), with a warning that the
+modes' intervals are not reliable. A run that converges inside the budget is unchanged (the
+budget only stops a run between two blocks). What it stops: the 40 cm cantilever run
+11-41-04 (paper/modes.md), whose first mode the selection splits into a weak pair — the
+least squares put the weak component at 9.14 Hz, the walkers drift to ≈ 9.36 Hz with ζ down
+to its prior bound, a posterior with more than one mode: after 3000 steps τ ≈ 37 steps and
+ESS 1335 passed, but R-hat stayed 1.05, so the run went on in 50-step blocks towards
+``max_steps`` (776 s). Without a budget (``budget=None``, the default of :func:`sample`) only
 ``max_steps`` bounds the run.
 """
 
@@ -76,15 +81,10 @@ from dampfit.model import modes as mm
 from dampfit.model import profile
 
 __all__ = ["ModalPosterior", "sample", "budget", "basins", "modal_summary", "mode_of_mass_default",
-           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE", "TIME_FACTOR", "TIME_ALLOWANCE_S"]
+           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE"]
 
 #: Step budget of the modal posterior per mode [steps] (K modes: K × this).
 STEPS_PER_MODE = 4000
-#: Wall-time budget: this many times the one-mode (viscous) posterior's wall time …
-TIME_FACTOR = 10.0
-#: … plus this allowance [s] (compiling the K-mode likelihood, the selection's leftovers).
-TIME_ALLOWANCE_S = 60.0
-
 #: Quantities reported for every mode, and for the mode of the mass only.
 PER_MODE = ("f_n", "f_d", "zeta", "p", "eta", "delta", "Q", "accel_amplitude")
 MASS_MODE = ("c", "k", "c_crit", "u0", "mass")
@@ -197,10 +197,13 @@ def _make_log_prob(n, fd, lw, temper):
 
 
 def mode_of_mass_default(fit, fd) -> int:
-    """Index (0-based) of the dominant mode of a :class:`~dampfit.inference.modes.ModeFit`:
-    the largest ½·a_i²·Σ_τ e^{−2p_iτ} (a_i its gain-corrected acceleration amplitude)."""
+    """Index (0-based) of the mode of a :class:`~dampfit.inference.modes.ModeFit` with the
+    largest displacement energy ½·(a_i/ω_i²)²·Σ_τ e^{−2p_iτ} (a_i its gain-corrected
+    acceleration amplitude [m/s²], ω_i² = p_i² + ω_d,i² [rad²/s²]): the mode the recording
+    was released in, not the largest acceleration (∝ ω² × displacement)."""
     tau = np.asarray(fd.tau, dtype=float)
-    energy = [0.5 * (a / abs(amplitude_gain(fd, p, w))) ** 2 * np.sum(np.exp(-2 * p * tau))
+    energy = [0.5 * (a / abs(amplitude_gain(fd, p, w)) / (p * p + w * w)) ** 2
+              * np.sum(np.exp(-2 * p * tau))
               for a, p, w in zip(fit.amplitudes, fit.p, fit.omega_d)]
     return int(np.argmax(energy))
 
@@ -234,17 +237,16 @@ def _start(theta, cov, lw, rng, n_walkers) -> np.ndarray:
     return out[:n_walkers]
 
 
-def budget(n_modes: int, viscous_seconds: float | None = None) -> Budget:
+def budget(n_modes: int, max_seconds: float | None = None) -> Budget:
     """The modal posterior's budget of the module docstring for ``n_modes`` modes:
-    :data:`STEPS_PER_MODE` × K steps and, if ``viscous_seconds`` (the one-mode posterior's
-    wall time [s]) is known, :data:`TIME_FACTOR` × it + :data:`TIME_ALLOWANCE_S` [s]."""
+    :data:`STEPS_PER_MODE` × K steps; ``max_seconds`` [s] an opt-in wall-time limit (None:
+    none — the default of an analysis, so that its numbers do not depend on the machine)."""
     k = int(n_modes)
     basis = f"{STEPS_PER_MODE} steps per mode x {k} modes"
     sec = None
-    if viscous_seconds is not None and math.isfinite(viscous_seconds) and viscous_seconds >= 0:
-        sec = TIME_FACTOR * float(viscous_seconds) + TIME_ALLOWANCE_S
-        basis += (f"; {TIME_FACTOR:g} x the one-mode posterior's wall time "
-                  f"{float(viscous_seconds):.3g} s + {TIME_ALLOWANCE_S:g} s")
+    if max_seconds is not None and math.isfinite(max_seconds) and max_seconds > 0:
+        sec = float(max_seconds)
+        basis += f"; a wall-time limit of {sec:.3g} s"
     return Budget(max_steps=STEPS_PER_MODE * k, max_seconds=sec, basis=basis)
 
 
@@ -313,7 +315,8 @@ def _stop_reason(run, wall: float, budget: Budget | None, steps_allowed: int,
         return "converged"
     if run.out_of_time:
         return (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
-                f"{budget.basis})")
+                f"{budget.basis}) after {run.steps} steps; max_steps {run.steps} reproduces "
+                "this stop on any machine")
     if budget is not None and steps_allowed < max_steps and run.steps >= steps_allowed:
         return f"step budget reached ({run.steps} steps = {budget.basis})"
     return f"max_steps reached ({run.steps} steps)"
@@ -366,29 +369,41 @@ def _diagnostics(idata) -> dict:
     return out
 
 
-def modal_summary(sel, post: ModalPosterior) -> dict:
-    """Plain data of a multi-mode analysis (for the outputs): ``n_modes``; ``modes_evidence``
+def modal_summary(sel, post: ModalPosterior, *, keep: int | None = None,
+                  split=()) -> dict:
+    """Plain data of a multi-mode analysis (for the outputs): ``n_modes`` (the identified
+    modes); ``n_components`` K; ``modes_evidence``
     (:meth:`~dampfit.inference.modes_select.ModeSelection.summary`: P(K), the reasons);
-    ``modes`` (:meth:`ModalPosterior.summary`, each with ``crlb_sd`` of f_n, ζ, p, ω_d from
-    :func:`dampfit.inference.modes_close.selection_bounds` and ``least_squares``: the K-mode
-    least-squares f_n [Hz], ζ, p [1/s] with their Laplace 90 % intervals,
+    ``modes`` the components that pass :func:`dampfit.inference.modes_checks.check_components`
+    (``keep`` the fundamental, always kept; ``split`` its split partners, 0-based), each
+    ``"identified": True``, :meth:`ModalPosterior.summary` with ``crlb_sd`` of f_n, ζ, p, ω_d
+    from :func:`dampfit.inference.modes_close.selection_bounds` and ``least_squares``: the
+    K-mode least-squares f_n [Hz], ζ, p [1/s] with their Laplace 90 % intervals,
     :meth:`~dampfit.inference.modes_select.KResult.laplace_intervals` — listed in a warning
-    when the posterior did not converge); ``pairs`` (separation and CRLB
-    inflation of every pair); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary`
-    of the draws, None for one mode); ``mode_of_mass`` (1-based); ``psd_ratio`` r;
-    ``warnings`` and ``notes``."""
+    when the posterior did not converge); ``modes_seen`` the others (``index``, ``f_n``,
+    ``zeta``, ``kind``, ``reason``); ``pairs`` (separation and CRLB inflation of every pair
+    of components); ``rayleigh`` (:func:`dampfit.physics_modal.rayleigh_summary` of the
+    identified modes' draws, None below two); ``mode_of_mass`` (1-based component);
+    ``psd_ratio`` r; ``warnings`` and ``notes``."""
     from dampfit import physics_modal
-    from dampfit.inference import modes_close
+    from dampfit.inference import modes_checks, modes_close
 
-    modes = post.summary()
-    for row, bound in zip(modes, modes_close.selection_bounds(sel)):
+    rows = post.summary()
+    for row, bound in zip(rows, modes_close.selection_bounds(sel)):
         row["crlb_sd"] = {q: bound[q]["sd"] for q in ("f_n", "zeta", "p", "omega_d")}
     laplace = sel.chosen.laplace_intervals()
-    for row, est in zip(modes, laplace):
+    for row, est in zip(rows, laplace):
         row["least_squares"] = {q: {"value": est[q][0], "q05": est[q][1], "q95": est[q][2],
                                     "unit": _UNITS.get(q, "1")} for q in ("f_n", "zeta", "p")}
+    fit = sel.chosen.fit
+    failed = modes_checks.check_components(
+        rows, f_d=fit.f_d, p=fit.p, amplitudes=fit.amplitudes, span=sel.span,
+        basins_hz=np.exp(basins(fit.omega_d, sel.band)) / (2 * np.pi), keep=keep, split=split)
+    modes = [dict(row, identified=True, fundamental=i == keep) for i, row in enumerate(rows)
+             if i not in failed]
+    seen = [{"index": i + 1, "f_n": rows[i]["f_n"], "zeta": rows[i]["zeta"], "kind": kind,
+             "reason": why} for i, (kind, why) in sorted(failed.items())]
     pairs, pair_warnings = modes_close.selection_pairs(sel)
-    rayleigh = None
     warns = list(sel.warnings) + pair_warnings + list(post.warnings)
     if not post.converged:
         listed = "; ".join(f"mode {i} f_n {m['f_n'][0]:.5g} Hz [{m['f_n'][1]:.5g}, "
@@ -396,10 +411,19 @@ def modal_summary(sel, post: ModalPosterior) -> dict:
                            f"{m['zeta'][2]:.3g}]" for i, m in enumerate(laplace, start=1))
         warns.append("the modes' least-squares optima with their Laplace 90 % intervals "
                      f"(modes[i].least_squares), to read instead: {listed}")
-    if post.n_modes >= 2:
-        rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n"),
-                                                  post.draws("zeta"))
+    if seen:
+        warns.append("seen, not modes (no zeta row, no Rayleigh, no deck; modes_seen): " + "; ".join(
+            f"{e['f_n']['q50']:.5g} Hz ({e['kind']}: {e['reason']})" for e in seen))
+    if post.mode_of_mass in failed:
+        warns.append(f"the mass's mode (component {post.mode_of_mass + 1}) is not identified "
+                     f"({failed[post.mode_of_mass][0]}): its c and k are not reported")
+    rayleigh = None
+    ident = [i for i in range(post.n_modes) if i not in failed]
+    if len(ident) >= 2:
+        rayleigh = physics_modal.rayleigh_summary(2 * np.pi * post.draws("f_n")[:, ident],
+                                                  post.draws("zeta")[:, ident])
         warns += rayleigh["warnings"]
-    return {"n_modes": post.n_modes, "modes_evidence": sel.summary(), "modes": modes,
+    return {"n_modes": len(ident), "n_components": post.n_modes,
+            "modes_evidence": sel.summary(), "modes": modes, "modes_seen": seen,
             "pairs": pairs, "rayleigh": rayleigh, "mode_of_mass": post.mode_of_mass + 1,
             "psd_ratio": 1.0 / post.temper, "warnings": warns, "notes": list(sel.notes)}

@@ -85,6 +85,7 @@ from dampfit.signal.prepare import FitData, Prepared
 __all__ = ["KResult", "Tried", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
            "amplitude_prior_radius", "psd_ratios", "local_ratio", "harmonics", "reject_reason",
            "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE", "HARMONIC_CELLS",
+           "HARMONIC_DECAY",
            "harmonic_components", "harmonic_alternatives", "MAX_CANDIDATES"]
 
 #: Amplitude prior radius in units of the largest |y⊥| (MS2).
@@ -99,6 +100,11 @@ HARMONIC_TOLERANCE = 0.02
 #: A flagged component within this many resolution cells 1/T of the multiple [1] *is* a
 #: harmonic, not a mode (a genuine mode lands that close to a multiple only by chance).
 HARMONIC_CELLS = 1.0
+#: A harmonic m·f of a decaying nonlinear oscillation decays at m·p or faster (its amplitude
+#: goes as A^m or a higher power of the fundamental's amplitude A ∝ e^{−p t}); a component at
+#: the multiple whose rate is below this share of m·p [1] decays too slowly to be one: it is a
+#: mode of its own that happens to lie at the multiple (issue 34).
+HARMONIC_DECAY = 0.5
 
 
 #: Two-sided 90 % standard normal quantile (the 95 % point), for the Laplace intervals.
@@ -500,15 +506,17 @@ def harmonic_components(fit: ModeFit, span: float | None = None) -> list[dict]:
     resolution cells of the window ``span`` T [s], NaN without it). The harmonics of a
     nonlinear oscillation (a pendulum's large swing, friction, drag, a stiffening spring)
     decay like modes and sit at exactly m·f_i — within a resolution cell — but are not
-    structural modes."""
+    structural modes. Its decay is tested too: a harmonic's rate p_j is at least
+    :data:`HARMONIC_DECAY` × m·p_i; a component at the multiple that decays slower (a real
+    mode at 2 f₁ with its own, lighter damping) is not listed."""
     out = []
-    amp, f = fit.amplitudes, fit.f_d
+    amp, f, p = fit.amplitudes, fit.f_d, fit.p
     for j in range(fit.n_modes):
         for i in range(fit.n_modes):
             ratio = f[j] / f[i]
             m = round(ratio)
             if i != j and 2 <= m <= 5 and abs(ratio / m - 1) < HARMONIC_TOLERANCE \
-                    and amp[i] > amp[j]:
+                    and amp[i] > amp[j] and p[j] >= HARMONIC_DECAY * m * p[i]:
                 cells = abs(f[j] - m * f[i]) * span if span else math.nan
                 out.append({"index": j, "of": i, "multiple": m, "cells": float(cells)})
                 break

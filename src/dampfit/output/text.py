@@ -179,7 +179,7 @@ def _modes_lines(s: dict[str, Any]) -> list[str]:
     then P(K) and the Rayleigh statement. Nothing for one mode (it is the table above)."""
     modes = s.get("modes")
     if not isinstance(modes, list) or s.get("n_modes") in (None, 1) or len(modes) < 2:
-        return []
+        return _seen_lines(s)
     ev = s.get("modes_evidence") if isinstance(s.get("modes_evidence"), dict) else {}
     probs = [f"P(K = {r.get('n_modes')}) = {r.get('probability'):.2g}"
              for r in ev.get("evidence") or [] if isinstance(r, dict)
@@ -189,7 +189,7 @@ def _modes_lines(s: dict[str, Any]) -> list[str]:
         if not isinstance(mode, dict):
             continue
         mark = "  (the mass's mode)" if mode.get("mass_mode") is True else ""
-        lines.append(f"  mode {i + 1}{mark}")
+        lines.append(f"  mode {_index(mode, i)}{mark}")
         for key, label in _MODE_ROWS:
             q = mode.get(key)
             if not isinstance(q, dict) or not all(isinstance(q.get(x), (int, float))
@@ -204,6 +204,27 @@ def _modes_lines(s: dict[str, Any]) -> list[str]:
     if isinstance(ray, dict) and isinstance(ray.get("statement"), str):
         lines.append(f"  Rayleigh        alpha = {_with_interval(ray.get('alpha') or {})} 1/s, "
                      f"beta = {_with_interval(ray.get('beta') or {})} s; {ray['statement']}")
+    return lines + _seen_lines(s)
+
+
+def _index(mode: dict, i: int) -> str:
+    """A mode's number: its component ``index`` (the numbering --mode-of-mass and the decks
+    use), else its place."""
+    n = mode.get("index")
+    return str(n) if isinstance(n, int) and not isinstance(n, bool) else str(i + 1)
+
+
+def _seen_lines(s: dict[str, Any]) -> list[str]:
+    """The components seen but not modes (summary's ``modes_seen``): f_n and why; no ζ row."""
+    seen = [e for e in s.get("modes_seen") or [] if isinstance(e, dict)] \
+        if isinstance(s.get("modes_seen"), list) else []
+    if not seen:
+        return []
+    lines = ["", "  seen, not modes (no zeta, no Rayleigh, no deck)"]
+    for e in seen:
+        f = (e.get("f_n") or {}).get("q50") if isinstance(e.get("f_n"), dict) else None
+        at = f"{f:.5g} Hz" if isinstance(f, (int, float)) else "?"
+        lines.append(f"    {at:>12s}  {e.get('kind')}: {e.get('reason')}")
     return lines
 
 

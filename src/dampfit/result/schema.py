@@ -113,21 +113,30 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "models": {law: {"zeta_eq", "c_eq", "colour"}}, …},
      "c_equivalent": null | {"model", "c", "zeta", "amplitude_m", "note",
              "recorded_amplitude_range_m", "extrapolated"},
-     "n_modes": int,                               # modes found (1 … max modes)
-     "modes": [{"index", "mass_mode",              # one per mode, by frequency (1-based)
+     "n_modes": int,                               # identified modes (1 … max modes)
+     "modes": [{"index", "mass_mode",              # one per identified mode, by frequency;
+             "identified": true,                   # index: the component's number (1-based,
+             "fundamental": bool,                  # as --mode-of-mass); fundamental: the
+                                                   # one-mode analysis's (released) mode
              "f_n": {"unit": "Hz", "mean", "sd", "q05", "q50", "q95", "r_hat",
                    "ess_bulk"}, "f_d", "zeta", "p", "eta", "delta", "Q",
              "accel_amplitude",                  # K ≥ 2 only
-             "c", "k", "c_crit", "u0",             # the mass's mode only (c, k with mass)
+             "c", "k", "c_crit", "u0",             # the mass's mode only (c, k with mass):
+             "c_modal", "k_modal", "mass_values",  # the one-mode analysis's when it is the
+                                                   # fundamental; the modal posterior's: *_modal
              "crlb_sd": {"f_n", "zeta", "p", "omega_d"},
              "least_squares": {"f_n": {"value", "q05", "q95", "unit"}, "zeta",
                    "p"}}],                        # K ≥ 2: least squares, Laplace 90 %
              # one mode: modes[0] is parameters (eta = 2 zeta added)
-     "modes_evidence": {"max_modes", "reason", "seconds",
+     "modes_seen": [{"index", "f_n": {"q05", "q50", "q95", "unit", …}, "zeta": {…} | null,
+             "kind": "harmonic" | "sideband" | "split" | "not converged" | "basin" | "zeta",
+             "reason"}],       # components that are not modes (inference.modes_checks):
+             # no zeta row, no Rayleigh, no deck; [] when none (absent: older summaries)
+     "modes_evidence": {"max_modes", "reason", "seconds", "n_components",
              "screen": null | {"passed", "max_z2", "at_hz", "rate_per_s",
                    "threshold_z2", "reason"},  # the cheap one-mode screen
-             "harmonics": [{"f_d_hz", "multiple", "of_hz", "cells"}],  # only when the
-             "split": [{"f_d_hz"}],  # evidence's other components are harmonics of the one
+             "harmonics": [{"index", "f_d_hz", "multiple", "of_hz", "cells"}],  # only when
+             "split": [{"index", "f_d_hz"}],  # the evidence's other components are harmonics of the one
                    # mode or (amplitude-dependent verdict) its split: K = 1, reason says so
              "evidence": [{"n_modes", "ln_evidence", "probability", "admissible",
                    "reason", "f_d_hz", "amplitude_z"}],   # every K tried, P(K)
@@ -329,9 +338,18 @@ def _check_fields(summary: dict[str, Any], path: Path) -> None:
         _check_campaign(summary, path)
 
 
+#: Entries of a ``modes`` row that are not quantity objects.
+MODE_FLAGS = ("index", "mass_mode", "identified", "fundamental", "mass_values")
+
+
 def _check_modes(summary: dict[str, Any], path: Path) -> None:
     """``modes`` a list of objects (or absent/null: a summary older than the modes), each
     quantity an object (or null), and ``n_modes`` a whole number 1 … len(modes) when given."""
+    seen = summary.get("modes_seen")
+    if seen is not None and not (isinstance(seen, list)
+                                 and all(isinstance(e, dict) for e in seen)):
+        raise InputError(f"{shown(path)}: 'modes_seen' must be a list of objects, got "
+                         f"{brief(seen)}")
     modes = summary.get("modes")
     if modes is None:
         return
@@ -341,7 +359,7 @@ def _check_modes(summary: dict[str, Any], path: Path) -> None:
         if not isinstance(mode, dict):
             raise InputError(f"{shown(path)}: modes[{i}] must be an object, got {brief(mode)}")
         for name, entry in mode.items():
-            if name not in ("index", "mass_mode") and entry is not None \
+            if name not in MODE_FLAGS and entry is not None \
                     and not isinstance(entry, dict):
                 raise InputError(f"{shown(path)}: modes[{i}].{shown(name, 40)} must be an "
                                  f"object, got {brief(entry)}")

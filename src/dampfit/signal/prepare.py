@@ -55,7 +55,7 @@ from dampfit.signal import clock, filters, masks
 from dampfit.model import viscous
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
-from dampfit.signal.spectrum import auto_band, dominant_frequency
+from dampfit.signal.spectrum import auto_band, axis_share_warning, dominant_frequency
 from dampfit.signal.window import (
     DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
 )
@@ -309,6 +309,7 @@ def prepare(
         graw_f = graw
     d, direction, f0, freqs, amp, bnd = _axis_and_frequency(rec, graw_f, fs, fmin, fmax, axis,
                                                              band, notes)
+    warnings.extend(axis_share_warning(rec.axes, graw_f, fs, fmin, fmax, axis))
     y = a @ d
     usable, n_clipped, n_spikes = _usable(y, fs, f0, clipped, gross, notes, warnings)
     yg = graw @ d if usable.all() else _inpaint_on_grid(grid, t, y, usable)

@@ -5,17 +5,23 @@
   between bins (:func:`parabolic_peak`), and the single-sided amplitude spectrum [m/s²];
 * :func:`auto_band` — the default pass band ``[f₀/1.5, 1.5·f₀]`` [Hz], capped at 0.45·fs;
 * :func:`noise_density` — white-noise density [(m/s²)/√Hz] near the band, from the median
-  Welch power spectral density off the peak.
+  Welch power spectral density off the peak;
+* :func:`axis_share_warning` — a chosen axis that carries little of the oscillation's
+  energy at f₀ is said, with the axis that does.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from scipy import signal
 
 from dampfit.errors import InputError
+from dampfit.signal import filters
 
-__all__ = ["BAND_FACTOR", "dominant_frequency", "parabolic_peak", "auto_band", "noise_density"]
+__all__ = ["BAND_FACTOR", "AXIS_SHARE_MIN", "dominant_frequency", "parabolic_peak", "auto_band",
+           "noise_density", "axis_share_warning"]
 
 #: Band edges relative to the dominant frequency for the automatic band.
 BAND_FACTOR = 1.5
@@ -86,3 +92,39 @@ def noise_density(y: np.ndarray, fs: float, f0: float, band: tuple[float, float]
     if near.sum() < 5:
         near = off_peak & (f > 0)
     return float(np.sqrt(np.median(pxx[near]))) if near.any() else 0.0
+
+
+#: A chosen axis carrying less than this share [1] of the oscillation's energy at f₀ is
+#: said to be the wrong one (issue 34: a phone pendulum analysed on a cross axis).
+AXIS_SHARE_MIN = 0.2
+
+
+def axis_share_warning(axes, graw_f: np.ndarray, fs: float, fmin: float, fmax: float,
+                       axis: str) -> list[str]:
+    """[a warning] when the chosen ``axis`` carries less than :data:`AXIS_SHARE_MIN` of the
+    oscillation's energy at f₀ ([] for ``auto``, one axis or a fair share). f₀ [Hz] is the
+    peak of the power summed over the axes; each axis's share is its band-passed power
+    (f₀ × [1/√2, √2]) over the sum of all axes' (the trace of the band's covariance, which
+    does not depend on the axes' orientation); the warning names the axis with the largest
+    share and suggests ``--axis auto`` (the principal direction of the band)."""
+    if axis == "auto" or graw_f.shape[1] < 2 or axis not in axes:
+        return []
+    detr = signal.detrend(graw_f, axis=0)
+    try:
+        f0 = dominant_frequency(detr, fs, fmin, fmax)[0]
+    except InputError:
+        return []
+    lo, hi = f0 / math.sqrt(2.0), min(f0 * math.sqrt(2.0), 0.45 * fs)
+    if not lo < hi:
+        return []
+    power = np.mean(filters.bandpass(detr, fs, (lo, hi)) ** 2, axis=0)
+    total = float(np.sum(power))
+    if not total > 0:
+        return []
+    share = power / total
+    i, best = list(axes).index(axis), int(np.argmax(share))
+    if share[i] >= AXIS_SHARE_MIN:
+        return []
+    return [f"axis {axis} carries only {share[i]:.0%} of the oscillation's energy at "
+            f"{f0:.4g} Hz; axis {axes[best]} carries {share[best]:.0%}: the chosen axis is "
+            "probably the wrong one (try --axis auto, the oscillation's direction)"]

@@ -112,7 +112,9 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     fs = 1.0 / (grid[1] - grid[0])
     per = max(1, int(round(fs / f0)))
     half = max(1, int(round(DROP_PERIODS * per / 2)))
-    lo, hi = max(i0, half), min(i1, len(env) - half - 1)
+    # not within two periods of the record's end, where the band-pass and Hilbert edges
+    # bend the envelope down (against the trend before it, that edge would look abrupt)
+    lo, hi = max(i0, half), min(i1, len(env) - half - 2 * per - 1)
     if hi - lo < 4 * per:
         return []
     sm = np.log(np.maximum(ndimage.uniform_filter1d(env, per), 1e-300))
@@ -124,9 +126,27 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
     if idx.size < 4 * per:
         return []
     d = sm[idx + half] - sm[idx - half]
-    trend = running_median(d, int(DROP_TREND_PERIODS * per))
-    excess = trend - d  # > 0: more loss than the trend
-    hits = excess > np.log(DROP_FACTOR)
+    width = int(DROP_TREND_PERIODS * per)
+    trend = running_median(d, width)
+    # the trend before the drop too: a catch within a trend span of the range's end (where
+    # the decay after it reaches the floor) would otherwise pull the centred median down
+    # with it (issue 34: a cantilever caught at 7.7 s was analysed on to 19.4 s)
+    lag = width // 2 + 2 * half
+    past = trend.copy()
+    if idx.size > lag:
+        past[lag:] = trend[:-lag]
+    centred = trend - d
+    excess = np.maximum(trend, past) - d  # > 0: more loss than the trend
+    # against the past trend only where the amplitude lost (not only its log) also exceeds
+    # the past trend's: friction loses a constant amplitude per cycle, so its log rate grows
+    # towards its stop but its linear loss does not; a catch exceeds both
+    lin = np.exp(sm)
+    dl = lin[idx + half] - lin[idx - half]  # [m/s²] < 0 while decaying
+    past_lin = running_median(dl, width)
+    if idx.size > lag:
+        past_lin[lag:] = past_lin[:-lag].copy()
+    sudden = (past_lin < 0) & (dl < DROP_FACTOR * past_lin)
+    hits = (centred > np.log(DROP_FACTOR)) | ((past - d > np.log(DROP_FACTOR)) & sudden)
     out = []
     j = 0
     while j < idx.size:
@@ -134,7 +154,10 @@ def envelope_drops(grid: np.ndarray, env: np.ndarray, f0: float, floor: float,
             k = j
             while k < idx.size and hits[k]:
                 k += 1
-            m = j + int(np.argmax(excess[j:k]))
+            # at the steepest excess over the centred trend; found against the past trend
+            # alone (which stays exceeded after a catch): at the run's onset
+            m = j + int(np.argmax(centred[j:k])) if centred[j:k].max() > np.log(DROP_FACTOR) \
+                else j
             out.append((float(grid[idx[m]]), float(np.exp(excess[m]))))
             j = k + 2 * half
         else:
@@ -219,14 +242,6 @@ def detect_window(
             i_end = i_rise
             notes.append("window ends before the envelope rises again (catch or new excitation)")
             reason = END_REASONS[1]
-    drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
-    if drops:
-        tc, factor = drops[0]
-        i_end = max(int(np.searchsorted(grid, tc)) - per, i_pk)
-        notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
-                     f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
-                     "catch, rattle or contact)")
-        reason = f"abrupt envelope drop at {tc:.2f} s (catch, rattle or contact)"
     ev_t, ev_a = events
     after = ev_t > grid[min(i_pk + per, len(grid) - 1)]  # not the excitation itself
     through: list[float] = []
@@ -243,6 +258,15 @@ def detect_window(
             notes.append(f"window ends before an impact at {tc:.2f} s (catch or knock)")
             reason = f"impact at {tc:.2f} s (catch or knock)"
             break
+    # an abrupt drop before that end (after an impact's end the drop is the impact's own)
+    drops = envelope_drops(grid, env, f0, floor, i_pk + per, i_end)
+    if drops:
+        tc, factor = drops[0]
+        i_end = max(int(np.searchsorted(grid, tc)) - per, i_pk)
+        notes.append(f"window ends before an abrupt envelope drop at {tc:.2f} s (the envelope fell "
+                     f"{factor:.1f}x more than the decay trend within {DROP_PERIODS:g} cycles: a "
+                     "catch, rattle or contact)")
+        reason = f"abrupt envelope drop at {tc:.2f} s (catch, rattle or contact)"
     if through:
         shown = ", ".join(f"{x:.2f}" for x in through[:3]) + (", …" if len(through) > 3 else "")
         notes.insert(0, f"{len(through)} spike(s) over {IMPACT_RATIO:g}x the oscillation (at "

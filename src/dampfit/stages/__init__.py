@@ -49,7 +49,8 @@ from dampfit.io.recording import Recording
 from dampfit.signal import display
 from dampfit.signal import prepare
 
-__all__ = ["FitStages", "ViscousStages", "ModesStage", "modes_stage", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
+__all__ = ["FitStages", "ViscousStages", "ModesStage", "modes_stage", "modes_disagreement",
+           "one_mode_values", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
            "PLAUSIBLE_K_N_PER_M", "POSSIBLE_RATE_HZ", "R_WARN", "assess_damping",
            "check_damping_options", "crlb_stage", "figure_signals", "fit_stages", "fit_summary",
            "fitted_curve", "initial_decay_rate", "ls_quantities", "ls_summary",
@@ -501,4 +502,5 @@ def _number(x) -> np.float64:
     return np.float64(np.nan if x is None else x)
 
 
-from dampfit.stages.modes import ModesStage, modes_stage  # noqa: E402 (the modes stage)
+from dampfit.stages.modes import (  # noqa: E402 (the modes stage)
+    ModesStage, modes_disagreement, modes_stage, one_mode_values)

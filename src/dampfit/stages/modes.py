@@ -34,12 +34,15 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from dampfit import physics
 from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.signal import prepare
 
-__all__ = ["ModesStage", "modes_stage"]
+__all__ = ["ModesStage", "modes_stage", "modes_disagreement", "one_mode_values", "fundamental",
+           "split_partners"]
 
 #: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
 #: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
@@ -58,9 +61,12 @@ class ModesStage:
     (:class:`~dampfit.inference.modes_select.ModeSelection`) and ``posterior``
     (:class:`~dampfit.inference.modes_posterior.ModalPosterior`, its ``idata`` for
     posterior.nc), None when not run; ``dominant`` the 0-based index of the mode at the
-    one-mode frequency (None without ``one_mode`` or a modal posterior); ``split`` the warnings (also in ``warnings``) that a
-    close pair may be the one-mode analysis's mode split in two; ``seconds`` [s] the stage's
-    wall time."""
+    one-mode frequency (None without ``one_mode`` or a modal posterior; the mass's mode
+    unless ``mode_of_mass`` names another); ``split`` the warnings (also in ``warnings``)
+    that a close pair may be the one-mode analysis's mode split in two; ``seconds`` [s] the
+    stage's wall time; ``seen`` summary.json's ``modes_seen``: the components that are not
+    modes (:mod:`dampfit.inference.modes_checks`), with ``kind`` and ``reason``. ``n_modes``
+    counts the identified modes only (the evidence's K is ``evidence["n_components"]``)."""
 
     n_modes: int | None
     evidence: dict[str, Any]
@@ -71,6 +77,7 @@ class ModesStage:
     dominant: int | None = None
     split: tuple[str, ...] = ()
     seconds: float = 0.0
+    seen: tuple[dict, ...] = ()
 
 
 def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | None = None,
@@ -85,8 +92,10 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
     ``n_modes`` a fixed K; ``band`` [Hz] the modal band (MS1 by default); ``mass``,
     ``mass_sd`` [kg] give c [N·s/m] and k [N/m] of the mode ``mode_of_mass`` (1-based; the
-    dominant one by default); ``viscous_seconds`` a one-mode posterior's wall time [s], for
-    the work budget (:func:`dampfit.inference.modes_posterior.budget`); ``one_mode`` the
+    fundamental at the one-mode frequency by default); ``viscous_seconds`` a one-mode
+    posterior's wall time [s]: accepted from the callers but no longer a budget (the budget
+    is counted in steps, :func:`dampfit.inference.modes_posterior.budget`, so the numbers do
+    not depend on the machine's load); ``one_mode`` the
     one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
     that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
     verdict (amplitude-dependent or misfit: any close pair there is explained).
@@ -100,7 +109,8 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     mass, mass_sd = physics.check_mass(mass, mass_sd)
 
     def done(k: int | None, evidence: dict, warnings=(), **kw) -> ModesStage:
-        check_mode_of_mass(mode_of_mass, k or 1)  # not analysed: one mode, as reported
+        # against the components found (not analysed: one mode, as reported)
+        check_mode_of_mass(mode_of_mass, evidence.get("n_components") or k or 1)
         evidence.update(max_modes=limit, seconds=time.perf_counter() - start)
         return ModesStage(n_modes=k, evidence=jsonable(evidence), warnings=tuple(warnings),
                           seconds=time.perf_counter() - start, **kw)
@@ -127,24 +137,54 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     if single is not None:
         evidence.update(reason=single[0], **single[1])
         return done(1, evidence, [w for w in sel.warnings if "harmonic" not in w]
-                    + [single[0]], selection=sel)
-    post = modes_posterior.sample(sel, mass=mass, mass_sd=mass_sd, mode_of_mass=mode_of_mass,
-                                  seed=seed, min_ess=min_ess, max_steps=max_steps,
-                                  budget=modes_posterior.budget(sel.n_modes, viscous_seconds))
-    out = modes_posterior.modal_summary(sel, post)
+                    + [single[0]], selection=sel, seen=folded(sel, single[1]))
+    dominant = partners = None
+    if one_mode is not None:  # the fundamental the recording was released in: the mass's
+        dominant = fundamental(sel, one_mode[1] / (2 * math.pi))
+        partners = split_partners(sel, dominant, verdict)
+    post = modes_posterior.sample(
+        sel, mass=mass, mass_sd=mass_sd, seed=seed, min_ess=min_ess, max_steps=max_steps,
+        mode_of_mass=mode_of_mass if mode_of_mass is not None or dominant is None
+        else dominant + 1, budget=modes_posterior.budget(sel.n_modes))
+    out = modes_posterior.modal_summary(sel, post, keep=dominant, split=partners or ())
     out["sampling"] = {"posterior_converged": post.converged, **post.sampling()}
-    warns, split, dominant = list(out["warnings"]), [], None
-    if one_mode is not None and sel.n_modes > 1:
-        f1 = one_mode[1] / (2 * math.pi)
-        dominant = min(range(len(out["modes"])),
-                       key=lambda i: abs(out["modes"][i]["f_d"]["q50"] - f1))
-        split = modes_close.split_pair(out["modes"], out["pairs"], dominant,
+    warns, split = list(out["warnings"]), []
+    if dominant is not None:
+        split = modes_close.split_pair(post.summary(), out["pairs"], dominant,
                                        amplitude_dependent=verdict in SPLIT_VERDICTS)
-    evidence.update(reason=f"{sel.n_modes} mode{'s' if sel.n_modes > 1 else ''} by evidence"
-                    if n_modes is None else f"{n_modes} modes fixed",
-                    pairs=out["pairs"], notes=out["notes"], sampling=post.sampling())
-    return done(sel.n_modes, evidence, warns + split, summary=jsonable(out), selection=sel,
-                posterior=post, dominant=dominant, split=tuple(split))
+    k = sel.n_modes
+    evidence.update(reason=(f"{k} component{'s' if k > 1 else ''} by evidence"
+                            if n_modes is None else f"{n_modes} components fixed")
+                    + f", {out['n_modes']} identified as modes", pairs=out["pairs"],
+                    notes=out["notes"], sampling=post.sampling(), n_components=k)
+    return done(out["n_modes"], evidence, warns + split, summary=jsonable(out), selection=sel,
+                posterior=post, dominant=dominant, split=tuple(split),
+                seen=tuple(jsonable(out["modes_seen"])))
+
+
+def fundamental(sel, f1: float) -> int:
+    """0-based component of the selection nearest (in its least-squares damped frequency)
+    to the one-mode analysis's frequency ``f1`` [Hz]: the fundamental the recording was
+    released in, the mass's mode unless the user names another."""
+    f = np.asarray(sel.chosen.fit.f_d, dtype=float)
+    return int(np.argmin(np.abs(f - f1)))
+
+
+def split_partners(sel, d: int, verdict: str | None) -> list[int]:
+    """0-based components closer than
+    :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths (C1, the
+    least squares' pairs) to the fundamental ``d`` when the one-mode ``verdict`` says its
+    damping changes with amplitude (or misfit); [] otherwise."""
+    from dampfit.inference import modes_close
+
+    if verdict not in SPLIT_VERDICTS:
+        return []
+    out = []
+    for row in modes_close.selection_pairs(sel)[0]:
+        i, j = (m - 1 for m in row["modes"])
+        if d in (i, j) and row["separation_half_power"] < modes_close.SPLIT_HALF_POWER:
+            out.append(j if i == d else i)
+    return out
 
 
 def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] | None:
@@ -171,13 +211,7 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
     f = fit.f_d
     harm = [h for h in modes_select.harmonic_components(fit, sel.span)
             if h["cells"] < modes_select.HARMONIC_CELLS]
-    split: list[int] = []
-    if verdict in SPLIT_VERDICTS:  # the pairs (C1) of the least squares, as split_pair reads them
-        d = min(range(sel.n_modes), key=lambda i: abs(f[i] - f1))
-        for row in modes_close.selection_pairs(sel)[0]:
-            i, j = (m - 1 for m in row["modes"])
-            if d in (i, j) and row["separation_half_power"] < modes_close.SPLIT_HALF_POWER:
-                split.append(j if i == d else i)
+    split = split_partners(sel, fundamental(sel, f1), verdict)
     gone = {h["index"] for h in harm} | set(split)
     if sel.n_modes - len(gone) != 1:
         return None
@@ -187,15 +221,97 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
                      "stiffening spring): " + ", ".join(
                          f"{f[h['index']]:.5g} Hz = {h['multiple']} x {f[h['of']]:.5g} Hz"
                          for h in harm))
-        entries["harmonics"] = [{"f_d_hz": float(f[h["index"]]), "multiple": h["multiple"],
+        entries["harmonics"] = [{"index": h["index"] + 1, "f_d_hz": float(f[h["index"]]),
+                                 "multiple": h["multiple"],
                                  "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in harm]
     if split:
         parts.append(f"the one mode split by its amplitude-dependent damping ({verdict}): "
                      + ", ".join(f"{f[j]:.5g} Hz" for j in split) + f" beside {f1:.5g} Hz, "
                      f"closer than {modes_close.SPLIT_HALF_POWER:g} half-power bandwidths")
-        entries["split"] = [{"f_d_hz": float(f[j])} for j in split]
+        entries["split"] = [{"index": j + 1, "f_d_hz": float(f[j])} for j in split]
     n = len(gone)
     reason = (f"one mode: the evidence's other component{'s' if n > 1 else ''} "
               f"{'are' if n > 1 else 'is'} not {'modes' if n > 1 else 'a mode'} — "
               + "; ".join(parts))
     return reason, entries
+
+
+def folded(sel, entries: dict) -> tuple[dict, ...]:
+    """summary.json's ``modes_seen`` of the components :func:`one_mode_after_all` folded
+    back into one mode (``entries`` its evidence entries), with the least squares' Laplace
+    90 % intervals (no modal posterior ran): ``index`` (1-based component), ``f_n`` and
+    ``zeta`` {"q50", "q05", "q95", "unit"}, ``kind`` ("harmonic" or "split"), ``reason``."""
+    try:
+        est = sel.chosen.laplace_intervals()
+    except (AttributeError, ValueError):
+        est = None
+    out = []
+    for kind, rows in (("harmonic", entries.get("harmonics", ())),
+                       ("split", entries.get("split", ()))):
+        for e in rows:
+            i = e["index"] - 1
+            why = (f"{e['f_d_hz']:.5g} Hz = {e['multiple']} x {e['of_hz']:.5g} Hz within "
+                   "a resolution cell, decaying as fast as a harmonic: not a mode"
+                   if kind == "harmonic" else
+                   f"{e['f_d_hz']:.5g} Hz: the fundamental split by its amplitude-dependent "
+                   "damping or drifting frequency, or an unresolved pair")
+            out.append({"index": e["index"], "kind": kind, "reason": why,
+                        "f_n": None if est is None else _interval(est[i]["f_n"], "Hz"),
+                        "zeta": None if est is None else _interval(est[i]["zeta"], "1")})
+    return tuple(jsonable(out))
+
+
+def _interval(v, unit: str) -> dict:
+    return {"q50": float(v[0]), "q05": float(v[1]), "q95": float(v[2]), "unit": unit,
+            "source": "least squares (Laplace)"}
+
+
+def modes_disagreement(modes: list[dict], dominant: int | None, ls) -> list[str]:
+    """A warning (in a list; [] when they agree) that the modal posterior of the fundamental
+    (0-based component ``dominant``) and the one-mode least squares ``ls`` (``p`` [1/s],
+    ``omega_d`` [rad/s]) disagree: the one-mode ζ or f_n outside the modal 90 % interval.
+    Stated, never resolved silently: the headline and the mass's c, k stay the one-mode
+    analysis's (:func:`one_mode_values`)."""
+    pos = next((n for n, r in enumerate(modes)
+                if dominant is not None and r.get("index") == dominant + 1), None)
+    if pos is None:
+        return []
+    row = modes[pos]
+    q = physics.quantities(float(ls.p), float(ls.omega_d))
+    out = []
+    for name, value, unit in (("zeta", float(q["zeta"]), ""), ("f_n", float(q["f_n"]), " Hz")):
+        iv = row.get(name) or {}
+        lo, hi = iv.get("q05"), iv.get("q95")
+        if isinstance(lo, float) and isinstance(hi, float) and not lo <= value <= hi:
+            out.append(f"{name} {value:.4g}{unit} of the one-mode analysis, "
+                       f"{iv['q50']:.4g} [{lo:.4g}, {hi:.4g}]{unit} of the modal one")
+    if not out:
+        return []
+    return [f"the one-mode and the modal analyses disagree on the fundamental (mode "
+            f"{dominant + 1}): " + "; ".join(out) + f". The headline, the damper and "
+            f"modes[{pos}].c, k are the one-mode analysis's; the modal posterior's are "
+            f"modes[{pos}].c_modal, k_modal"]
+
+
+#: The quantities of the mass's mode taken from the one-mode analysis (``parameters``).
+ONE_MODE_QUANTITIES = ("c", "k", "c_crit", "u0", "mass")
+
+
+def one_mode_values(rows: list[dict], params: dict) -> list[dict]:
+    """summary.json's ``modes`` with the mass's mode carrying the one-mode analysis's c, k,
+    c_crit, u0 and mass (``params``: summary.json's ``parameters``) when it is the
+    fundamental (``"fundamental": True``): the headline c equals that mode's c, and the
+    deck, the report and summary.json name one mode with one set of values. The modal
+    posterior's own values of that mode are kept as ``c_modal``, ``k_modal``."""
+    out = []
+    for row in rows:
+        row = dict(row)
+        if row.get("mass_mode") and row.get("fundamental"):
+            for name in ONE_MODE_QUANTITIES:
+                if name in row and name in ("c", "k"):
+                    row[f"{name}_modal"] = row[name]
+                if params.get(name) is not None:
+                    row[name] = params[name]
+            row["mass_values"] = "one-mode analysis (parameters)"
+        out.append(row)
+    return out

@@ -33,6 +33,10 @@ __all__ = ["CONVENTIONS", "FLAG_INFLATION", "inverse_q", "modes_blocks", "severa
 #: :data:`dampfit.inference.modes_close.FLAG_INFLATION` (the report imports no numeric code;
 #: a test holds the two equal).
 FLAG_INFLATION = 1.25
+#: … within these separations (:data:`dampfit.inference.modes_close.CLOSE_HALF_POWER`,
+#: ``CLOSE_CELLS``; a test holds them equal).
+CLOSE_HALF_POWER = 5.0
+CLOSE_CELLS = 5.0
 
 #: The per-mode table's damping columns: summary key, heading.
 CONVENTIONS = (("zeta", "ζ, damping ratio [1]"), ("eta", "η = 2ζ, loss factor [1]"),
@@ -62,17 +66,18 @@ def modes_blocks(s: dict) -> list[Block]:
     """The "Modes" section of the report (module docstring); [] for one mode."""
     modes = several_modes(s)
     if modes is None:
-        return []
+        seen = _seen(s)
+        return [("h2", "Modes")] + seen if seen else []
     ev = s.get("modes_evidence") if isinstance(s.get("modes_evidence"), dict) else {}
     b: list[Block] = [("h2", "Modes"), ("p", [
-        f"The recording holds {len(modes)} modes ({number(ev.get('reason'))}; up to "
+        f"The recording holds {len(modes)} identified modes ({number(ev.get('reason'))}; up to "
         f"{number(ev.get('max_modes'))} tried). Each mode: posterior median and 90 % "
         "equal-tailed interval, in every convention damping is reported in; η = 2ζ, "
         "Λ = 2πζ/√(1−ζ²) (the decrement per cycle of the decay), Q⁻¹ = 1/Q = 2ζ. CRLB sd: "
         "the Cramér–Rao bound on the standard deviation of ζ for this recording's noise."])]
     b.append(_table(modes))
     b += _mass_mode(modes)
-    b += _evidence(ev) + _pairs(ev) + _rayleigh(s.get("rayleigh"))
+    b += _seen(s) + _evidence(ev) + _pairs(ev) + _rayleigh(s.get("rayleigh"))
     notes = [[n] for n in ev.get("notes") or [] if isinstance(n, str)] \
         if isinstance(ev.get("notes"), list) else []
     if notes:
@@ -95,7 +100,7 @@ def _table(modes: list[Any]) -> Block:
         ratio = sd / crlb if finite(crlb) and crlb > 0 and finite(sd) else None
         hats = [q.get("r_hat") for q in (mode.get(k) for k in ("f_n", "zeta", "eta", "delta", "Q"))
                 if isinstance(q, dict) and finite(q.get("r_hat"))]
-        name = f"{i + 1}" + (" (the mass's mode)" if mode.get("mass_mode") is True else "")
+        name = _number(mode, i) + (" (the mass's mode)" if mode.get("mass_mode") is True else "")
         rows.append([name, with_interval(mode.get("f_n"))]
                     + [with_interval(qs[k]) for k, _ in CONVENTIONS]
                     + [number(crlb, 3) if isnum(crlb) else "—", spec(ratio, ".2f"),
@@ -111,10 +116,33 @@ def _mass_mode(modes: list[Any]) -> list[Block]:
                      for k, sym, unit in (("c", "c", "N·s/m"), ("k", "k", "N/m"))
                      if isinstance(mode.get(k), dict)]
             if parts:
-                return [("p", [("b", f"Mode {i + 1} is the mode of the mass: "),
+                return [("p", [("b", f"Mode {_number(mode, i)} is the mode of the mass: "),
                                "; ".join(parts) + ". The other modes report ζ and f_n only "
                                "(no modal mass is invented for them)."])]
     return []
+
+
+def _number(mode: dict, i: int) -> str:
+    """A mode's number: its component ``index`` (as --mode-of-mass and the decks number
+    them), else its place in the list."""
+    n = mode.get("index")
+    return str(n) if isinstance(n, int) and not isinstance(n, bool) else str(i + 1)
+
+
+def _seen(s: dict) -> list[Block]:
+    """The components seen but not modes (``modes_seen``): f_n, kind and reason; no ζ row,
+    no Rayleigh, no deck."""
+    seen = s.get("modes_seen")
+    rows = [[with_interval(e.get("f_n")) if isinstance(e.get("f_n"), dict) else "—",
+             number(e.get("kind")), number(e.get("reason"))]
+            for e in (seen if isinstance(seen, list) else []) if isinstance(e, dict)]
+    if not rows:
+        return []
+    return [("h3", "Seen, not modes"),
+            ("p", ["Components the modal fit needed that lack the evidence of a mode (a "
+                   "harmonic, a sideband, the fundamental's split, or a posterior that does "
+                   "not identify them); they get no damping row, no Rayleigh and no deck."]),
+            ("table", ["f_n [Hz]", "kind", "why"], rows)]
 
 
 def _evidence(ev: dict) -> list[Block]:
@@ -160,8 +188,10 @@ def _pairs(ev: dict) -> list[Block]:
     return [("h3", "Close modes"), ("p", [
         "Separation Δf of each pair in hertz, in half-power bandwidths (Δf over the mean of "
         "the two modes' 2ζ·f_n) and in frequency-resolution cells (Δf·T, T the analysed "
-        "window); the CRLB inflation is how many times wider the bound on f_n and on ζ is "
-        f"than for a lone mode, and a pair is flagged as close when either exceeds {FLAG_INFLATION}."]),
+        "window); the CRLB inflation is how many times wider the pair's bound on f_n and on "
+        "ζ is than for a lone mode, and a pair is flagged as close when it lies within "
+        f"{CLOSE_HALF_POWER:g} half-power bandwidths or {CLOSE_CELLS:g} resolution cells and "
+        f"either inflation exceeds {FLAG_INFLATION}."]),
         ("table", ["modes", "separation [Hz]", "in half-power bandwidths",
                    "in resolution cells 1/T", "CRLB inflation (f_n, ζ)", "flagged"], rows)]
 
