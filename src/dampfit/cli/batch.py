@@ -116,9 +116,9 @@ def command(args) -> int:
         table = run_batch(todo, out, options=options, outputs=outputs,
                           workers=args.workers or os.cpu_count() or 1, scheduler=args.scheduler,
                           force=args.force, quiet=args.quiet)
-    except KeyboardInterrupt:
-        print(f"dampfit: interrupted; finished rows are kept in {out}/rows.jsonl and "
-              f"{out}/results.csv; run the same command again to resume", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # the CLI's one line says what is kept
+        exc.dampfit_kept = (f"finished rows are kept in {out}/rows.jsonl and {out}/results.csv; "
+                            "run the same command again to resume")
         raise
     _print(table, out, args.json)
     return 1 if (table["status"] == "failed").any() else 0

@@ -107,16 +107,33 @@ def command(args) -> int:
     from dampfit.files.swap import signals_deferred
     from dampfit.cli.staging import result_folder
     from dampfit.record.live import LiveLine
+    from dampfit.record.journal import PARTIAL, Journal
     from dampfit.record.phyphox import PhyphoxClient
     from dampfit.record.session import CSV, JSON, record, write_recording
 
     out = Path(args.out)
     live = LiveLine(sys.stderr, enabled=not args.quiet)
     with result_folder(out, "record", args.force) as folder:
-        rec = record(PhyphoxClient(url, timeout=args.timeout), duration=args.duration, live=live)
+        journal = Journal(lambda: folder.stage, lambda: _publish(folder))
+        try:
+            rec = record(PhyphoxClient(url, timeout=args.timeout), duration=args.duration,
+                         live=live, sink=journal)
+        except BaseException as exc:
+            journal.close()
+            if journal.published:  # kept: the samples streamed before the failure
+                _kept(exc, f"the samples so far are kept in {out / PARTIAL}")
+            raise
         with signals_deferred(), folder.writing():  # Ctrl-C cannot drop the recording now
-            write_recording(rec, folder.stage)
+            if journal.published:
+                folder.restage()
+            try:
+                write_recording(rec, folder.stage)
+            except InputError as exc:
+                if journal.published:
+                    raise InputError(f"{exc}; the samples are in {out / PARTIAL}") from None
+                raise
             folder.publish()
+            journal.close()
         kept = f"{rec.duration:.1f} s ({rec.time.size} samples) kept in {out / CSV} and {out / JSON}"
         if rec.error is not None:
             live.finish_quietly()
@@ -124,7 +141,8 @@ def command(args) -> int:
                              f"{out / CSV} --out OTHER_DIR)")
         if rec.interrupt is not None and rec.stopped_by != "interrupted":
             live.finish_quietly()
-            raise rec.interrupt  # SIGTERM or a second Ctrl-C: exit 143/130, the recording stays
+            # SIGTERM or a second Ctrl-C: exit 143/130, the recording stays
+            raise _kept(rec.interrupt, f"the recording so far is kept: {kept}")
         how = "Ctrl-C" if rec.stopped_by == "interrupted" else rec.stopped_by
         final = f"dampfit record: stopped ({how}); {kept}"
         if args.no_analyze:
@@ -134,14 +152,33 @@ def command(args) -> int:
         live.status(f"{final}; analysing (Ctrl-C aborts the analysis, the recording stays)")
         try:
             an = _analyse(args, folder, out, rec.notes, (CSV, JSON))
-        except BaseException:
+        except BaseException as exc:
             live.finish_quietly()
+            _kept(exc, f"the analysis was stopped; the recording stays: {kept} (analyse it "
+                       f"with: dampfit analyze {out / CSV} --out OTHER_DIR)")
             raise
     from dampfit.cli.analyze import print_result
 
     live.finish(final)
     print_result(an, out, args.json)
     return 0
+
+
+def _publish(folder) -> None:
+    """Publish the staging folder (the first streamed samples: ``recording.partial.csv``)."""
+    from dampfit.files.swap import signals_deferred
+
+    with signals_deferred(), folder.writing():
+        folder.publish()
+
+
+def _kept(exc: BaseException, what: str) -> BaseException:
+    """``exc`` (an interrupt) with what stays on disk: the CLI's line after
+    "dampfit: terminated" / "interrupted" says it instead of "no partial output was left
+    behind" (:func:`dampfit.cli.interrupt_line`)."""
+    if isinstance(exc, KeyboardInterrupt):
+        exc.dampfit_kept = what
+    return exc
 
 
 def _analyse(args, folder, out: Path, notes, names):
