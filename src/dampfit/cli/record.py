@@ -10,7 +10,10 @@ at Ctrl-C, then fetches the full buffers.
 The result folder DIR (:class:`dampfit.files.folder.ResultFolder`, marker kind ``record``) is locked
 before the phone is touched (a second ``dampfit record`` or ``analyze`` to the same DIR fails
 at once, exit 2; an existing DIR is replaced only with ``--force`` and only if dampfit wrote
-it). It is written in two steps, each staged and swapped in whole:
+it). From the first sample on, the samples stream into ``DIR/recording.partial.csv``
+(:class:`dampfit.record.journal.Journal`: DIR is published with it, each poll appended and
+synced at least every second), so even ``kill -9`` keeps them. Then it is written in two
+steps, each staged and swapped in whole:
 
 1. ``recording.csv`` (phyphox "Raw Data" CSV) and ``recording.json`` — published as soon as
    the recording ends, before any analysis, so the recording survives whatever follows;
@@ -24,7 +27,8 @@ Exit codes: 0 success (a recording stopped by Ctrl-C is a success: Ctrl-C is how
 early); 2 a failure, one line — before any sample nothing is written; after samples arrived
 (connection lost after the retries, garbage, a changed session, no new samples) the samples
 are written first and the line names the file; 130 a second Ctrl-C during the final fetch or
-the analysis, 143 SIGTERM — the recording written so far stays in DIR.
+the analysis, 143 SIGTERM — the recording written so far stays in DIR, and the last line says
+where (``dampfit: terminated; the recording so far is kept: …``).
 
 ``dampfit record --experiment FILE`` writes dampfit's phyphox experiment (and, with segno
 installed, its QR code ``FILE.qr.svg``) and says how to open it on the phone.

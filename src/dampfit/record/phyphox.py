@@ -346,12 +346,17 @@ def _array(span: bytes, name: str) -> np.ndarray:
     if not span.strip():
         return np.empty(0)
     rest = span.translate(None, _NUMBER_BYTES)
-    if rest != b"null" * (len(rest) // 4):
+    bare = span.translate(None, b" \t\r\n")  # an empty value (NumPy would read -1)
+    if rest != b"null" * (len(rest) // 4) or b",," in bare or bare[:1] == b"," \
+            or bare[-1:] == b",":
         raise NotPhyphox(f"/get: buffer {name!r} is not a list of numbers and nulls")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # NumPy warns where the text stops being numbers
-        out = np.fromstring(span.replace(b"null", b"nan"), dtype=float, sep=",")
-    if out.size != span.count(b",") + 1:
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # older NumPy warns where the numbers stop
+            out = np.fromstring(span.replace(b"null", b"nan"), dtype=float, sep=",")
+    except ValueError:  # newer NumPy refuses text that is not all numbers
+        out = None
+    if out is None or out.size != span.count(b",") + 1:
         raise NotPhyphox(f"/get: buffer {name!r} is not a list of numbers and nulls")
     out[~np.isfinite(out)] = np.nan
     return out
