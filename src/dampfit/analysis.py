@@ -168,7 +168,8 @@ class Analysis(ResultViews):
             else:
                 from dampfit.result.schema import SCHEMA_VERSION
 
-                self._summary = {"schema_version": SCHEMA_VERSION, **self._compute_summary()}
+                self._summary = {"schema_version": SCHEMA_VERSION, **self._compute_summary(),
+                                 "files": None}  # set by save(): the files written with it
         return copy.deepcopy(self._summary)
 
     def _compute_summary(self) -> dict[str, Any]:
@@ -452,9 +453,10 @@ class Analysis(ResultViews):
         with folder.writing():
             if figures and figure_process is not None:  # it draws while the files are written
                 figure_process.deliver(self, stage)
-            self.to_json(stage / "summary.json")
             self.to_netcdf(stage / "posterior.nc")
             self.to_signals(stage / "signals.npz")
+            self._record_files(stage)
+            self.to_json(stage / "summary.json")
             if figures and figure_process is not None:
                 figure_process.finish(self, stage)
             elif figures:
@@ -466,6 +468,15 @@ class Analysis(ResultViews):
                              lambda name, why: notes.append(why))
                 if notes:
                     warnings.warn("; ".join(notes), stacklevel=4)
+
+    def _record_files(self, stage: Path) -> None:
+        """summary.json's ``files``: the SHA-256 and size of the posterior.nc and signals.npz
+        just written into ``stage``, so a reader refuses either swapped in from another
+        analysis (:func:`dampfit.result.files.check_digest`)."""
+        from dampfit.result.files import file_digests
+
+        self.summary()  # computed (or loaded) before it is amended
+        self._summary["files"] = file_digests(stage)
 
     def to_netcdf(self, path: str | os.PathLike) -> Path:
         """Write the posterior (arviz InferenceData) to a NetCDF file, with the per-mode

@@ -201,8 +201,8 @@ def check_scheduler(scheduler: str, wait_s: float | None = None) -> dict:
     except ValueError as exc:
         raise _unreachable(scheduler, str(exc)) from None
     if scheme not in SCHEMES:
-        raise _unreachable(scheduler, f"the {scheme}:// transport is not supported by dampfit "
-                                      "study: give a tcp:// address, or tls:// with Dask's TLS "
+        raise _unreachable(scheduler, f"the {scheme}:// transport is not supported by dampfit"
+                                      ": give a tcp:// address, or tls:// with Dask's TLS "
                                       "settings")
     try:
         args = Security().get_connection_args("client")

@@ -14,7 +14,10 @@ significant digits (Java ``0.#######E0``; always on), the threshold nudge, NaN a
 buffers of unequal length, measuring switching to false (stop pressed on the phone), a
 changed session id, connections dropped (closed without an answer) or refused, flaky
 connections that recover, hanging answers, a server that is not phyphox or answers garbage,
-start refused, already measuring, iOS-like ``/meta`` without sensors. Every request's path and
+start refused, already measuring, iOS-like ``/meta`` without sensors; and hostile ones: an
+answer dripped a byte at a time (headers or body; it stops by itself after
+:data:`DRIP_MAX_S`), a jump of the phone's clock, a ``/get`` answer as dense as JSON allows,
+``/meta`` values out of range. It listens on 127.0.0.1 only. Every request's path and
 ``Connection`` header are logged (phyphox must not be kept alive).
 
 Run it by hand: ``python tests/_support/fake_phyphox.py [SPEED]`` serves until Ctrl-C.
@@ -60,6 +63,15 @@ class Quirks:
     resolution: float | None = 0.0012  # [m/s²] reported in /meta
     names: tuple[str, str, str, str] | None = None  # other buffer names (t, x, y, z)
     seed: int = 0
+    # hostile servers (tests/cli/test_hostile_record.py)
+    drip: str | None = None        # "headers" or "body": the answer sent a byte at a time
+    drip_path: str = "/get"        # the endpoint that drips
+    drip_at: float = 0.0           # phone time from which it drips
+    drip_s: float = 0.25           # wall seconds per byte; a drip ends by itself after DRIP_MAX_S
+    jump_at: float | None = None   # the phone's clock jumps by `jump_by` after this time [s]
+    jump_by: float = 1e9
+    dense: int = 0                 # /get answers this many values per buffer, as dense as JSON allows
+    meta_values: dict | None = None  # /meta sensor entries replaced (e.g. {"Resolution": "1e308"})
 
 
 def java_number(v: float) -> str:
@@ -91,6 +103,10 @@ def experiment_layout(names=None) -> dict:
             "export": export, "title": root.findtext("title")}
 
 
+#: Longest drip [wall s]: a dripping answer stops by itself (the fake server is bounded).
+DRIP_MAX_S = 30.0
+
+
 class FakePhone:
     """The fake phone; use as a context manager (``with FakePhone(...) as phone: phone.url``)."""
 
@@ -99,6 +115,9 @@ class FakePhone:
         self.cfg = config or sim.preset("paper", duration=45.0, seed=11)
         rec, self.truth = sim.recording(self.cfg)
         self.t, self.a = rec.time, rec.accel
+        self.t_sent = self.t.copy()  # the phone's time stamps as served (a clock jump)
+        if self.q.jump_at is not None:
+            self.t_sent[self.t > self.q.jump_at] += self.q.jump_by
         self.layout = experiment_layout(self.q.names)
         if self.cfg.gravity:
             self.layout["sensor"] = "accelerometer"
@@ -136,7 +155,7 @@ class FakePhone:
         te = self._phone_time()
         n = int(np.searchsorted(self.t, te, side="right")) if self.start_wall_epoch else 0
         o = self.layout["outputs"]
-        return {o["t"]: self.t[:n], o["x"]: self.a[:n, 0], o["y"]: self.a[:n, 1],
+        return {o["t"]: self.t_sent[:n], o["x"]: self.a[:n, 0], o["y"]: self.a[:n, 1],
                 o["z"]: self.a[:n, 2]}
 
     # ------------------------------------------------------------ server
@@ -188,6 +207,7 @@ class FakePhone:
         sensor = {"Name": "Fake LSM6DSO", "Vendor": "ST", "Range": "78.45346",
                   "Resolution": res, "MinDelay": "2000", "MaxDelay": "1000000",
                   "Power": "0.17", "Version": "1"}
+        sensor.update(self.q.meta_values or {})
         device["sensors"] = {self.layout["sensor"]: {k: v for k, v in sensor.items() if v}}
         return device
 
@@ -222,6 +242,21 @@ class FakePhone:
         status = {"session": self.session, "measuring": self.measuring, "timedRun": False,
                   "countDown": 0}
         return 200, {"buffer": out, "status": status}
+
+    def dense_answer(self) -> bytes:
+        """A /get answer of ``dense`` values per buffer, each ``1e0`` (4 bytes with its comma:
+        as dense as a JSON float gets), times increasing in 8 digits."""
+        if getattr(self, "_dense", None) is not None:
+            return self._dense
+        n, o = self.q.dense, self.layout["outputs"]
+        ones = b",".join([b"1e0"] * n)
+        times = b",".join(java_number(0.001 * (i + 1)).encode() for i in range(n))
+        parts = [b'"%s":{"size":0,"updateMode":"partial","buffer":[%s]}'
+                 % (o[c].encode(), times if c == "t" else ones) for c in ("t", "x", "y", "z")]
+        status = json.dumps({"session": self.session, "measuring": self.measuring,
+                             "timedRun": False, "countDown": 0}).encode()
+        self._dense = b'{"buffer":{' + b",".join(parts) + b'},"status":' + status + b"}"
+        return self._dense
 
     def _encode(self, vals: np.ndarray) -> list:
         enc = [java_number(float(v)) for v in vals]
@@ -262,13 +297,28 @@ class _Handler(BaseHTTPRequestHandler):
     def log_message(self, *args) -> None:  # quiet
         pass
 
+    drip: str | None = None  # set per request by do_GET
+
     def _send(self, status: int, body: bytes, ctype: str = "application/json") -> None:
-        self.send_response(status)
-        self.send_header("Content-Type", ctype)
-        self.send_header("Content-Length", str(len(body)))
-        self.send_header("Access-Control-Allow-Origin", "*")
-        self.end_headers()
-        self.wfile.write(body)
+        head = (f"HTTP/1.1 {status} OK\r\nContent-Type: {ctype}\r\nContent-Length: {len(body)}"
+                "\r\nAccess-Control-Allow-Origin: *\r\n\r\n").encode()
+        if self.drip is None:
+            self.wfile.write(head + body)
+            return
+        fast, slow = (b"", head + body) if self.drip == "headers" else (head, body)
+        self.wfile.write(fast)
+        self.wfile.flush()
+        until = time.monotonic() + DRIP_MAX_S
+        for i in range(len(slow)):  # a byte at a time, until the client leaves or time is up
+            if time.monotonic() > until:
+                break
+            try:
+                self.wfile.write(slow[i:i + 1])
+                self.wfile.flush()
+            except OSError:
+                break
+            time.sleep(self.phone.q.drip_s)
+        self.close_connection = True
 
     def _json(self, obj, status: int = 200) -> None:
         # JSON whose numbers are phyphox's strings (8 significant digits), nulls as null
@@ -294,6 +344,7 @@ class _Handler(BaseHTTPRequestHandler):
                 self.close_connection = True
                 return
             hang = q.hang if q.hang_at is not None and te >= q.hang_at and parts.path == "/get" else 0
+            self.drip = q.drip if q.drip and parts.path == q.drip_path and te >= q.drip_at else None
         if hang:
             time.sleep(hang)
         if q.garbage == "html":
@@ -308,7 +359,7 @@ class _Handler(BaseHTTPRequestHandler):
         if answer is None:
             self._send(404, b'{"error": "not found"}')
         elif isinstance(answer, bytes):
-            self._send(200, answer, "text/plain")
+            self._send(200, answer, "application/json" if answer.startswith(b"{") else "text/plain")
         else:
             self._json(answer[1], answer[0])
 
@@ -330,6 +381,8 @@ class _Handler(BaseHTTPRequestHandler):
                 return b"this is not JSON"
             if q.garbage == "get-shape" and te >= q.garbage_at:
                 return 200, {"buffer": 5, "status": "fine"}
+            if q.dense and phone.measuring:
+                return phone.dense_answer()
             return phone.get(pairs)
         return None
 

@@ -163,6 +163,35 @@ def test_parse_get_refuses_garbage(mutate, match):
         P.parse_get(answer, ACCEL)
 
 
+def test_parse_get_body_reads_what_parse_get_reads_without_a_float_per_value():
+    """The raw answer cut into its number lists and parsed by NumPy gives the same chunk as
+    json + :func:`parse_get`; a list holding anything but numbers and nulls is refused."""
+    body = ('{"buffer": {"t": {"size": 0, "updateMode": "partial", "buffer": [1.2345678E1, '
+            '1.2347678E1, null]}, "ax": {"size": 0, "updateMode": "partial", "buffer": '
+            '[-9.8066502E-3, null, 0E0]}, "ay": {"size": 0, "updateMode": "partial", "buffer": '
+            '[1E0,2E0,3E0]}, "az": {"size": 0, "updateMode": "partial", "buffer": [1, 2, 1e999]}},'
+            ' "status": {"session": "abc", "measuring": true, "timedRun": false, "countDown": 0}}')
+    fast = P.parse_get_body(body.encode(), ACCEL)
+    slow = P.parse_get(P._parse_json(body.encode(), "/get"), ACCEL)
+    for a, b in zip((fast.t, fast.x, fast.y, fast.z), (slow.t, slow.x, slow.y, slow.z)):
+        np.testing.assert_array_equal(a, b)
+    assert fast.status == slow.status and np.isnan(fast.z[2])
+    assert P.values_in(body.encode()) >= 12
+    empty = body.replace("[1E0,2E0,3E0]", "[]").encode()
+    assert P.parse_get_body(empty, ACCEL).y.size == 0
+    for bad in ('["1.5", 2]', "[true, 1]", "[1 2, 3]", "[1, , 2]", "[NaN, 1]", "[[1], 2]"):
+        with pytest.raises(P.NotPhyphox, match="not a list of numbers|not JSON"):
+            P.parse_get_body(body.replace("[1E0,2E0,3E0]", bad).encode(), ACCEL)
+
+
+def test_meta_numbers_beyond_their_limits_are_dropped():
+    raw = {"Name": "S", "Range": "1e308", "Resolution": "1e308", "MinDelay": "1e300",
+           "MaxDelay": "-5"}
+    _, info = P.parse_meta({"sensors": {"accelerometer": raw}}, "accelerometer")
+    assert info["range"] is info["resolution"] is info["min_delay_us"] is None
+    assert info["max_delay_us"] is None and info["name"] == "S"
+
+
 def test_non_json_is_one_line_not_phyphox():
     with pytest.raises(P.NotPhyphox, match="not JSON \\('<html><body>hi </body></html>'"):
         P._parse_json(b"<html><body>hi\n</body></html>", "/config")

@@ -75,7 +75,8 @@ def test_a_batch_has_one_row_per_recording_and_refused_ones_are_rows(done):
     assert set(ok["converged"]) == {"True"} and all(len(h) == 64 for h in table["sha256"])
     assert set(ok["n_modes"]) == {"1"} and set(ok["modes_f_n_hz"]) == {""}  # one mode each
     md = (done / "summary.md").read_text()
-    assert "3 analysed, 1 refused, 0 failed" in md and "broken.csv" in md
+    assert ("3 analysed (3 with a damper recommended, 0 inconclusive, 0 misfit), 1 refused, "
+            "0 failed") in md and "broken.csv" in md
     import dampfit
 
     loaded = dampfit.load(done / "runs" / "a.csv")  # each run folder is a result folder
@@ -361,3 +362,81 @@ def test_workers_of_an_external_cluster_mapping_every_array_are_pointed_out(monk
     assert len(lines) == (1 if noted else 0)
     if noted:
         assert "MALLOC_MMAP_THRESHOLD_=33554432 MALLOC_TRIM_THRESHOLD_=1048576" in lines[0]
+
+
+# ------------------------------------------------------- outputs (issues 35, 36)
+def test_per_recording_figures_only_on_request_and_report_draws_them_later(done, tmp_path,
+                                                                          capsys):
+    """By default a run folder has no figures; the batch's comparison.png is written all
+    the same; `dampfit report DIR/runs/NAME` draws the figures from the saved files."""
+    run_dir = done / "runs" / "a.csv"
+    assert not list(run_dir.glob("*.png"))
+    assert (done / "comparison.png").stat().st_size > 1000  # written despite --no-figures
+    code, out, err = run(["report", run_dir], capsys)
+    assert code == 0, err
+    assert "redrew" in out and (run_dir / "fit.png").stat().st_size > 1000
+    assert (run_dir / "report.html").is_file()
+
+
+def _summary(verdict, damper=None, reasons=("the decay rate stays within its interval",)):
+    s = {"parameters": {"c": {"q05": 0.2, "q50": 0.3, "q95": 0.4}},
+         "model_checks": {"verdict": verdict, "verdict_reasons": list(reasons)}}
+    if damper is not None:
+        s["damper"] = damper
+    return s
+
+
+@pytest.mark.parametrize("verdict,damper,status", [
+    ("adequate", None, "ok"), ("amplitude-dependent", None, "ok"),
+    ("inconclusive", None, "inconclusive"), ("misfit", None, "misfit"), (None, None, "inconclusive"),
+    ("adequate", {"status": "recommended", "reason": "viscous: ζ(A) flat"}, "ok"),
+    ("inconclusive", {"status": "viscous-stands", "reason": "too short to tell",
+                      "not_ruled_out": "a Coulomb share below 20 %"}, "inconclusive"),
+    ("misfit", {"status": "none", "reason": "no law fits the residuals",
+                "try": "a longer window"}, "misfit"),
+])
+def test_a_rows_status_is_its_verdict_with_the_verdicts_reason(verdict, damper, status):
+    from dampfit.batch.task import status_of
+
+    reasons = () if verdict is None else ("the decay rate stays within its interval",)
+    got, reason = status_of(_summary(verdict, damper, reasons))
+    assert got == status
+    if damper is not None:
+        assert damper["reason"] in reason
+        assert all(damper[k] in reason for k in ("not_ruled_out", "try") if k in damper)
+    elif verdict is not None:
+        assert reason == "the decay rate stays within its interval"
+    else:
+        assert reason == "no damping verdict could be made"
+
+
+def test_damper_columns_from_the_contract_and_empty_without_it():
+    from dampfit.batch.table import COLUMNS, frame
+    from dampfit.batch.task import DAMPER_COLUMNS, row_of
+
+    damper = {"status": "recommended", "law": "coulomb",
+              "coefficients": {"c": {"q05": 0.1, "q50": 0.2, "q95": 0.3, "unit": "N s/m"},
+                               "F_c": {"q05": 0.01, "q50": 0.02, "q95": 0.03, "unit": "N"}},
+              "design_amplitude": {"displacement_m": 0.004, "velocity_m_s": 0.1,
+                                   "source": "--amplitude"},
+              "c_linear": {"unit": "N s/m", "q05": 0.5, "q50": 0.6, "q95": 0.7}}
+    row = row_of(_summary("amplitude-dependent", damper))
+    assert row["damper_law"] == "coulomb" and row["damper_F_c_q50"] == 0.02
+    assert row["damper_c_q95"] == 0.3 and row["damper_c2_q50"] is None
+    assert row["design_amplitude_m"] == 0.004 and row["c_linear_q05"] == 0.5
+    old = row_of(_summary("adequate"))
+    assert all(old[c] is None for c in DAMPER_COLUMNS)
+    assert set(DAMPER_COLUMNS) <= set(COLUMNS)
+    assert list(frame([row]).columns) == list(COLUMNS)
+
+
+def test_comparison_figure_uses_a_log_axis_where_values_span_decades(tmp_path):
+    from dampfit.batch.table import comparison_figure, frame, log_scale
+
+    assert log_scale([0.01, 0.5], [0.02, 2.0]) and not log_scale([1.0, 2.0], [1.5, 3.0])
+    assert not log_scale([-1.0, 5.0], [1.0, 60.0])  # not all positive: linear
+    rows = [{"name": f"r{i}", "status": st, "verdict": v, "c_q05": lo, "c_q50": mid,
+             "c_q95": hi} for i, (st, v, lo, mid, hi) in enumerate(
+                 [("ok", "adequate", 0.01, 0.012, 0.015), ("misfit", "misfit", 1.0, 2.0, 3.0),
+                  ("inconclusive", "inconclusive", 0.1, 0.2, 0.3), ("refused", None, None, None, None)])]
+    assert comparison_figure(frame(rows), tmp_path / "c.png").stat().st_size > 1000

@@ -60,12 +60,13 @@ class Job:
     read_options: dict[str, Any]
 
     def key(self, options: dict[str, Any]) -> str:
-        """The identity of this job's result: its bytes, mass, reading and analysis options
-        (a rerun with all of them the same is not redone)."""
+        """The identity of this job's result: its path (the real path and its run folder's
+        name: two files of identical bytes are two rows), its bytes, mass, reading and
+        analysis options (a rerun with all of them the same is not redone)."""
         import json
 
-        text = json.dumps([self.sha256, self.mass, self.mass_sd, self.read_options, options],
-                          sort_keys=True, default=str)
+        text = json.dumps([self.path, self.name, self.sha256, self.mass, self.mass_sd,
+                           self.read_options, options], sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -92,10 +93,12 @@ def expand(paths: Sequence[str], list_file: str | None = None,
     skipped = {os.path.realpath(p) for p in (*skip, *([list_file] if list_file else []))}
     out: list[str] = []
     for p in given:
+        _no_loop(p)
         if os.path.isdir(p):
-            found = sorted(str(Path(p) / e.name) for e in os.scandir(p)
-                           if not e.name.startswith(".") and e.is_file()
+            found = sorted(str(Path(p) / e.name) for e in _entries(p)
+                           if not e.name.startswith(".")
                            and Path(e.name).suffix.lower() in SUFFIXES
+                           and _no_loop(e.path) and e.is_file()
                            and os.path.realpath(Path(p) / e.name) not in skipped)
             if not found:
                 raise InputError(f"folder {shown(p)} holds no recordings (files ending in "
@@ -106,6 +109,32 @@ def expand(paths: Sequence[str], list_file: str | None = None,
         else:
             out.append(p)
     return out
+
+
+def _no_loop(path: str) -> bool:
+    """True, or a one-line refusal of a path whose symbolic links loop (``ELOOP``: a link to
+    itself, two links to each other) or that cannot be looked at."""
+    import errno
+
+    try:
+        os.stat(path)
+    except FileNotFoundError:
+        return True  # dangling or missing: named by the caller's own check
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise InputError(f"{shown(path)} is a symbolic link loop (a link that leads back "
+                             "to itself); remove it or name the recordings") from None
+        raise InputError(f"cannot read {shown(path)}: {exc.strerror or type(exc).__name__}") from None
+    return True
+
+
+def _entries(folder: str) -> list:
+    try:
+        with os.scandir(folder) as it:
+            return list(it)
+    except OSError as exc:
+        raise InputError(f"cannot read folder {shown(folder)}: "
+                         f"{exc.strerror or type(exc).__name__}") from None
 
 
 def _float(value: Any, what: str) -> float | None:

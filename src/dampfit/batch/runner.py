@@ -33,7 +33,7 @@ from dampfit.batch.store import BatchConfig, BatchStore
 from dampfit.batch.table import frame, write_outputs
 from dampfit.batch.task import run_job
 
-__all__ = ["ANALYSIS_OPTIONS", "analyze_many", "execute", "run_batch"]
+__all__ = ["ANALYSIS_OPTIONS", "analyze_many", "check_read_options", "execute", "run_batch"]
 
 #: Options of :func:`dampfit.pipeline.analyze` a batch passes to every recording.
 ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "model", "amplitude",
@@ -119,12 +119,10 @@ def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
             finally:  # also on an interrupt: the tables of what is done
                 if store.started:
                     done = [rows[k] for k in keys if k in rows]
-                    table = write_outputs(done, store.root, figure=outputs.get("figures", True),
-                                          version=__version__)
+                    table = write_outputs(done, store.root, version=__version__)
             if not todo:
                 ready()
-                table = write_outputs([rows[k] for k in keys], store.root,
-                                      figure=outputs.get("figures", True), version=__version__)
+                table = write_outputs([rows[k] for k in keys], store.root, version=__version__)
     finally:
         store.close()
     return table
@@ -169,10 +167,43 @@ def _run(todo, cfg: BatchConfig, runs: Path, on_row, ready, client, workers: int
         execute(todo, cfg.options, cfg.outputs, runs, on_row, c)
 
 
+def check_read_options(read_options: dict[str, Any] | None) -> dict[str, Any]:
+    """The reading options of :func:`analyze_many`: only names of
+    :data:`dampfit.io.readers.READ_OPTIONS` (anything else is refused, not ignored), ``row``
+    under the command line's rule (the reader checks the others' values as for one file)."""
+    from dampfit._options import convert
+    from dampfit.errors import InputError, shown
+    from dampfit.io.readers import READ_OPTIONS
+
+    if read_options is None:
+        return {}
+    if not isinstance(read_options, dict):
+        raise InputError(f"read_options must be a dict, got {type(read_options).__name__}")
+    unknown = [k for k in read_options if k not in READ_OPTIONS]
+    if unknown:
+        raise InputError(f"read_options: unknown option {shown(unknown[0])!r} (known: "
+                         f"{', '.join(READ_OPTIONS)})")
+    out = {k: v for k, v in read_options.items() if v is not None}
+    if "row" in out:
+        try:
+            out["row"] = convert("row", out["row"])
+        except ValueError as exc:
+            raise InputError(f"read_options: row {exc}") from None
+    return out
+
+
+def _check_flags(flags: dict[str, Any]) -> None:
+    from dampfit.errors import InputError
+
+    for name, value in flags.items():
+        if not isinstance(value, bool):
+            raise InputError(f"{name} must be True or False, got {value!r}")
+
+
 def analyze_many(paths: str | Sequence[str], mass: float | None = None,
                  mass_sd: float | None = None, *, masses: str | None = None,
                  out: str | Path | None = None, client=None, progress: bool = False,
-                 figures: bool = True, report: bool = False, summaries_only: bool = False,
+                 figures: bool = False, report: bool = False, summaries_only: bool = False,
                  force: bool = False, read_options: dict[str, Any] | None = None,
                  axis: str = "auto", window=None, band=None, seed: int = 0,
                  max_steps: int = 20000, model: str = "auto", amplitude: float | None = None,
@@ -185,17 +216,24 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
     :func:`dampfit.read`; the analysis options as for :func:`dampfit.analyze` (every recording
     gets the same ``seed``, so a row equals ``dampfit analyze FILE --seed SEED``). Runs in
     this process, or on the Dask ``client`` given. Without ``out`` nothing is written; with
-    ``out`` it is ``dampfit batch … --out OUT`` (result folders, results.csv, resumable).
+    ``out`` it is ``dampfit batch … --out OUT`` (result folders, results.csv, resumable);
+    ``figures`` draws each recording's figures into its folder (by default not: ``dampfit
+    report OUT/runs/NAME`` draws them later from the saved files). Every option is checked
+    as the command line checks it (:func:`dampfit._options.check_analysis`,
+    :func:`check_read_options`): a bad one is one :class:`~dampfit.errors.InputError`
+    before any work, not a failed row.
     """
+    from dampfit._options import check_analysis
+
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    jobs = make_jobs([str(p) for p in paths], mass=mass, mass_sd=mass_sd, masses=masses,
-                     read_options=read_options)
-    options = {"axis": axis, "window": None if window is None else tuple(window),
-               "band": None if band is None else tuple(band), "seed": seed,
-               "max_steps": max_steps, "model": model, "amplitude": amplitude,
-               "max_modes": max_modes, "mode_of_mass": mode_of_mass}
+    options = check_analysis({"axis": axis, "window": window, "band": band, "seed": seed,
+                              "max_steps": max_steps, "model": model, "amplitude": amplitude,
+                              "max_modes": max_modes, "mode_of_mass": mode_of_mass})
     outputs = {"figures": figures, "report": report, "summaries_only": summaries_only}
+    _check_flags({**outputs, "force": force, "progress": progress})
+    jobs = make_jobs([str(p) for p in paths], mass=mass, mass_sd=mass_sd, masses=masses,
+                     read_options=check_read_options(read_options))
     if out is not None:
         return run_batch(jobs, out, options=options, outputs=outputs, client=client,
                          force=force, quiet=not progress)

@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
+import re
 from typing import Any
 
-from dampfit.batch.task import STATUSES
+from dampfit.batch.task import DAMPER_COLUMNS, QUANTITIES, STATUSES
+from dampfit.errors import shown
 from dampfit.files.runlog import RunStore
 
 __all__ = ["BatchConfig", "BatchStore", "OUTPUTS", "check_row"]
@@ -40,19 +43,68 @@ class BatchConfig:
         return hashlib.sha256(self.source.encode()).hexdigest()
 
 
+_HEX64 = re.compile(r"^[0-9a-f]{64}$")
+#: A run folder's name as :func:`dampfit.batch.inputs.run_name` makes it.
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._-]{0,95}$")
+#: Longest text cell of a row [characters] (a file path, a message).
+_MAX_TEXT = 8192
+
+
+def _text(v: Any) -> bool:
+    return isinstance(v, str) and len(v) <= _MAX_TEXT
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+#: Every column of a row and the values it may hold (a row of an older dampfit may lack
+#: the optional ones; a column not listed is refused).
+_COLUMNS: dict[str, Any] = {
+    "key": lambda v: isinstance(v, str) and bool(_HEX64.match(v)),
+    "file": lambda v: _text(v) and bool(v),
+    "name": lambda v: isinstance(v, str) and bool(_NAME.match(v)),
+    "sha256": lambda v: isinstance(v, str) and bool(_HEX64.match(v)),
+    "status": lambda v: v in STATUSES,
+    "message": _text,
+    "mass_kg": lambda v: v is None or (_number(v) and v > 0),
+    **{f"{q}_{lv}": (lambda v: v is None or _number(v))
+       for q in QUANTITIES for lv in ("q05", "q50", "q95")},
+    "verdict": lambda v: v is None or (_text(v) and len(v) <= 64),
+    "converged": lambda v: v is None or isinstance(v, bool),
+    "n_modes": lambda v: v is None or (isinstance(v, int) and not isinstance(v, bool) and v >= 0),
+    "modes_f_n_hz": lambda v: v is None or _text(v),
+    "seconds": lambda v: v is None or (_number(v) and v >= 0),
+    "folder": None,  # None, or runs/NAME of the row's own name (checked below)
+    "damper_status": lambda v: v is None or v in ("recommended", "viscous-stands", "none"),
+    "damper_law": lambda v: v is None or v in ("viscous", "coulomb", "quadratic", "power"),
+    **{c: (lambda v: v is None or _number(v)) for c in DAMPER_COLUMNS[2:]},
+}
+_REQUIRED = ("key", "file", "name", "sha256", "status", "message")
+
+
 def check_row(rec: Any) -> str | None:
     """Why ``rec`` (a parsed line of rows.jsonl) is not a row :func:`~dampfit.batch.task.run_job`
-    writes, or None: an object with string ``key``, ``file``, ``name`` and a known ``status``,
-    whose values are JSON scalars."""
+    writes, or None — validated column by column as :func:`dampfit.result.schema.read_summary`
+    validates a summary: an object with a 64-digit hex ``key`` and ``sha256``, a ``file``, a
+    run folder ``name`` as :func:`~dampfit.batch.inputs.run_name` makes it, a known
+    ``status``, a ``message``; every other column of :data:`_COLUMNS` empty or of its type
+    (finite numbers, booleans, short text); ``folder`` empty or ``runs/NAME`` of its own
+    name (a tampered ``../../etc`` is refused); no other column."""
     if not isinstance(rec, dict):
         return "not a JSON object"
-    for k in ("key", "file", "name"):
-        if not isinstance(rec.get(k), str):
-            return f"'{k}' must be a string"
-    if rec.get("status") not in STATUSES:
-        return f"'status' must be one of {', '.join(STATUSES)}"
-    if any(isinstance(v, (dict, list)) for v in rec.values()):
-        return "a value is nested"
+    for k in _REQUIRED:
+        if k not in rec:
+            return f"no '{k}'"
+    for k, v in rec.items():
+        if k not in _COLUMNS:
+            return f"unknown column {shown(k, 40)!r}"
+        ok = _COLUMNS[k]
+        if ok is not None and not ok(v):
+            return f"'{k}' holds {shown(v, 60)!r}, not a value dampfit writes there"
+    folder = rec.get("folder")
+    if folder is not None and folder != f"runs/{rec['name']}":
+        return f"'folder' must be runs/{rec['name']} or empty, not {shown(folder, 60)!r}"
     return None
 
 

@@ -8,8 +8,11 @@ analyze --out`` writes it (:meth:`dampfit.analysis.Analysis.save`: staged, locke
 whole; ``summaries_only``: summary.json alone) — so a row's numbers are that summary's. A
 worker process keeps its imports and compiled kernels from one recording to the next.
 
-A recording the analysis refuses (:class:`~dampfit.errors.DampfitError`: unreadable, no free
-decay, too short…) is a row with status ``refused`` and the one-line reason; any other
+A row's status follows its damping verdict (:func:`status_of`): ``ok`` only when a damper is
+recommended, ``inconclusive`` or ``misfit`` otherwise, with the verdict's own reason as the
+message (an analysis warning when the verdict gives none). A recording the analysis refuses
+(:class:`~dampfit.errors.DampfitError`: unreadable, no free decay, too short…) is a row with
+status ``refused`` and the one-line reason; any other
 exception is a row with status ``failed`` and its type and message; neither ends the batch.
 """
 
@@ -21,26 +24,86 @@ from typing import Any
 
 from dampfit.errors import DampfitError, shown
 
-__all__ = ["QUANTITIES", "STATUSES", "row_of", "run_job"]
+__all__ = ["DAMPER_COEFFICIENTS", "DAMPER_COLUMNS", "QUANTITIES", "STATUSES", "damper_of",
+           "row_of", "run_job", "status_of"]
 
 #: Quantities of a row, each with q05, q50 and q95 (c and k only with a mass).
 QUANTITIES = ("f_n", "zeta", "c", "k")
-#: A row's status: analysed, refused by the analysis (a bad recording), or failed (a bug, a
-#: worker that died: tried again when the batch is run again).
-STATUSES = ("ok", "refused", "failed")
+#: A row's status: a damper recommended (``ok``), the recording analysed but no damper
+#: recommended (``inconclusive``: viscous stands, not proven; ``misfit``: no law fits),
+#: refused by the analysis (a bad recording), or failed (a bug, a worker that died: tried
+#: again when the batch is run again).
+STATUSES = ("ok", "inconclusive", "misfit", "refused", "failed")
+#: Coefficients of the damper's law (summary.json ``damper.coefficients``), in SI units.
+DAMPER_COEFFICIENTS = ("c", "F_c", "c2", "c_alpha", "alpha")
+#: The damper columns of a row: status, law, each coefficient's q05/q50/q95, the design
+#: amplitude [m] and the equivalent linear c [N s/m] there.
+DAMPER_COLUMNS = ("damper_status", "damper_law",
+                  *(f"damper_{n}_{lv}" for n in DAMPER_COEFFICIENTS for lv in ("q05", "q50", "q95")),
+                  "design_amplitude_m", *(f"c_linear_{lv}" for lv in ("q05", "q50", "q95")))
+#: Verdicts (model_checks.verdict) that recommend a damper when a summary has no ``damper``
+#: section (written before it existed).
+_RECOMMENDING = ("adequate", "amplitude-dependent")
+
+
+def _number(v: Any) -> float | None:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+
+
+def _levels(entry: Any, prefix: str) -> dict[str, float | None]:
+    entry = entry if isinstance(entry, dict) else {}
+    return {f"{prefix}_{lv}": _number(entry.get(lv)) for lv in ("q05", "q50", "q95")}
+
+
+def damper_of(summary: dict[str, Any]) -> dict[str, Any]:
+    """The damper columns (:data:`DAMPER_COLUMNS`) of a summary.json's ``damper`` section;
+    all None for a summary without one."""
+    d = summary.get("damper") if isinstance(summary.get("damper"), dict) else {}
+    out: dict[str, Any] = {
+        "damper_status": d.get("status") if isinstance(d.get("status"), str) else None,
+        "damper_law": d.get("law") if isinstance(d.get("law"), str) else None}
+    coefs = d.get("coefficients") if isinstance(d.get("coefficients"), dict) else {}
+    for name in DAMPER_COEFFICIENTS:
+        out.update(_levels(coefs.get(name), f"damper_{name}"))
+    design = d.get("design_amplitude") if isinstance(d.get("design_amplitude"), dict) else {}
+    out["design_amplitude_m"] = _number(design.get("displacement_m"))
+    out.update(_levels(d.get("c_linear"), "c_linear"))
+    return out
+
+
+def status_of(summary: dict[str, Any]) -> tuple[str, str]:
+    """A row's status from its verdict, and the verdict's own reason: ``ok`` only when a
+    damper is recommended (``damper.status`` "recommended"; a summary without the section:
+    ``model_checks.verdict`` adequate or amplitude-dependent); ``misfit`` when no law fits;
+    else ``inconclusive``."""
+    d = summary.get("damper") if isinstance(summary.get("damper"), dict) else None
+    checks = summary.get("model_checks") if isinstance(summary.get("model_checks"), dict) else {}
+    verdict = checks.get("verdict")
+    if d is not None and isinstance(d.get("status"), str):
+        status = {"recommended": "ok", "none": "misfit"}.get(d["status"], "inconclusive")
+        reason = " ".join(x for x in (d.get("reason"), d.get("not_ruled_out"), d.get("try"))
+                          if isinstance(x, str) and x)
+    else:
+        status = ("ok" if verdict in _RECOMMENDING else "misfit" if verdict == "misfit"
+                  else "inconclusive")
+        reasons = checks.get("verdict_reasons")
+        reason = "; ".join(r for r in reasons if isinstance(r, str)) \
+            if isinstance(reasons, list) else ""
+    if not reason and status != "ok":
+        reason = (f"damping verdict {verdict}" if isinstance(verdict, str)
+                  else "no damping verdict could be made")
+    return status, reason
 
 
 def row_of(summary: dict[str, Any]) -> dict[str, Any]:
     """The quantities, verdict and convergence of a summary.json, as a row's columns
     (``c_q50`` …; None where the summary has no value), its number of modes ``n_modes`` and,
-    for several, their median natural frequencies [Hz] ``modes_f_n_hz`` ("3.3 8.91")."""
+    for several, their median natural frequencies [Hz] ``modes_f_n_hz`` ("3.3 8.91"), and
+    the damper columns (:func:`damper_of`)."""
     params = summary.get("parameters") or {}
     out: dict[str, Any] = {}
     for q in QUANTITIES:
-        entry = params.get(q) if isinstance(params.get(q), dict) else {}
-        for level in ("q05", "q50", "q95"):
-            v = entry.get(level)
-            out[f"{q}_{level}"] = float(v) if isinstance(v, (int, float)) else None
+        out.update(_levels(params.get(q), q))
     checks = summary.get("model_checks") or {}
     diag = summary.get("diagnostics") or {}
     out["verdict"] = checks.get("verdict") if isinstance(checks.get("verdict"), str) else None
@@ -51,6 +114,7 @@ def row_of(summary: dict[str, Any]) -> dict[str, Any]:
     f = [m["f_n"]["q50"] for m in modes if isinstance(m, dict) and isinstance(m.get("f_n"), dict)
          and isinstance(m["f_n"].get("q50"), (int, float))]
     out["modes_f_n_hz"] = " ".join(f"{v:.6g}" for v in f) if len(f) >= 2 else None
+    out.update(damper_of(summary))
     return out
 
 
@@ -98,7 +162,7 @@ def _write(an, folder: Path, job, outputs: dict[str, bool]) -> None:
             an.to_json(target.stage / "summary.json")
             target.publish()
         return
-    an.save(folder, force=True, figures=outputs.get("figures", True),
+    an.save(folder, force=True, figures=outputs.get("figures", False),
             report=outputs.get("report", False))
 
 
@@ -117,8 +181,9 @@ def run_job(job, key: str, options: dict[str, Any], outputs: dict[str, bool],
         an = _analyse(job, options)
         summary = an.summary()
         row.update(row_of(summary))
+        row["status"], reason = status_of(summary)
         warnings = (summary.get("diagnostics") or {}).get("warnings") or []
-        row["message"] = shown(warnings[0], 300) if warnings else ""
+        row["message"] = shown(reason or (warnings[0] if warnings else ""), 500)
         if runs is not None:
             _write(an, Path(runs) / job.name, job, outputs)
             row["folder"] = f"runs/{job.name}"

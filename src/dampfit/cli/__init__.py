@@ -58,7 +58,7 @@ from dampfit.cli import messages
 from dampfit.cli.options import Parser as _Parser
 from dampfit.errors import DampfitError, InputError
 
-__all__ = ["main", "run", "get_parser"]
+__all__ = ["get_parser", "interrupt_line", "main", "run"]
 
 #: (command, help, add_arguments, command) of every sub-command, in the order of ``--help``.
 COMMANDS = (
@@ -239,8 +239,7 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         print(f"dampfit: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:
-        what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
-        print(f"dampfit: {what}; no partial output was left behind", file=sys.stderr)
+        print(interrupt_line(exc), file=sys.stderr)
         return 143 if isinstance(exc, _Terminated) else 130
     except Exception as exc:  # noqa: BLE001 - the last line of defence
         if os.environ.get("DAMPFIT_DEBUG"):
@@ -248,6 +247,15 @@ def _dispatch(argv: Sequence[str] | None) -> int:
         print(f"dampfit: internal error: {type(exc).__name__}: {_one_line(exc)} "
               "(please report it; set DAMPFIT_DEBUG=1 for the traceback)", file=sys.stderr)
         return 1
+
+
+def interrupt_line(exc: KeyboardInterrupt) -> str:
+    """The line after Ctrl-C (``interrupted``) or SIGTERM (``terminated``): what a command
+    kept when it set ``exc.dampfit_kept`` (``dampfit record``: the recording; ``dampfit
+    batch``: the finished rows), else that nothing partial was left behind."""
+    what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
+    kept = getattr(exc, "dampfit_kept", None)
+    return _one_line(f"dampfit: {what}; {kept or 'no partial output was left behind'}")
 
 
 def _one_line(exc: BaseException) -> str:

@@ -2,8 +2,11 @@
 (:mod:`dampfit.batch`).
 
 Each recording is analysed as ``dampfit analyze FILE`` would (same options, same seed) into
-``DIR/runs/NAME``; ``DIR/results.csv`` (and ``.parquet`` with pyarrow) has one row per
-recording, ``DIR/summary.md`` and ``DIR/comparison.png`` compare them. Runs on a local Dask
+``DIR/runs/NAME`` (its figures only with ``--figures``: ``dampfit report DIR/runs/NAME``
+draws them later from the saved files); ``DIR/results.csv`` (and ``.parquet`` with pyarrow)
+has one row per recording, ``DIR/summary.md`` and ``DIR/comparison.png`` compare them
+(always written). A row's status is ``ok`` only when a damper was recommended; else
+``inconclusive`` or ``misfit`` with the verdict's reason, ``refused`` or ``failed``. Runs on a local Dask
 cluster (``--workers N``, default the number of CPUs; 1: in this process) or an existing one
 (``--scheduler ADDRESS``). Rerunning the same command resumes; Ctrl-C keeps every finished row.
 
@@ -47,6 +50,10 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                         "the default for recordings without a row")
     add_analysis_options(a, quiet_help="no progress bar or status line")
     add_reading_options(a)
+    a.add_argument("--figures", action="store_true",
+                   help="also draw each recording's figures into DIR/runs/NAME (by default "
+                        "not: 'dampfit report DIR/runs/NAME' draws them later from the saved "
+                        "files); the batch's comparison.png and tables are always written")
     a.add_argument("--summaries-only", action="store_true",
                    help="write summary.json alone in each run folder (no posterior, signals, "
                         "figures)")
@@ -63,7 +70,7 @@ def _options(args) -> tuple[dict, dict, dict]:
                "band": tuple(args.band) if args.band else None, "seed": args.seed,
                "max_steps": args.max_steps, "model": args.model, "amplitude": args.amplitude,
                **modes_options(args)}
-    outputs = {"figures": not args.no_figures and not args.summaries_only,
+    outputs = {"figures": args.figures and not args.summaries_only,
                "report": args.report and not args.summaries_only,
                "summaries_only": args.summaries_only}
     reading = {k: v for k, v in read_options(args).items() if k != "window"}
@@ -76,20 +83,25 @@ def _print(table, out: Path, as_json: bool) -> None:
     if as_json:
         print(table.to_json(orient="records", indent=2))
         return
+    from dampfit.batch.table import ANALYSED
+
     q = "c" if table["c_q50"].notna().any() else "zeta"
     for _, r in table.head(SHOWN_ROWS).iterrows():
         name = str(r["name"])[:40]
-        if r["status"] == "ok":
+        if r["status"] in ANALYSED and r[f"{q}_q50"] == r[f"{q}_q50"]:  # not NaN
             med, lo, hi = interval(r[f"{q}_q50"], r[f"{q}_q05"], r[f"{q}_q95"])
-            print(f"  {name:40s} {q} = {med} [{lo}, {hi}]  {r['verdict'] or ''}")
+            why = "" if r["status"] == "ok" else f"  {r['status']}: {str(r['message'])[:80]}"
+            print(f"  {name:40s} {q} = {med} [{lo}, {hi}]  {r['verdict'] or ''}{why}")
         else:
             print(f"  {name:40s} {r['status']}: {str(r['message'])[:100]}")
     if len(table) > SHOWN_ROWS:
         print(f"  … {len(table) - SHOWN_ROWS} more in results.csv")
     counts = table["status"].value_counts()
-    print(f"\n  {len(table)} recordings: {int(counts.get('ok', 0))} analysed, "
-          f"{int(counts.get('refused', 0))} refused, {int(counts.get('failed', 0))} failed; "
-          f"written to {out}/ (results.csv, summary.md, runs/)")
+    n = {k: int(counts.get(k, 0)) for k in (*ANALYSED, "refused", "failed")}
+    print(f"\n  {len(table)} recordings: {sum(n[k] for k in ANALYSED)} analysed ({n['ok']} "
+          f"with a damper recommended, {n['inconclusive']} inconclusive, {n['misfit']} misfit), "
+          f"{n['refused']} refused, {n['failed']} failed; "
+          f"written to {out}/ (results.csv, summary.md, comparison.png, runs/)")
 
 
 def command(args) -> int:
@@ -98,6 +110,9 @@ def command(args) -> int:
     from dampfit.errors import InputError
 
     check_analysis_options(args)
+    if args.figures and args.no_figures:
+        raise InputError("give either --figures or --no-figures, not both (a batch draws no "
+                         "per-recording figures unless --figures)")
     if args.masses is None and args.mass_sd is not None and args.mass is None:
         raise InputError("argument --mass-sd: needs --mass")
     if args.scheduler is None and (args.workers or os.cpu_count() or 1) > 1:
@@ -116,9 +131,9 @@ def command(args) -> int:
         table = run_batch(todo, out, options=options, outputs=outputs,
                           workers=args.workers or os.cpu_count() or 1, scheduler=args.scheduler,
                           force=args.force, quiet=args.quiet)
-    except KeyboardInterrupt:
-        print(f"dampfit: interrupted; finished rows are kept in {out}/rows.jsonl and "
-              f"{out}/results.csv; run the same command again to resume", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # the CLI's one line says what is kept
+        exc.dampfit_kept = (f"finished rows are kept in {out}/rows.jsonl and {out}/results.csv; "
+                            "run the same command again to resume")
         raise
     _print(table, out, args.json)
     return 1 if (table["status"] == "failed").any() else 0

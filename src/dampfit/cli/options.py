@@ -11,28 +11,18 @@ from __future__ import annotations
 import argparse
 import math
 
+from dampfit._options import (ANALYSIS_MAX_MODES, DEFAULT_MAX_MODES, MAX_MODES_LIMIT,  # noqa: F401
+                              MAX_STEPS, SEED_LIMIT, check_relations, convert)
 from dampfit.errors import InputError
 from dampfit.physics import MAX_MASS
 
 __all__ = ["MAX_WORKERS", "add_cluster_options", "positive_int", "MAX_STEPS", "modes_options", "SEED_LIMIT", "Parser", "add_analysis_options",
-           "check_analysis_options", "float_arg", "seed_arg"]
+           "check_analysis_options", "float_arg", "rule_arg", "scheduler_arg", "seed_arg"]
 
-#: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
-SEED_LIMIT = 2**32
-#: Default and largest --max-modes: :data:`dampfit.inference.modes.DEFAULT_MAX_MODES` and
-#: :data:`~dampfit.inference.modes.MAX_MODES_LIMIT` (not imported: that module imports JAX,
-#: and the parser is built before the scientific stack; a test checks they agree).
-DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
-#: --max-modes when not given, for one recording: several modes are looked for (calibrated,
-#: paper/modes.md). A one-mode recording pays only the screen (paper/benchmark.py); one with
-#: a second mode pays its selection and posterior (10 s to 3 min on the real cantilevers,
-#: paper/results/modes_real.csv): ``--max-modes 1`` skips them.
-ANALYSIS_MAX_MODES = DEFAULT_MAX_MODES
+# The limits are those of :mod:`dampfit._options` (the rules the Python face checks too).
 #: --max-modes when not given, for a campaign: 1, its tests' own modes are opt-in (each test
 #: would pay the modal analysis; the pooling is of one mode either way).
 CAMPAIGN_MAX_MODES = 1
-#: Largest --max-steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).
-MAX_STEPS = 10**6
 
 
 class Parser(argparse.ArgumentParser):
@@ -73,11 +63,32 @@ def integer_arg(lo: int, hi: int, what: str | None = None):
     return conv
 
 
+def rule_arg(name: str):
+    """argparse type of the option ``name`` under its rule in :data:`dampfit._options.RULES`
+    (the one the Python face checks too)."""
+
+    def conv(text: str):
+        try:
+            return convert(name, text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+
+    return conv
+
+
+def scheduler_arg(text: str) -> str:
+    """argparse type of ``--scheduler``: a non-empty address (an empty one is not ignored)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("must be a Dask scheduler address such as "
+                                         "tcp://host:8786, got an empty string")
+    return text
+
+
 #: argparse type for a float option with a one-line error: a finite number (NaN and ±inf are
 #: refused).
 float_arg = real_arg()
 #: argparse type of every ``--seed``: an integer in [0, 2³²).
-seed_arg = integer_arg(0, SEED_LIMIT - 1, f"an integer from 0 to {SEED_LIMIT - 1}")
+seed_arg = rule_arg("seed")
 
 positive_arg = real_arg("a positive finite number", lambda v: v > 0)
 non_negative_arg = real_arg("a finite number ≥ 0", lambda v: v >= 0)
@@ -91,13 +102,13 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
     a.add_argument("--mass-sd", type=real_arg("a standard deviation ≥ 0 kg", lambda v: v >= 0),
                    metavar="KG", default=None, help="standard deviation of the mass [kg]")
     a.add_argument("--axis", default="auto", help="x, y, z, another column name, or auto")
-    a.add_argument("--window", nargs=2, type=real_arg("a finite time [s]"), metavar=("START", "END"),
+    a.add_argument("--window", nargs=2, type=rule_arg("window"), metavar=("START", "END"),
                    help="free-decay window [s] in the recording's time base, START < END")
-    a.add_argument("--band", nargs=2, type=real_arg("a positive frequency [Hz]", lambda v: v > 0),
+    a.add_argument("--band", nargs=2, type=rule_arg("band"),
                    metavar=("LO", "HI"), help="pass band [Hz] around the oscillation, 0 < LO < HI")
     a.add_argument("--seed", type=seed_arg, default=0,
                    help=f"random seed of the sampler, 0 to {SEED_LIMIT - 1}")
-    a.add_argument("--max-steps", type=integer_arg(1, MAX_STEPS), default=20000,
+    a.add_argument("--max-steps", type=rule_arg("max_steps"), default=20000,
                    help=f"sampler step limit, 1 to {MAX_STEPS}")
     a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
@@ -108,33 +119,25 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
     a.add_argument("--model", default="auto", choices=("auto",) + law_names(),
                    help="damping law reported as c_equivalent (auto: the one the evidence "
                         "prefers); all are compared in model_checks either way")
-    a.add_argument("--amplitude", type=real_arg("a positive displacement amplitude in metres",
-                                             lambda v: v > 0), metavar="M",
+    a.add_argument("--amplitude", type=rule_arg("amplitude"), metavar="M",
                    help="displacement amplitude [m] at which a non-viscous law's equivalent "
                         "viscous c is reported (the amplitude your FEM model will see)")
-    a.add_argument("--max-modes", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
+    a.add_argument("--max-modes", type=rule_arg("max_modes"), metavar="N",
                    default=None,
                    help=f"most modes looked for in the recording, 1 to {MAX_MODES_LIMIT} "
                         f"(default {ANALYSIS_MAX_MODES} for one recording, {CAMPAIGN_MAX_MODES} "
                         "for a campaign's tests; 1 skips the modal analysis; paper/modes.md)")
-    a.add_argument("--mode-of-mass", type=integer_arg(1, MAX_MODES_LIMIT), metavar="N",
+    a.add_argument("--mode-of-mass", type=rule_arg("mode_of_mass"), metavar="N",
                    default=None,
                    help="the mode (1 = lowest frequency) the --mass belongs to: only it gets "
                         "c and k (default: the dominant mode)")
 
 
 def check_analysis_options(args) -> None:
-    """Relations between options, before any work (single values are checked by the parser)."""
-    if args.window is not None and not args.window[0] < args.window[1]:
-        raise InputError(f"argument --window: END must come after its start, got "
-                         f"{args.window[0]:g} {args.window[1]:g}")
-    max_modes = getattr(args, "max_modes", None) or ANALYSIS_MAX_MODES
-    if getattr(args, "mode_of_mass", None) is not None and args.mode_of_mass > max_modes:
-        raise InputError(f"argument --mode-of-mass: mode {args.mode_of_mass} is beyond "
-                         f"--max-modes {max_modes}")
-    if args.band is not None and not args.band[0] < args.band[1]:
-        raise InputError(f"argument --band: the pass band needs LO < HI, got "
-                         f"{args.band[0]:g} {args.band[1]:g}")
+    """Relations between options, before any work (single values are checked by the parser):
+    :func:`dampfit._options.check_relations`, as the Python face checks them."""
+    check_relations(args.window, args.band, getattr(args, "max_modes", None),
+                    getattr(args, "mode_of_mass", None))
 
 
 def modes_options(args, campaign: bool = False) -> dict:
@@ -159,7 +162,7 @@ def add_reading_options(a: argparse.ArgumentParser) -> None:
                         "Capstone): the run to read, e.g. 'Run #2' or 2 (default: the first)")
     g.add_argument("--variable", metavar="PATH",
                    help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
-    g.add_argument("--row", type=integer_arg(0, 1023), metavar="N",
+    g.add_argument("--row", type=rule_arg("row"), metavar="N",
                    help="MATLAB .mat: 0-based row of that array holding the acceleration")
 
 
@@ -187,7 +190,7 @@ def add_cluster_options(parser, *, workers_note: str, force_help: str) -> None:
     parser.add_argument("--workers", type=positive_int, metavar="N", default=None,
                         help=f"local Dask worker processes, 1 to {MAX_WORKERS} (default: the "
                              f"number of CPUs; {workers_note})")
-    parser.add_argument("--scheduler", metavar="ADDRESS",
+    parser.add_argument("--scheduler", metavar="ADDRESS", type=scheduler_arg,
                         help="use an existing Dask scheduler, e.g. tcp://host:8786 (tls:// with "
                              "Dask's TLS settings; the workers must see the output folder at "
                              "the same path; ignores --workers)")

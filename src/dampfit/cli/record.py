@@ -10,7 +10,10 @@ at Ctrl-C, then fetches the full buffers.
 The result folder DIR (:class:`dampfit.files.folder.ResultFolder`, marker kind ``record``) is locked
 before the phone is touched (a second ``dampfit record`` or ``analyze`` to the same DIR fails
 at once, exit 2; an existing DIR is replaced only with ``--force`` and only if dampfit wrote
-it). It is written in two steps, each staged and swapped in whole:
+it). From the first sample on, the samples stream into ``DIR/recording.partial.csv``
+(:class:`dampfit.record.journal.Journal`: DIR is published with it, each poll appended and
+synced at least every second), so even ``kill -9`` keeps them. Then it is written in two
+steps, each staged and swapped in whole:
 
 1. ``recording.csv`` (phyphox "Raw Data" CSV) and ``recording.json`` — published as soon as
    the recording ends, before any analysis, so the recording survives whatever follows;
@@ -24,7 +27,8 @@ Exit codes: 0 success (a recording stopped by Ctrl-C is a success: Ctrl-C is how
 early); 2 a failure, one line — before any sample nothing is written; after samples arrived
 (connection lost after the retries, garbage, a changed session, no new samples) the samples
 are written first and the line names the file; 130 a second Ctrl-C during the final fetch or
-the analysis, 143 SIGTERM — the recording written so far stays in DIR.
+the analysis, 143 SIGTERM — the recording written so far stays in DIR, and the last line says
+where (``dampfit: terminated; the recording so far is kept: …``).
 
 ``dampfit record --experiment FILE`` writes dampfit's phyphox experiment (and, with segno
 installed, its QR code ``FILE.qr.svg``) and says how to open it on the phone.
@@ -107,16 +111,33 @@ def command(args) -> int:
     from dampfit.files.swap import signals_deferred
     from dampfit.cli.staging import result_folder
     from dampfit.record.live import LiveLine
+    from dampfit.record.journal import PARTIAL, Journal
     from dampfit.record.phyphox import PhyphoxClient
     from dampfit.record.session import CSV, JSON, record, write_recording
 
     out = Path(args.out)
     live = LiveLine(sys.stderr, enabled=not args.quiet)
     with result_folder(out, "record", args.force) as folder:
-        rec = record(PhyphoxClient(url, timeout=args.timeout), duration=args.duration, live=live)
+        journal = Journal(lambda: folder.stage, lambda: _publish(folder))
+        try:
+            rec = record(PhyphoxClient(url, timeout=args.timeout), duration=args.duration,
+                         live=live, sink=journal)
+        except BaseException as exc:
+            journal.close()
+            if journal.published:  # kept: the samples streamed before the failure
+                _kept(exc, f"the samples so far are kept in {out / PARTIAL}")
+            raise
         with signals_deferred(), folder.writing():  # Ctrl-C cannot drop the recording now
-            write_recording(rec, folder.stage)
+            if journal.published:
+                folder.restage()
+            try:
+                write_recording(rec, folder.stage)
+            except InputError as exc:
+                if journal.published:
+                    raise InputError(f"{exc}; the samples are in {out / PARTIAL}") from None
+                raise
             folder.publish()
+            journal.close()
         kept = f"{rec.duration:.1f} s ({rec.time.size} samples) kept in {out / CSV} and {out / JSON}"
         if rec.error is not None:
             live.finish_quietly()
@@ -124,7 +145,8 @@ def command(args) -> int:
                              f"{out / CSV} --out OTHER_DIR)")
         if rec.interrupt is not None and rec.stopped_by != "interrupted":
             live.finish_quietly()
-            raise rec.interrupt  # SIGTERM or a second Ctrl-C: exit 143/130, the recording stays
+            # SIGTERM or a second Ctrl-C: exit 143/130, the recording stays
+            raise _kept(rec.interrupt, f"the recording so far is kept: {kept}")
         how = "Ctrl-C" if rec.stopped_by == "interrupted" else rec.stopped_by
         final = f"dampfit record: stopped ({how}); {kept}"
         if args.no_analyze:
@@ -134,14 +156,33 @@ def command(args) -> int:
         live.status(f"{final}; analysing (Ctrl-C aborts the analysis, the recording stays)")
         try:
             an = _analyse(args, folder, out, rec.notes, (CSV, JSON))
-        except BaseException:
+        except BaseException as exc:
             live.finish_quietly()
+            _kept(exc, f"the analysis was stopped; the recording stays: {kept} (analyse it "
+                       f"with: dampfit analyze {out / CSV} --out OTHER_DIR)")
             raise
     from dampfit.cli.analyze import print_result
 
     live.finish(final)
     print_result(an, out, args.json)
     return 0
+
+
+def _publish(folder) -> None:
+    """Publish the staging folder (the first streamed samples: ``recording.partial.csv``)."""
+    from dampfit.files.swap import signals_deferred
+
+    with signals_deferred(), folder.writing():
+        folder.publish()
+
+
+def _kept(exc: BaseException, what: str) -> BaseException:
+    """``exc`` (an interrupt) with what stays on disk: the CLI's line after
+    "dampfit: terminated" / "interrupted" says it instead of "no partial output was left
+    behind" (:func:`dampfit.cli.interrupt_line`)."""
+    if isinstance(exc, KeyboardInterrupt):
+        exc.dampfit_kept = what
+    return exc
 
 
 def _analyse(args, folder, out: Path, notes, names):

@@ -34,6 +34,9 @@ def command(args) -> int:
     from dampfit.result.schema import folder_of
 
     folder = folder_of(args.dir)
+    from dampfit.result.folder import check_files
+
+    check_files(folder)  # a posterior.nc or signals.npz of another analysis: refused
     if not args.no_redraw and read_marker(folder) is not None:
         from dampfit.output.figures import redraw_missing
 

@@ -24,7 +24,7 @@ from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 
-__all__ = ["DIALECTS", "write_phyphox_csv", "write_truth"]
+__all__ = ["DIALECTS", "phyphox_csv_text", "write_phyphox_csv", "write_truth"]
 
 #: Axis columns written, in order.
 _AXES = ("x", "y", "z")
@@ -55,11 +55,27 @@ def write_phyphox_csv(recording: Recording, path: str | os.PathLike, dialect: st
         choices = ", ".join(DIALECTS)
         raise InputError(f"unknown CSV dialect {dialect!r}; choose one of {choices}") from None
     xyz = np.column_stack([recording.axis(name) for name in _AXES])
-    label = "Linear Acceleration" if recording.gravity_removed else "Acceleration"
-    names = ["Time (s)", *(f"{label} {a} (m/s^2)" for a in _AXES), "Absolute acceleration (m/s^2)"]
-    header = sep.join(f'"{n}"' for n in names) + "\n"
-    table = np.column_stack([recording.time, xyz, np.sqrt(np.sum(xyz**2, axis=1))])
-    return atomic_write_text(path, header + _phyphox_numbers(table, sep, decimal))
+    return atomic_write_text(path, phyphox_csv_text(recording.time, xyz,
+                                                    recording.gravity_removed, dialect=dialect))
+
+
+def phyphox_csv_text(time: np.ndarray, xyz: np.ndarray, gravity_removed: bool, *,
+                     header: bool = True, dialect: str = "comma") -> str:
+    """The text of :func:`write_phyphox_csv` for time [s] and x, y, z [m/s²] (shape (n, 3)):
+    the header line (``header``) and one line per sample; ``header=False`` gives lines to
+    append to such a file (``dampfit record`` streams its samples so)."""
+    sep, decimal = DIALECTS[dialect]
+    text = ""
+    if header:
+        label = "Linear Acceleration" if gravity_removed else "Acceleration"
+        names = ["Time (s)", *(f"{label} {a} (m/s^2)" for a in _AXES),
+                 "Absolute acceleration (m/s^2)"]
+        text = sep.join(f'"{n}"' for n in names) + "\n"
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    if not xyz.shape[0]:
+        return text
+    table = np.column_stack([time, xyz, np.sqrt(np.sum(xyz**2, axis=1))])
+    return text + _phyphox_numbers(table, sep, decimal)
 
 
 def write_truth(truth: dict[str, Any], path: str | os.PathLike) -> Path:

@@ -156,8 +156,11 @@ def text_table(text: str, name: str, source: str, nrows: int | None) -> Table:
         sep_name = {"\t": "tab", ";": "semicolon", "|": "pipe", r"\s+": "whitespace"}.get(dialect.sep, "")
         notes.append(f"read as {sep_name}-separated text with decimal comma")
     try:
+        # UTF-8 bytes, not a StringIO: CPython's StringIO holds its text as 4-byte code
+        # points (4× the file); the C engine reads bytes in chunks (paper/bench_memory.py)
         frame = pd.read_csv(
-            io.StringIO(text),
+            io.BytesIO(text.encode("utf-8")),
+            encoding="utf-8",
             sep=dialect.sep if dialect.sep is not None else ",",
             decimal=dialect.decimal,
             header=0 if dialect.header else None,

@@ -71,11 +71,52 @@ def _qr_paths(path: Path, n: int) -> list[Path]:
     return [path.with_name(f"{stem}.qr-{i + 1}-of-{n}.svg") for i in range(n)]
 
 
-def write_experiment(path: str | os.PathLike, force: bool = False) -> tuple[Path, list[Path], str]:
-    """Write the experiment to ``path`` (refused if it exists, unless ``force``) and, when segno
-    is installed, its QR code(s) beside it as ``NAME.qr.svg``; atomic writes. Returns (the
-    file, the QR files, a line on the QR code: where it is, or how to get one)."""
+#: Largest existing file [bytes] ``--force`` looks into to see whether dampfit wrote it.
+_OURS_MAX = 4 * 2**20
+
+
+def _ours(path: Path, kind: str) -> bool:
+    """Whether the existing ``path`` is a file dampfit's ``--experiment`` writes: a phyphox
+    experiment whose category is ``dampfit`` (this version's or an older one), or a QR code
+    SVG (``kind`` "svg"). A link is never ours (``--force`` would replace the link only, but
+    nobody asked dampfit to write one)."""
+    import xml.etree.ElementTree as ET
+
+    from dampfit.errors import InputError
+    from dampfit.io.bounded import read_regular
+
+    try:
+        data = read_regular(path, _OURS_MAX, missing=FileNotFoundError(), what="a file")
+    except (OSError, InputError):
+        return False
+    if kind == "svg":
+        head = data[:400].lstrip()
+        return (head.startswith(b"<?xml") or head.startswith(b"<svg")) and b"<svg" in head
+    try:
+        root = ET.fromstring(data)
+    except (ET.ParseError, ValueError):
+        return False
+    return root.tag == "phyphox" and (root.findtext("category") or "").strip() == "dampfit"
+
+
+def _check(path: Path, force: bool, kind: str) -> Path:
+    """:func:`check_output_file`, and with ``force`` only a file dampfit wrote is replaced."""
+    from dampfit.errors import InputError
+
     path = check_output_file(path, force, option="--experiment")
+    if force and os.path.lexists(path) and not _ours(path, kind):
+        raise InputError(f"refusing to replace {path} with --force: it is not a file dampfit's "
+                         "--experiment wrote (a phyphox experiment of category 'dampfit' or "
+                         "its QR code); remove it yourself or choose another name")
+    return path
+
+
+def write_experiment(path: str | os.PathLike, force: bool = False) -> tuple[Path, list[Path], str]:
+    """Write the experiment to ``path`` (refused if it exists, unless ``force`` and dampfit
+    wrote it: :func:`_ours`) and, when segno is installed, its QR code(s) beside it as
+    ``NAME.qr.svg``; atomic writes. Returns (the file, the QR files, a line on the QR code:
+    where it is, or how to get one)."""
+    path = _check(Path(path), force, "phyphox")
     data = experiment_bytes()
     payloads = qr_payloads(data)
     qr_paths = _qr_paths(path, len(payloads))
@@ -85,7 +126,7 @@ def write_experiment(path: str | os.PathLike, force: bool = False) -> tuple[Path
         segno = None
     if segno is not None:
         for p in qr_paths:
-            check_output_file(p, force, option="--experiment")
+            _check(p, force, "svg")
 
     def write_bytes(content: bytes):
         def write(tmp: str) -> None:

@@ -38,7 +38,7 @@ import time
 
 import numpy as np
 
-__all__ = ["DECAYING", "DONE", "Detector", "LiveLine", "MAX_BLOCKS", "WAITING"]
+__all__ = ["DECAYING", "DONE", "Detector", "GAP_S", "LiveLine", "MAX_BLOCKS", "WAITING"]
 
 WAITING = "waiting for the release"
 DECAYING = "decaying"
@@ -47,6 +47,9 @@ DONE = "done"
 MAX_BLOCKS = 2400
 #: Fewest samples a block needs; a shorter one is merged into the next.
 MIN_BLOCK_SAMPLES = 4
+#: A step of the phone's clock [s] longer than this between two samples is a gap (counted in
+#: :attr:`Detector.gaps`): samples stopped coming, or the clock jumped.
+GAP_S = 1.0
 #: Smallest noise floor [m/s²] (a recording of exact zeros has no noise to measure).
 _TINY = 1e-6
 
@@ -57,7 +60,10 @@ class Detector:
     ``resolution`` [m/s²] is the sensor's LSB from phyphox's ``/meta`` (None if unknown).
     Attributes after each :meth:`feed`: ``state``, ``amplitude`` [m/s²] (of the last block),
     ``noise`` σ [m/s²], ``release_time`` and ``end_time`` [s] (None until detected),
-    ``period`` [s] (None until measured), ``elapsed`` [s] (last time stamp).
+    ``period`` [s] (None until measured), ``elapsed`` [s] (last time stamp), ``gaps`` (steps
+    of the clock longer than :data:`GAP_S`) and ``largest_gap`` [s]. The work of a
+    :meth:`feed` is bounded by its samples, not by the clock's values: a jump of the clock
+    (0.002 → 1e9 s) is one gap, not 2·10⁹ empty blocks.
     """
 
     def __init__(self, resolution: float | None = None, *, block_s: float = 0.5,
@@ -72,6 +78,8 @@ class Detector:
         self._t = np.empty(0)  # samples of the block not yet complete
         self._a = np.empty((0, 3))
         self._start: float | None = None
+        self._last: float | None = None
+        self.gaps, self.largest_gap = 0, 0.0
         self.state = WAITING
         self.amplitude = 0.0
         self.noise = 0.0
@@ -99,13 +107,25 @@ class Detector:
             self._start = float(t[0])
         tb = np.concatenate([self._t, t]) if self._t.size else t
         ab = np.concatenate([self._a, a]) if self._a.size else a
-        while True:
+        gaps = np.diff(np.concatenate([[self._last], t])) if self._last is not None else np.diff(t)
+        big = gaps[gaps > GAP_S]
+        if big.size:
+            self.gaps += int(big.size)
+            self.largest_gap = max(self.largest_gap, float(big.max()))
+        self._last = float(t[-1])
+        while tb.size:  # every pass closes a block of ≥ MIN_BLOCK_SAMPLES samples, or stops
             end = self._start + self.block_s
-            while True:
-                cut = int(np.searchsorted(tb, end, side="left"))
-                if cut >= MIN_BLOCK_SAMPLES or cut == tb.size:
+            cut = int(np.searchsorted(tb, end, side="left"))
+            if cut < MIN_BLOCK_SAMPLES and cut < tb.size:
+                if tb.size < MIN_BLOCK_SAMPLES:
                     break
-                end += self.block_s
+                # lengthened by whole blocks up to the MIN_BLOCK_SAMPLES-th sample, computed
+                # from that sample (not stepped: a clock jump of 1e9 s is one step)
+                last = float(tb[MIN_BLOCK_SAMPLES - 1])
+                end = self._start + self.block_s * (math.floor((last - self._start)
+                                                               / self.block_s) + 1)
+                end = max(end, float(np.nextafter(last, math.inf)))
+                cut = int(np.searchsorted(tb, end, side="left"))
             if cut == tb.size:  # not complete until a sample at or after its end arrives
                 break
             self._block(self._start, end, ab[:cut])

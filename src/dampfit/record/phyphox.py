@@ -51,10 +51,13 @@ phyphox serves nothing else. A server that is not phyphox, or answers garbage, i
 
 from __future__ import annotations
 
+import contextlib
 import http.client
 import json
 import math
+import re
 import socket
+import threading
 import time
 from dataclasses import dataclass
 from urllib.parse import quote, urlsplit
@@ -64,8 +67,8 @@ import numpy as np
 from dampfit.errors import InputError
 
 __all__ = ["AccelInput", "Chunk", "Config", "ConnectionLost", "NotPhyphox", "PhyphoxClient",
-           "Status", "check_url", "parse_config", "parse_get", "parse_meta", "parse_time",
-           "text"]
+           "Status", "check_url", "parse_config", "parse_get", "parse_get_body", "parse_meta",
+           "parse_time", "text", "values_in"]
 
 #: Sensor names of the file format that are accelerometers, in order of preference: the
 #: shipped experiment uses the one without g.
@@ -185,8 +188,9 @@ def _parse_json(body: bytes, what: str):
     try:
         return json.loads(body.decode("utf-8"))
     except (UnicodeDecodeError, ValueError, RecursionError):
-        start = " ".join(body[:40].decode("utf-8", "replace").split())
-        raise NotPhyphox(f"{what} answered something that is not JSON ({text(start, 40)!r}…); "
+        start = text(" ".join(body[:40].decode("utf-8", "replace").split()), 40)
+        shown = f"{start!r}…" if start else "nothing"
+        raise NotPhyphox(f"{what} answered something that is not JSON ({shown}); "
                          "is this phyphox with remote access switched on?") from None
 
 
@@ -247,6 +251,10 @@ def _float_or_none(value) -> float | None:
 _DEVICE_KEYS = {"deviceModel": "model", "deviceBrand": "brand",
                 "deviceManufacturer": "manufacturer", "deviceRelease": "os_release",
                 "version": "phyphox_version", "build": "phyphox_build"}
+#: Largest sensor value of /meta believed [its unit]: a phone's accelerometer range is at most
+#: a few hundred m/s² (±32 g is 314 m/s²), its resolution far below its range, its delays
+#: below a minute; a larger value (``"1e308"``) is a lie and is dropped (None).
+SENSOR_LIMITS = {"range": 1e4, "resolution": 10.0, "min_delay_us": 6e7, "max_delay_us": 6e7}
 _SENSOR_KEYS = {"name": "name", "vendor": "vendor", "range": "range", "resolution": "resolution",
                 "mindelay": "min_delay_us", "maxdelay": "max_delay_us", "version": "version"}
 
@@ -254,7 +262,8 @@ _SENSOR_KEYS = {"name": "name", "vendor": "vendor", "range": "range", "resolutio
 def parse_meta(obj, sensor: str) -> tuple[dict, dict]:
     """(phone, sensor) from a ``/meta`` answer: device strings, and the metadata of ``sensor``
     (name, vendor, range [m/s²], resolution [m/s²], min_delay_us [µs], …; empty on iOS, which
-    serves no sensor metadata). Keys may be absent or null; numbers come as strings."""
+    serves no sensor metadata). Keys may be absent or null; numbers come as strings; a number
+    that is negative or beyond :data:`SENSOR_LIMITS` is dropped (None)."""
     if not isinstance(obj, dict):
         raise NotPhyphox("/meta did not answer like phyphox (not a JSON object)")
     phone = {ours: text(obj.get(theirs)) for theirs, ours in _DEVICE_KEYS.items()}
@@ -267,7 +276,8 @@ def parse_meta(obj, sensor: str) -> tuple[dict, dict]:
             value = folded.get(theirs)
             if ours in ("range", "resolution", "min_delay_us", "max_delay_us"):
                 number = _float_or_none(value)
-                info[ours] = number if number is not None and number >= 0 else None
+                info[ours] = (number if number is not None and 0 <= number <= SENSOR_LIMITS[ours]
+                              else None)
             else:
                 info[ours] = text(value)
         if info.get("resolution") == 0:
@@ -297,9 +307,10 @@ def _numbers(values, name: str) -> np.ndarray:
     return out
 
 
-def parse_get(obj, accel: AccelInput) -> Chunk:
+def parse_get(obj, accel: AccelInput, parsed: dict[str, np.ndarray] | None = None) -> Chunk:
     """The accelerometer buffers and status of a ``/get`` answer (:class:`NotPhyphox` if
-    its shape is wrong or a buffer is missing)."""
+    its shape is wrong or a buffer is missing); ``parsed``: buffers already parsed
+    (:func:`parse_get_body`)."""
     if not isinstance(obj, dict) or not isinstance(obj.get("buffer"), dict) \
             or not isinstance(obj.get("status"), dict):
         raise NotPhyphox("/get did not answer like phyphox (no buffer and status)")
@@ -314,10 +325,66 @@ def parse_get(obj, accel: AccelInput) -> Chunk:
         if not isinstance(entry, dict):
             raise NotPhyphox(f"/get: buffer {name!r} is missing from the answer (did the "
                              "experiment change on the phone?)")
-        arrays.append(_numbers(entry.get("buffer"), name))
+        arrays.append(parsed[name] if parsed and name in parsed
+                      else _numbers(entry.get("buffer"), name))
     status = Status(session=text(session, 64) or "", measuring=measuring,
                     countdown_ms=max(countdown, 0.0))
     return Chunk(*arrays, status=status)
+
+
+#: One buffer's list of numbers in a /get answer: ``"buffer": [ … ]`` without nested lists.
+_ARRAY = re.compile(rb'"buffer"\s*:\s*\[([^\[\]]*)\]')
+#: Characters a list of JSON numbers and nulls is made of, "null" aside.
+_NUMBER_BYTES = b"0123456789.eE+-, \t\r\n"
+
+
+def _array(span: bytes, name: str) -> np.ndarray:
+    """A buffer's values from the text of its JSON list (numbers and nulls, ``null`` → NaN)
+    without a Python object per value: NumPy parses the text (8 bytes per value)."""
+    import warnings
+
+    if not span.strip():
+        return np.empty(0)
+    rest = span.translate(None, _NUMBER_BYTES)
+    bare = span.translate(None, b" \t\r\n")  # an empty value (NumPy would read -1)
+    if rest != b"null" * (len(rest) // 4) or b",," in bare or bare[:1] == b"," \
+            or bare[-1:] == b",":
+        raise NotPhyphox(f"/get: buffer {name!r} is not a list of numbers and nulls")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # older NumPy warns where the numbers stop
+            out = np.fromstring(span.replace(b"null", b"nan"), dtype=float, sep=",")
+    except ValueError:  # newer NumPy refuses text that is not all numbers
+        out = None
+    if out is None or out.size != span.count(b",") + 1:
+        raise NotPhyphox(f"/get: buffer {name!r} is not a list of numbers and nulls")
+    out[~np.isfinite(out)] = np.nan
+    return out
+
+
+def parse_get_body(body: bytes, accel: AccelInput) -> Chunk:
+    """:func:`parse_get` of the raw ``/get`` answer, in memory bounded by the answer's bytes:
+    every ``"buffer": [...]`` list is cut out and parsed by NumPy (8 bytes per value, where
+    ``json.loads`` takes 32 per value, 8 times the 4 bytes of a dense ``1e0,``), the rest —
+    structure and status — by ``json``."""
+    pieces, arrays, at = [], [], 0
+    for k, m in enumerate(_ARRAY.finditer(body)):
+        pieces += [body[at:m.start(1)], b"%d" % k]
+        arrays.append((m.start(1), m.end(1)))
+        at = m.end(1)
+    pieces.append(body[at:])
+    obj = _parse_json(b"".join(pieces), "/get")
+    buffers = obj.get("buffer") if isinstance(obj, dict) else None
+    values: dict[str, np.ndarray] = {}
+    if isinstance(buffers, dict):
+        for name in accel.buffers:
+            entry = buffers.get(name)
+            ref = entry.get("buffer") if isinstance(entry, dict) else None
+            if isinstance(ref, list) and len(ref) == 1 and type(ref[0]) is int \
+                    and 0 <= ref[0] < len(arrays):
+                start, end = arrays[ref[0]]
+                values[name] = _array(body[start:end], name)
+    return parse_get(obj, accel, values)
 
 
 # ------------------------------------------------------------------------------ client
@@ -343,6 +410,18 @@ class _ServerError(Exception):
     """HTTP 5xx: the phone's server had a problem; retried like a dropped connection."""
 
 
+class _TooSlow(Exception):
+    """The answer did not arrive within the attempt's overall deadline (not retried)."""
+
+
+def values_in(data: bytes) -> int:
+    """An upper bound of the numbers ``data`` (a piece of a JSON answer) can complete: one
+    per separator (``,`` or ``]``); a number needs at least one character and a separator,
+    so the parsed answer's size follows from the bytes actually received, whatever their
+    density (``0,`` is two bytes per value)."""
+    return data.count(b",") + data.count(b"]")
+
+
 class PhyphoxClient:
     """GET requests to phyphox's remote access at ``url`` (checked by :func:`check_url`).
 
@@ -361,45 +440,92 @@ class PhyphoxClient:
         self.log = log
 
     # -- transport -----------------------------------------------------------------
-    def _once(self, path: str, limit: int, timeout: float) -> bytes:
-        deadline = time.monotonic() + 3 * timeout + limit / 2**20
+    def _once(self, path: str, limit: int, timeout: float, values: int | None) -> bytes:
+        """One GET: the body, or an exception. A watchdog shuts the socket down when the
+        attempt's overall deadline (:meth:`deadline`) passes, so a server that drips its
+        headers or body (each byte within ``timeout``) cannot stretch it: :class:`_TooSlow`.
+        ``values``: most numbers the answer may hold, counted from the bytes received (a
+        separator per value; :func:`values_in`) — the memory of the parsed answer is bounded
+        by it, whatever the bytes per value."""
         conn = http.client.HTTPConnection(self.host, self.port, timeout=timeout)
+        expired = threading.Event()
+
+        def expire() -> None:
+            expired.set()
+            sock = conn.sock
+            if sock is not None:
+                with contextlib.suppress(OSError):
+                    sock.shutdown(socket.SHUT_RDWR)
+
+        allowed = self.deadline(limit, timeout)
+        watchdog = threading.Timer(allowed, expire)
+        watchdog.daemon = True
+        watchdog.start()
+        slow = _TooSlow(f"{path.split('?')[0]} did not answer within {allowed:.3g} s (a "
+                        "server that sends its answer too slowly)")
         try:
-            conn.request("GET", path, headers={"Connection": "close", "Accept": "application/json"})
-            resp = conn.getresponse()
-            if resp.status >= 500:
-                raise _ServerError(f"HTTP {resp.status}")
-            if resp.status != 200:
-                raise NotPhyphox(f"{path.split('?')[0]} answered HTTP {resp.status}; is this "
-                                 "phyphox with remote access switched on?")
-            length = resp.getheader("Content-Length")
-            if length is not None and length.isdigit() and int(length) > limit:
-                raise NotPhyphox(f"{path.split('?')[0]} answered {int(length)} bytes, more than "
-                                 f"the {limit} expected")
-            chunks, size = [], 0
-            while True:
-                chunk = resp.read(min(1 << 16, limit + 1 - size))
-                if not chunk:
-                    break
-                chunks.append(chunk)
-                size += len(chunk)
-                if size > limit:
-                    raise NotPhyphox(f"{path.split('?')[0]} answered more than the {limit} "
-                                     "bytes expected")
-                if time.monotonic() > deadline:
-                    raise TimeoutError("the answer took too long")
-            return b"".join(chunks)
+            body = self._exchange(conn, path, limit, values)
+        except (OSError, http.client.HTTPException, NotPhyphox):
+            if expired.is_set():
+                raise slow from None
+            raise
+        else:  # a cut-off answer can look whole (no Content-Length): the watchdog decides
+            if expired.is_set():
+                raise slow
+            return body
         finally:
+            watchdog.cancel()
             conn.close()
 
-    def request(self, path: str, limit: int = SMALL_ANSWER, timeout: float | None = None) -> bytes:
-        """The body of ``GET path`` (at most ``limit`` bytes), retried with backoff;
-        ``timeout`` [s] replaces the client's for this request (a large answer)."""
+    @staticmethod
+    def deadline(limit: int, timeout: float) -> float:
+        """The overall time [s] one attempt may take: ``3·timeout`` plus 1 s per MB of the
+        answer's size limit ``limit`` [bytes]."""
+        return 3 * timeout + limit / 2**20
+
+    @staticmethod
+    def _exchange(conn, path: str, limit: int, values: int | None) -> bytes:
+        conn.request("GET", path, headers={"Connection": "close", "Accept": "application/json"})
+        resp = conn.getresponse()
+        endpoint = path.split("?")[0]
+        if resp.status >= 500:
+            raise _ServerError(f"HTTP {resp.status}")
+        if resp.status != 200:
+            raise NotPhyphox(f"{endpoint} answered HTTP {resp.status}; is this "
+                             "phyphox with remote access switched on?")
+        length = resp.getheader("Content-Length")
+        if length is not None and length.isdigit() and int(length) > limit:
+            raise NotPhyphox(f"{endpoint} answered {int(length)} bytes, more than "
+                             f"the {limit} expected")
+        chunks, size, count = [], 0, 0
+        while True:
+            chunk = resp.read(min(1 << 16, limit + 1 - size))
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+            if size > limit:
+                raise NotPhyphox(f"{endpoint} answered more than the {limit} bytes expected")
+            if values is not None:
+                count += values_in(chunk)
+                if count > values:
+                    raise NotPhyphox(f"{endpoint} answered more than the {values} values "
+                                     "expected")
+        return b"".join(chunks)
+
+    def request(self, path: str, limit: int = SMALL_ANSWER, timeout: float | None = None,
+                values: int | None = None) -> bytes:
+        """The body of ``GET path`` (at most ``limit`` bytes, at most ``values`` numbers),
+        retried with backoff; ``timeout`` [s] replaces the client's for this request (a large
+        answer). An answer too slow for its deadline is not retried (:class:`ConnectionLost`
+        at once: a second attempt would wait as long again)."""
         if self.log is not None:
             self.log(path)
         for attempt in range(self.retries + 1):
             try:
-                return self._once(path, limit, timeout or self.timeout)
+                return self._once(path, limit, timeout or self.timeout, values)
+            except _TooSlow as exc:
+                raise ConnectionLost(f"phyphox at {self.url}: {exc}") from None
             except socket.gaierror as exc:
                 raise ConnectionLost(f"cannot find the phone at {self.url}: "
                                      f"{exc.strerror or exc}") from None
@@ -434,13 +560,16 @@ class PhyphoxClient:
         return obj["result"]
 
     def get(self, accel: AccelInput, since: float | None, limit: int,
-            timeout: float | None = None) -> Chunk:
+            timeout: float | None = None, values: int | None = None) -> Chunk:
         """``/get`` of the accelerometer buffers: all values (``since`` None) or those whose
-        time [s] is above ``since`` (``t=T&x=T|t…``); at most ``limit`` bytes."""
+        time [s] is above ``since`` (``t=T&x=T|t…``); at most ``limit`` bytes and ``values``
+        numbers (None: ``limit``/2), parsed in memory bounded by them (:func:`parse_get_body`)."""
         if since is None:
             query = "&".join(f"{quote(b, safe='')}=full" for b in accel.buffers)
         else:
             mark, ref = quote(repr(float(since)), safe=""), quote(accel.t, safe="")
             query = "&".join([f"{ref}={mark}"] + [f"{quote(b, safe='')}={mark}%7C{ref}"
                                                   for b in accel.buffers[1:]])
-        return parse_get(self._json(f"/get?{query}", limit, timeout), accel)
+        body = self.request(f"/get?{query}", limit, timeout,
+                            values=limit // 2 if values is None else values)
+        return parse_get_body(body, accel)

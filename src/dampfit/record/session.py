@@ -44,7 +44,7 @@ import numpy as np
 
 from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
-from dampfit.record.live import DONE, Detector, LiveLine
+from dampfit.record.live import DONE, GAP_S, Detector, LiveLine
 from dampfit.record.phyphox import Chunk, ConnectionLost, NotPhyphox, PhyphoxClient
 
 __all__ = ["CSV", "DEFAULT_DURATION", "JSON", "MAX_DURATION", "MAX_RATE_HZ", "POLL_S",
@@ -65,8 +65,11 @@ STALL_S = 15.0
 START_WAIT_S = 10.0
 #: Samples per second [1/s] a phone formats for the final full /get at least (its timeout).
 FULL_FETCH_RATE = 5000.0
-#: Bytes per value in a /get answer at most (8 significant digits, exponent, separator: ≈ 16).
-_BYTES_PER_VALUE = 24
+#: Bytes per value in a /get answer at most: phyphox's 8 significant digits, sign, point,
+#: exponent and separator (``-1.2345678E-1,`` is 14). Only the honest answer's size: the
+#: memory of a parsed answer is bounded by the number of values (4 per row), counted from
+#: the bytes received (:func:`dampfit.record.phyphox.values_in`).
+_BYTES_PER_VALUE = 16
 
 
 @dataclass
@@ -176,23 +179,29 @@ def _handshake(client: PhyphoxClient) -> tuple:
 
 
 def record(client: PhyphoxClient, *, duration: float = DEFAULT_DURATION,
-           live: LiveLine | None = None, clock=time.monotonic, sleep=time.sleep) -> Recorded:
+           live: LiveLine | None = None, clock=time.monotonic, sleep=time.sleep,
+           sink=None) -> Recorded:
     """Record one free decay from phyphox (see the module docstring); ``duration`` [s] of
     phone time at most. Raises before any sample arrived; after that a failure is returned
-    in :attr:`Recorded.error`, Ctrl-C/SIGTERM in :attr:`Recorded.interrupt`."""
+    in :attr:`Recorded.error`, Ctrl-C/SIGTERM in :attr:`Recorded.interrupt`. ``sink``
+    (optional) is called with each poll's kept samples as they arrive: (time [s], accel
+    [m/s²] (n, 3), gravity removed) — :class:`dampfit.record.journal.Journal` streams them
+    to disk."""
     if not 0 < duration <= MAX_DURATION:
         raise InputError(f"duration must be in (0, {MAX_DURATION:g}] s, got {duration:g}")
-    return _Session(client, duration, live or LiveLine(None, enabled=False), clock, sleep).run()
+    return _Session(client, duration, live or LiveLine(None, enabled=False), clock, sleep,
+                    sink).run()
 
 
 class _Session:
     """The state of one :func:`record` call."""
 
-    def __init__(self, client, duration, live, clock, sleep) -> None:
+    def __init__(self, client, duration, live, clock, sleep, sink=None) -> None:
         self.client, self.duration, self.live = client, duration, live
-        self.clock, self.sleep = clock, sleep
+        self.clock, self.sleep, self.sink = clock, sleep, sink
         self.rows = int(duration * MAX_RATE_HZ) + 1000
         self.limit_bytes = 4 * self.rows * _BYTES_PER_VALUE + (1 << 16)
+        self.limit_values = 4 * self.rows + 64
         self.samples = _Samples(self.rows)
         self.stopped_by: str | None = None
         self.error: InputError | None = None
@@ -234,6 +243,10 @@ class _Session:
                                  self.accel.sensor)
         if note:
             notes.append(note)
+        if self.detector.gaps:
+            notes.append(f"{self.detector.gaps} gap(s) in the phone's time stamps longer than "
+                         f"{GAP_S:g} s (the largest {self.detector.largest_gap:.3g} s) while "
+                         "recording")
         info["notes"] = notes
         return Recorded(time=t, accel=a, gravity_removed=self.accel.gravity_removed, info=info,
                         stopped_by=self.stopped_by, error=self.error, interrupt=self.interrupt,
@@ -245,7 +258,7 @@ class _Session:
         session, measuring_seen, last_new, countdown = None, False, self.clock(), 0.0
         while self.stopped_by is None:
             chunk = self.client.get(self.accel, samples.last if samples.n else None,
-                                    self.limit_bytes)
+                                    self.limit_bytes, values=self.limit_values)
             st = chunk.status
             session = st.session if session is None else session
             if st.session != session:
@@ -259,10 +272,18 @@ class _Session:
             if t_new.size:
                 last_new = now
                 detector.feed(t_new, a_new)
+                if self.sink is not None:
+                    self.sink(t_new, a_new, self.accel.gravity_removed)
             self.live.show(detector.elapsed, detector.amplitude, detector.state)
             countdown = max(countdown, st.countdown_ms / 1000.0)
             measuring_seen = measuring_seen or st.measuring
-            if detector.state == DONE:
+            if detector.largest_gap > self.duration:
+                self.error = InputError(
+                    f"the phone's clock jumped by {detector.largest_gap:.3g} s, more than the "
+                    f"{self.duration:g} s recording (a gap in the time stamps); the samples "
+                    "before it are kept")
+                self.stopped_by = "clock jump"
+            elif detector.state == DONE:
                 self.stopped_by = "end of the decay"
             elif samples.n and samples.last - samples.t[0][0] >= self.duration:
                 self.stopped_by = "duration"
@@ -292,7 +313,10 @@ class _Session:
             full = _Samples(self.rows)
             # the phone formats the whole buffers first (slowly): allow for it
             wait = 2 * self.client.timeout + self.samples.n / FULL_FETCH_RATE
-            full.add(self.client.get(self.accel, None, self.limit_bytes, timeout=wait))
+            # twice the values of a poll: the phone measures on until cmd=stop arrives (the
+            # samples beyond ``duration`` are dropped afterwards)
+            full.add(self.client.get(self.accel, None, 2 * self.limit_bytes, timeout=wait,
+                                     values=2 * self.limit_values))
         except KeyboardInterrupt as exc:  # a second Ctrl-C: keep what was polled
             self.interrupt, self.stopped_by = exc, "interrupted twice"
             return t, a, "polled samples"
@@ -337,6 +361,8 @@ def _info(client, config, phone, sensor, t, start_time, started_wall, clock, sto
         "release_time_s": detector.release_time,
         "decay_end_time_s": detector.end_time,
         "noise_floor_m_s2": detector.noise or None,
+        "clock_gaps": {"count": detector.gaps, "largest_s": detector.largest_gap or None,
+                       "longer_than_s": GAP_S},
         "data": final,
         "dropped": dict(dropped),
     }

@@ -32,7 +32,7 @@ from pathlib import Path
 from dampfit.errors import InputError, shown
 from dampfit.io import bounded
 
-__all__ = ["MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_GENERATOR",
+__all__ = ["DIGESTED", "check_digest", "digest_fd", "file_digests", "MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_GENERATOR",
            "REPORT_MARKERS", "Unusable", "open_regular", "read_optional", "read_regular",
            "written_by_dampfit"]
 
@@ -146,3 +146,55 @@ def written_by_dampfit(path: str | os.PathLike, marker: str) -> bool:
     finally:
         os.close(fd)
     return marker in head.decode("utf-8", "replace")
+
+
+# --------------------------------------------------------------- which summary a file is of
+#: The files of a result folder whose SHA-256 summary.json records (``files``), so a
+#: posterior.nc or signals.npz swapped in from another analysis is refused, not redrawn.
+DIGESTED = ("posterior.nc", "signals.npz")
+
+
+def digest_fd(fd: int) -> dict[str, object]:
+    """``{"sha256": hex, "bytes": size}`` of the open file ``fd`` (read with ``pread``: the
+    descriptor's offset is left as it is)."""
+    import hashlib
+
+    h, offset = hashlib.sha256(), 0
+    while True:
+        block = os.pread(fd, 1 << 20, offset)
+        if not block:
+            break
+        h.update(block)
+        offset += len(block)
+    return {"sha256": h.hexdigest(), "bytes": offset}
+
+
+def file_digests(folder: Path, names=DIGESTED) -> dict[str, dict[str, object]]:
+    """The ``files`` section of summary.json: each file's :func:`digest_fd` (files dampfit
+    has just written into ``folder``, opened without following links)."""
+    out = {}
+    for name in names:
+        fd = bounded.open_regular(folder / name, 2**40, missing=InputError(
+            f"{shown(folder / name)} was not written"), what="a result file")
+        try:
+            out[name] = digest_fd(fd)
+        finally:
+            os.close(fd)
+    return out
+
+
+def check_digest(fd: int, path: Path, summary: dict | None) -> None:
+    """Refuse the open ``fd`` of ``path`` (posterior.nc or signals.npz) when ``summary``
+    (the folder's summary.json) records another SHA-256 for it: the file is of another
+    analysis. A summary without ``files`` (written before dampfit recorded them) or without
+    this file's entry is not checked."""
+    files = summary.get("files") if isinstance(summary, dict) else None
+    entry = files.get(path.name) if isinstance(files, dict) else None
+    expected = entry.get("sha256") if isinstance(entry, dict) else None
+    if not isinstance(expected, str):
+        return
+    if digest_fd(fd)["sha256"] != expected:
+        raise InputError(f"{shown(path)} does not belong to {shown(path.parent / 'summary.json')}: "
+                         f"its SHA-256 is not the one recorded there (files.{path.name}); it was "
+                         "replaced or swapped in from another analysis. Re-run 'dampfit "
+                         "analyze', or put back the file written with this summary")

@@ -35,11 +35,11 @@ from typing import Any
 
 from dampfit.errors import DampfitError, InputError
 from dampfit.errors import shown
-from dampfit.result.files import Unusable, open_regular
+from dampfit.result.files import Unusable, check_digest, open_regular
 from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
 from dampfit.result.signals import KNOWN_KEYS, SIGNAL_KEYS, check_signals
 
-__all__ = ["LIVE_FIELDS", "Loaded", "MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES",
+__all__ = ["LIVE_FIELDS", "Loaded", "check_files", "MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES",
            "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "Unavailable", "load_signals", "open_result",
            "read_posterior", "real"]
 
@@ -86,14 +86,14 @@ class Loaded:
 
     def posterior(self):
         if self._posterior is None:
-            self._posterior = read_posterior(self.source.folder)
+            self._posterior = read_posterior(self.source.folder, summary=self.summary)
         return self._posterior
 
     def signals(self) -> dict[str, Any]:
         import numpy as np
 
         if self._signals is None:
-            self._signals = load_signals(self.source.folder, checked=False)
+            self._signals = load_signals(self.source.folder, checked=False, summary=self.summary)
         return {k: np.copy(v) for k, v in self._signals.items()}
 
     def converged(self) -> bool:
@@ -143,15 +143,53 @@ class Unavailable:
 
 
 # ------------------------------------------------------------------------- posterior.nc
-def read_posterior(folder: str | os.PathLike | Any):
+def _summary_of(folder: Any) -> dict | None:
+    """The summary.json that ``folder`` (a path or a loaded result) was written with, for
+    :func:`dampfit.result.files.check_digest`; None when it cannot be read (then nothing is
+    checked: the caller's own reading of the summary reports it)."""
+    data = getattr(folder, "summary", None)
+    if isinstance(data, dict):
+        return data
+    source = getattr(folder, "source", None)
+    if isinstance(getattr(source, "data", None), dict):
+        return source.data
+    try:
+        return read_summary(folder_of(folder)).data
+    except InputError:
+        return None
+
+
+def check_files(folder: str | os.PathLike) -> None:
+    """Refuse result ``folder`` when its posterior.nc or signals.npz is not the file its
+    summary.json records (:func:`dampfit.result.files.check_digest`; one line): ``dampfit
+    report`` checks it before drawing anything. A missing file is left to its reader."""
+    from dampfit.result.files import DIGESTED
+
+    folder = folder_of(folder)
+    summary = read_summary(folder).data
+    for name in DIGESTED:
+        path = folder / name
+        try:
+            fd = open_regular(path, 2**40, missing=FileNotFoundError())
+        except (FileNotFoundError, Unusable):
+            continue
+        try:
+            check_digest(fd, path, summary)
+        finally:
+            os.close(fd)
+
+
+def read_posterior(folder: str | os.PathLike | Any, summary: dict | None = None):
     """The posterior of result ``folder`` as arviz ``InferenceData`` (read into memory).
 
     :class:`InputError` if posterior.nc is missing, not a regular file of the folder (a link,
     FIFO or device: :mod:`dampfit.result.files`), larger than :data:`MAX_POSTERIOR_BYTES`,
     declares more data than it could hold (:func:`_check_declared`, before anything is
-    allocated) or is not a readable NetCDF file of arviz groups. The file checked is the file
-    read (the open descriptor is handed to the reader).
+    allocated), is not the file the folder's summary.json (or ``summary``) records
+    (:func:`dampfit.result.files.check_digest`) or is not a readable NetCDF file of arviz
+    groups. The file checked is the file read (the open descriptor is handed to the reader).
     """
+    expected = summary if summary is not None else _summary_of(folder)
     folder = folder_of(folder)
     path = folder / "posterior.nc"
     fd = open_regular(path, MAX_POSTERIOR_BYTES, missing=InputError(
@@ -159,6 +197,7 @@ def read_posterior(folder: str | os.PathLike | Any):
         what="a posterior of the longest allowed chain is about 2 GB")
     try:
         size = os.fstat(fd).st_size
+        check_digest(fd, path, expected)
         name = _fd_path(fd, path)
         _check_declared(name, size, path)
         idata = _read_idata(name, path)
@@ -233,19 +272,22 @@ def _check_declared(name: str, size: int, path: Path) -> None:
 
 
 # ------------------------------------------------------------------------- signals.npz
-def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[str, Any]:
+def load_signals(folder: str | os.PathLike | Any, checked: bool = True,
+                 summary: dict | None = None) -> dict[str, Any]:
     """Arrays of ``folder/signals.npz`` as float64 NumPy arrays (with ``checked``, the scalars
     ``p``, ``omega_d``, ``t0`` as floats); :class:`InputError` if unusable.
 
     The file must be a regular file of the folder (not a link, FIFO or device) of at most
     :data:`MAX_SIGNALS_BYTES` holding :data:`SIGNAL_KEYS` and optionally the figure arrays,
     as :func:`dampfit.result.signals.check_signals` checks them (shapes, bounds, finite
-    values); other arrays are ignored. The ZIP directory and array headers are checked before
-    anything is allocated, on the descriptor that is then read; only numeric arrays are
-    converted.
+    values); other arrays are ignored. It must be the file the folder's summary.json (or
+    ``summary``) records (:func:`dampfit.result.files.check_digest`). The ZIP directory and
+    array headers are checked before anything is allocated, on the descriptor that is then
+    read; only numeric arrays are converted.
     """
     import numpy as np
 
+    expected = summary if summary is not None else _summary_of(folder)
     path = folder_of(folder) / "signals.npz"
     again = "re-run 'dampfit analyze' (it writes signals.npz)"
     try:
@@ -255,6 +297,7 @@ def load_signals(folder: str | os.PathLike | Any, checked: bool = True) -> dict[
         raise InputError(f"{shown(path)} not found as a regular file: it is {exc.reason}; "
                          f"{again}") from None
     with os.fdopen(fd, "rb") as fh:
+        check_digest(fh.fileno(), path, expected)
         _check_npz(fh, path)
         fh.seek(0)
         try:

@@ -155,7 +155,10 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
      "diagnostics": {"converged", "posterior_converged", "max_r_hat", "min_ess_bulk",
              "n_steps", "burn_in", "thin", "n_walkers", "autocorr_time_steps",
              "acceptance_fraction", "warnings": [str]},
-     "provenance": {"seed", "options", "date", "python", "versions"}}
+     "provenance": {"seed", "options", "date", "python", "versions"},
+     "files": null | {"posterior.nc": {"sha256", "bytes"},       # the files written with
+             "signals.npz": {"sha256", "bytes"}}}    # it (null until saved); a reader refuses
+                                                     # one whose SHA-256 differs
 
 ``model_checks``, ``damping_models``, ``amplitude_curve`` and ``damper`` are null when the
 damping-law assessment could not run. Of status "none" every number of ``damper`` is null and

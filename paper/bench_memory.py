@@ -1,0 +1,82 @@
+"""Benchmark: peak memory of reading (and analysing) a long CSV recording (issue 33).
+
+A free decay of ``--rows`` samples (default 10 million: 5.6 h at 500 Hz) is written as a
+two-column CSV (time [s] ``%.10g``, acceleration [m/s²] ``%.7g``: about 20 bytes a row, 200 MB for 10 M
+rows as in the issue), then a child process runs ``dampfit.read`` of it (``--analyze``: the
+whole ``dampfit analyze FILE --no-figures``) and reports its peak resident memory
+(``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss``, the same number ``/usr/bin/time -v``
+prints as "Maximum resident set size"). The child is a fresh ``python -I`` with this
+source on its path, so the number is that of the command, imports included.
+
+The issue's bound: ≤ 2 GB at the row limit and about 20× the file size at most. Measured
+numbers of this machine are printed and, with ``--json FILE``, written for paper/results.
+
+Usage: ``python paper/bench_memory.py [--rows N] [--analyze] [--json FILE]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def write_csv(path: Path, rows: int, fs: float = 500.0, block: int = 1_000_000) -> int:
+    """A viscous free decay (f = 2 Hz, ζ = 0.001, noise 0.01 m/s²) of ``rows`` samples at
+    ``fs`` [Hz], written in blocks; returns the file's size [bytes]."""
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    with open(path, "w") as fh:
+        fh.write("time,accel\n")
+        for start in range(0, rows, block):
+            t = np.arange(start, min(start + block, rows)) / fs
+            a = 3.0 * np.exp(-0.001 * 2 * np.pi * 2 * t) * np.sin(2 * np.pi * 2 * t)
+            a += 0.01 * rng.standard_normal(t.size)
+            np.savetxt(fh, np.column_stack([t, a]), fmt=["%.10g", "%.7g"], delimiter=",")
+    return path.stat().st_size
+
+
+def peak_of(code: str) -> tuple[float, float]:
+    """(peak resident memory [bytes], wall time [s]) of ``python -I -c code``."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "DAMPFIT_JAX_CACHE": "off"}
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    wall = time.perf_counter() - t0
+    return resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024.0, wall
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rows", type=int, default=10_000_000)
+    ap.add_argument("--analyze", action="store_true", help="the whole dampfit analyze")
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "long.csv"
+        size = write_csv(csv, args.rows)
+        if args.analyze:
+            code = ("import sys; from dampfit.cli import main; sys.exit(main(['analyze', "
+                    f"{str(csv)!r}, '--out', {str(Path(tmp) / 'out')!r}, '--no-figures', "
+                    "'--quiet', '--max-modes', '1']))")
+        else:
+            code = f"from dampfit.io.readers import read; read({str(csv)!r})"
+        peak, wall = peak_of(code)
+    result = {"rows": args.rows, "file_bytes": size, "what": "analyze" if args.analyze else "read",
+              "peak_rss_bytes": peak, "peak_over_file": peak / size, "wall_s": wall}
+    print(f"{result['what']} of {args.rows} rows ({size / 1e6:.0f} MB): peak "
+          f"{peak / 2**30:.2f} GiB = {peak / size:.1f}× the file, {wall:.0f} s")
+    if args.json:
+        args.json.write_text(json.dumps(result, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
