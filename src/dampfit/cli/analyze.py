@@ -49,6 +49,7 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
     """Options of ``dampfit analyze``."""
     a.add_argument("file", metavar="FILE",
                    help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ, "
+                        "LabVIEW .lvm, NI .tdms, UFF 58 .uff/.unv, "
                         "MATLAB .mat")
     a.add_argument("more_files", nargs="*", metavar="FILE",
                    help="further recordings of the same damper: all FILEs are analysed jointly "
