@@ -41,8 +41,8 @@ def _fails(tmp_path, capsys, path, match, *extra) -> str:
 
 
 def _zeta_near(s: dict, truth: float = 0.01) -> None:
-    assert abs(s["parameters"]["zeta"]["median"] / truth - 1) < 0.05
-    assert abs(s["parameters"]["f_n"]["median"] / F1 - 1) < 0.01
+    assert abs(s["parameters"]["zeta"]["q50"] / truth - 1) < 0.05
+    assert abs(s["parameters"]["f_n"]["q50"] / F1 - 1) < 0.01
 
 
 # -- the three DAQ formats analysed ---------------------------------------------------------------

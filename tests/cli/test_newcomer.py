@@ -87,5 +87,5 @@ def test_a_handheld_start_analyses_the_longest_decay_after_it(tmp_path, capsys):
     s = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert 2.0 <= s["window"]["start_s"] < 3.0 and s["window"]["end_s"] > 20
     assert "cut short after 4.6 cycles (a handheld start?)" in out
-    zeta = s["parameters"]["zeta"]["median"]
+    zeta = s["parameters"]["zeta"]["q50"]
     assert abs(zeta / (0.25 / (2 * np.pi * F)) - 1) < 0.05
