@@ -48,10 +48,22 @@ Formats (``Recording.format``)
     or named by ``variable="Fe.Out.Acc"``, with a time row, a sibling time vector or sample
     rate; ``row=`` picks the acceleration row, which is required when the variable has
     several data rows (:mod:`dampfit.io.matlab`).
+``"lvm"`` / ``"tdms"`` / ``"uff58"``
+    LabVIEW Measurement ``.lvm``, NI ``.tdms`` (``group=``, ``channel=``) and UFF data set 58
+    ``.uff``/``.unv`` (``row=`` picks the record) through lvm-read, npTDMS and pyuff, optional
+    extras (:mod:`dampfit.io.daq`).
 ``"npy"`` / ``"npz"``
     NumPy arrays: ``.npy`` of shape (2, N) / (N, 2) = time, acceleration or (4, N) / (N, 4)
     = time, x, y, z; ``.npz`` with arrays named like ``t``/``time`` and ``a``/``acc``/``x``…
     (else the first array is time and the others acceleration).
+
+No time column, and a logger's preamble
+---------------------------------------
+``rate=`` [Hz] gives the time of a table without a time column (``i / rate``); ``channel=``
+names its acceleration column. A data logger's settings lines before the table (CONTEC,
+Graphtec …) are skipped with a note (:mod:`dampfit.io.preamble`). Time stamps that repeat
+split the recording into segments (the longest is analysed); time that goes backwards keeps
+its longest run (:func:`dampfit.io.recording.untangle`).
 
 Empty cells
 -----------
