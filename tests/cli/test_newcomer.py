@@ -89,3 +89,42 @@ def test_a_handheld_start_analyses_the_longest_decay_after_it(tmp_path, capsys):
     assert "cut short after 4.6 cycles (a handheld start?)" in out
     zeta = s["parameters"]["zeta"]["q50"]
     assert abs(zeta / (0.25 / (2 * np.pi * F)) - 1) < 0.05
+
+
+_WIDTH = """<script>window.addEventListener('load', () => {
+  const d = document.createElement('div'); d.id = 'width';
+  d.textContent = 'scroll=' + document.documentElement.scrollWidth + ' client=' +
+    document.documentElement.clientWidth; document.body.appendChild(d);
+});</script>"""
+
+
+@pytest.mark.skipif(not __import__("os").path.isfile("/usr/bin/chromium"),
+                    reason="Debian chromium (/usr/bin/chromium) is not installed")
+def test_report_with_a_modes_table_reads_at_1300_px_without_sideways_scrolling(tmp_path):
+    import re
+    import subprocess
+
+    from dampfit.output.document import render_html
+
+    head = ["mode", "f_n, natural frequency [Hz]", "ζ, damping ratio [1]", "η = 2ζ, loss factor [1]",
+            "Λ, log decrement [1]", "Q⁻¹ = 1/Q, inverse quality factor [1]", "CRLB sd of ζ [1]",
+            "sd / CRLB sd", "max R-hat"]
+    rows = [["1 (the mass's mode)", "12.000595 [12.000570, 12.000620]",
+             "0.0099998 [0.0099977, 0.0100019]", "0.0199996 [0.0199955, 0.0200039]",
+             "0.062834 [0.062821, 0.062847]", "0.0199996 [0.0199955, 0.0200039]", "1.26e-06",
+             "1.01", "1.0085"]] * 3
+    page = render_html("wide", [("h1", "wide"), ("table", head, rows),
+                                ("code", "dampfit export folder --format lsdyna " + "x" * 300)],
+                       tmp_path)
+    page = page.replace("style-src 'unsafe-inline'", "style-src 'unsafe-inline'; "
+                        "script-src 'unsafe-inline'").replace("</body>", _WIDTH + "</body>")
+    html = tmp_path / "wide.html"
+    html.write_text(page, encoding="utf-8")
+    res = subprocess.run(["/usr/bin/chromium", "--headless", "--no-sandbox", "--disable-gpu",
+                          f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1300,2000",
+                          "--virtual-time-budget=3000", "--dump-dom", html.as_uri()],
+                         capture_output=True, text=True, timeout=120)
+    m = re.search(r'id="width">scroll=(\d+) client=(\d+)<', res.stdout)
+    assert m, res.stderr[-500:]
+    assert int(m.group(1)) <= int(m.group(2))  # no sideways scrolling
+    assert '<span>12.000595</span> <span>[12.000570, 12.000620]</span>' in page
