@@ -43,6 +43,8 @@ __all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into"
            "command", "demo", "read_options"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
+#: The demo's last line: the next command, on the user's own recording.
+NEXT_STEP = 'next: dampfit analyze YOUR.csv --mass KG --report   (README: "Your own recording")'
 
 
 def add_arguments(a: argparse.ArgumentParser) -> None:
@@ -320,4 +322,5 @@ def demo(args) -> int:
     inside = c["q05"] <= truth["c"] <= c["q95"]
     print(f"\n  truth c = {truth['c']:g} N s/m is {'inside' if inside else 'OUTSIDE'} the 90 % "
           f"interval [{c['q05']:.5g}, {c['q95']:.5g}]")
+    print(f"\n  {NEXT_STEP}")
     return 0
