@@ -88,6 +88,10 @@ def test_logger_csv_with_preamble_and_no_time_is_analysed_with_rate(tmp_path, ca
     assert list(s["input"]["axis_direction"]) == ["CH3"]
     assert any("14-line header" in n for n in s["input"]["notes"])
     _zeta_near(s)
+    from dampfit.output.report.reproduce import reproduce_command
+
+    cmd = reproduce_command(s, tmp_path / "out-logger.csv")  # the report's command repeats them
+    assert "--rate 1653.0" in cmd and "--channel CH3" in cmd
 
 
 def test_spliced_phyphox_export_analyses_the_longest_segment(tmp_path, capsys):
