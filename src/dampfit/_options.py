@@ -50,6 +50,7 @@ RULES: dict[str, Rule] = {
     "mode_of_mass": Rule("int", f"an integer from 1 to {MAX_MODES_LIMIT}",
                          lambda v: 1 <= v <= MAX_MODES_LIMIT),
     "row": Rule("int", "an integer from 0 to 1023", lambda v: 0 <= v <= 1023),
+    "rate": Rule("real", "a sample rate in Hz, above 0 and at most 1e7", lambda v: 0 < v <= 1e7),
     "window": Rule("real", "a finite time [s]"),
     "band": Rule("real", "a positive frequency [Hz]", lambda v: v > 0),
     "amplitude": Rule("real", "a positive displacement amplitude in metres", lambda v: v > 0),

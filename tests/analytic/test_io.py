@@ -447,18 +447,31 @@ def test_missing_time_cell(tmp_path):
     _raises(_write(tmp_path / "m.csv", "\n".join(lines)), "time has 1 missing")
 
 
-def test_non_monotonic_time(tmp_path):
+def test_non_monotonic_time_keeps_the_longest_run(tmp_path):
     t, accel = _signal()
     t = t.copy()
     t[[10, 11]] = t[[11, 10]]
-    _raises(_write(tmp_path / "n.csv", _table_text("time,acc", [t, accel[:, 1]])), "time goes backwards")
+    rec = read(_write(tmp_path / "n.csv", _table_text("time,acc", [t, accel[:, 1]])))
+    assert rec.n_samples == t.size - 11 and rec.time[0] == t[11]
+    assert any(n.startswith("time goes backwards at sample 12") and "2 runs of time stamps" in n
+               for n in rec.notes)
 
 
-def test_duplicated_time(tmp_path):
+def test_duplicated_time_splits_into_segments(tmp_path):
     t, accel = _signal()
     t = t.copy()
     t[11] = t[10]
-    _raises(_write(tmp_path / "d.csv", _table_text("time,acc", [t, accel[:, 1]])), "time is duplicated")
+    rec = read(_write(tmp_path / "d.csv", _table_text("time,acc", [t, accel[:, 1]])))
+    assert rec.n_samples == t.size - 1 and rec.segments == ((0, 11), (11, t.size - 1))
+    assert any("repeats (sample 12): 2 segments" in n for n in rec.notes)
+
+
+def test_time_with_no_usable_run_is_still_refused(tmp_path):
+    t, accel = _signal()
+    _raises(_write(tmp_path / "r.csv", _table_text("time,acc", [t[::-1], accel[:, 1]])),
+            "time goes backwards at sample 1")
+    _raises(_write(tmp_path / "s.csv", _table_text("time,acc", [np.ones(t.size), accel[:, 1]])),
+            "time is duplicated at sample 1")
 
 
 def test_unknown_columns(tmp_path):
@@ -825,4 +838,5 @@ def test_reading_options_are_recorded(tmp_path):
                time_unit="ms", accel_unit="g")
     assert rec.read_options == {"time_column": "stamp", "accel_columns": ["acc_a"],
                                 "time_unit": "ms", "accel_unit": "g", "sheet": None,
-                                "variable": None, "row": None, "run": None}
+                                "variable": None, "row": None, "run": None, "rate": None,
+                                "group": None, "channel": None}

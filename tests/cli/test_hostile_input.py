@@ -366,11 +366,14 @@ def test_window_across_a_gap_is_refused(tmp_path, capsys):
     _refused(tmp_path, capsys, path, "not inside one continuous part", "--window", "1", "100000")
 
 
-def test_corrupt_timestamp_in_the_middle_is_refused(tmp_path, capsys):
+def test_corrupt_timestamp_in_the_middle_keeps_the_longest_run(tmp_path, capsys):
     t, a = _decay()
     t = t.copy()
-    t[500] = 1e5  # one corrupt stamp: time then goes backwards
-    _refused(tmp_path, capsys, _write(tmp_path / "rec.csv", _csv_text(t, a)), "time goes backwards")
+    t[500] = 1e5  # one corrupt stamp: time then goes backwards; the longer run is analysed
+    s = _analysed(tmp_path, capsys, _write(tmp_path / "rec.csv", _csv_text(t, a)))
+    assert any(n.startswith("time goes backwards at sample 502") for n in s["input"]["notes"])
+    assert s["window"]["end_s"] < 5.0
+    assert abs(s["parameters"]["f_n"]["q50"] / F_TRUE - 1) < 0.01
 
 
 def test_sparse_bursts_are_refused_not_gridded(tmp_path, capsys):

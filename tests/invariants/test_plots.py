@@ -221,3 +221,67 @@ def test_amplitude_figure_draws_zeta_and_backbone(with_mass):
     # no windows at all (a very short recording) still gives a figure, saying why it is empty
     fig = plots.amplitude_figure({"windows": [], "models": {}})
     assert any("no amplitude windows" in t.get_text() for t in fig.axes[0].texts)
+
+
+def _short_span_curve(span: float = 5.0) -> dict:
+    """An amplitude curve over ``span``× in amplitude: windows, a viscous and a Coulomb law
+    (ζ_eq = ζ_v + ζ_c·a_ref/a, falling with amplitude) and a Coulomb fit left flat."""
+    a = np.geomspace(1e-4, span * 1e-4, 8)
+    grid = np.geomspace(a[0], a[-1], 40)
+    wins = [{"amplitude_m": float(x), "zeta": 0.01, "zeta_sd": 0.0005, "f_d_hz": 5.0,
+             "f_d_sd_hz": 0.01} for x in a]
+    return {"windows": wins, "amplitude_grid_m": grid.tolist(), "chosen_model": "coulomb",
+            "models": {"viscous": {"zeta_eq": np.full(grid.size, 0.01).tolist()},
+                       "coulomb": {"zeta_eq": (0.006 + 0.004 * a[0] / grid).tolist()},
+                       "quadratic": {"zeta_eq": np.full(grid.size, 0.01).tolist()}}}
+
+
+@pytest.mark.parametrize("span", [1.5, 4.0, 9.0])
+def test_amplitude_tick_labels_do_not_overlap(span):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    fig = plots.amplitude_figure(_short_span_curve(span))
+    canvas = FigureCanvasAgg(fig)
+    canvas.draw()
+    ax_f = next(ax for ax in fig.axes if ax.get_ylabel() == "damped frequency f_d [Hz]")
+    renderer = canvas.get_renderer()
+    lo, hi = ax_f.get_xlim()
+    boxes = sorted((t.get_window_extent(renderer) for t in
+                    ax_f.xaxis.get_majorticklabels() + ax_f.xaxis.get_minorticklabels()
+                    if t.get_text() and t.get_visible() and lo <= t.get_position()[0] <= hi),
+                   key=lambda b: b.x0)
+    assert len(boxes) >= (2 if span > 2 else 1)
+    assert all(b.x1 < c.x0 for b, c in zip(boxes, boxes[1:])), [(b.x0, b.x1) for b in boxes]
+
+
+def test_every_law_is_drawn_as_it_says():
+    """The Coulomb ζ_eq(a) falls with amplitude as drawn; a law whose fit found no extra
+    term says so beside its flat line."""
+    curve = _short_span_curve()
+    fig = plots.amplitude_figure(curve)
+    lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines() if "ζ_eq(a)" in ln.get_label()}
+    coulomb = lines["coulomb (chosen): ζ_eq(a)"]
+    x, y = np.asarray(coulomb.get_xdata(), float), np.asarray(coulomb.get_ydata(), float)
+    assert np.all(np.diff(y) < 0) and np.all(np.diff(x) > 0)
+    assert "quadratic: ζ_eq(a) (no drag at its fit: flat)" in lines
+    assert "viscous: ζ_eq(a)" in lines  # viscous is flat by law: no note
+
+
+def test_last_cycles_panel_comments_a_model_out_of_phase():
+    import matplotlib.pyplot as plt
+
+    from dampfit.output.figures.fit import PHASE_COMMENT_DEG, _phase_comment, phase_offset
+
+    f0 = 5.0
+    t = np.arange(0, 1, 0.002)
+    model = np.cos(2 * np.pi * f0 * t)
+    assert abs(phase_offset(t, np.cos(2 * np.pi * f0 * t + 0.9), t, model, f0)
+               - np.degrees(0.9)) < 0.5
+    assert abs(phase_offset(t, 2 * model, t, model, f0)) < 0.1
+    fig, (ok, bad) = plt.subplots(1, 2)
+    _phase_comment(ok, t, np.cos(2 * np.pi * f0 * t + np.radians(PHASE_COMMENT_DEG / 2)),
+                   t, model, f0)
+    _phase_comment(bad, t, np.cos(2 * np.pi * f0 * t + 1.2), t, model, f0)
+    assert not ok.texts
+    assert "model 69° behind the data here" in bad.texts[0].get_text()
+    plt.close(fig)

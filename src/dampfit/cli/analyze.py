@@ -43,12 +43,15 @@ __all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into"
            "command", "demo", "read_options"]
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
+#: The demo's last line: the next command, on the user's own recording.
+NEXT_STEP = 'next: dampfit analyze YOUR.csv --mass KG --report   (README: "Your own recording")'
 
 
 def add_arguments(a: argparse.ArgumentParser) -> None:
     """Options of ``dampfit analyze``."""
     a.add_argument("file", metavar="FILE",
                    help="recording: phyphox CSV/ZIP/XLSX, Sensor Logger CSV, CSV/TXT, NPY/NPZ, "
+                        "LabVIEW .lvm, NI .tdms, UFF 58 .uff/.unv, "
                         "MATLAB .mat")
     a.add_argument("more_files", nargs="*", metavar="FILE",
                    help="further recordings of the same damper: all FILEs are analysed jointly "
@@ -325,4 +328,5 @@ def demo(args) -> int:
     inside = c["q05"] <= truth["c"] <= c["q95"]
     print(f"\n  truth c = {truth['c']:g} N s/m is {'inside' if inside else 'OUTSIDE'} the 90 % "
           f"interval [{c['q05']:.5g}, {c['q95']:.5g}]")
+    print(f"\n  {NEXT_STEP}")
     return 0

@@ -151,7 +151,7 @@ def modes_options(args, campaign: bool = False) -> dict:
 def add_reading_options(a: argparse.ArgumentParser) -> None:
     """The reading options of ``dampfit analyze`` and ``dampfit batch``
     (:data:`dampfit.io.readers.READ_OPTIONS`)."""
-    g = a.add_argument_group("reading (generic CSV/NPY, lab exports, Excel, MATLAB)")
+    g = a.add_argument_group("reading (generic CSV/NPY, lab exports, Excel, MATLAB, LVM, TDMS, UFF)")
     g.add_argument("--time-column", metavar="COL", help="time column name or 0-based index")
     g.add_argument("--accel-columns", metavar="COL", nargs="+", help="acceleration column(s)")
     g.add_argument("--time-unit", choices=["s", "ms", "us", "ns"], help="unit of the time column")
@@ -163,7 +163,15 @@ def add_reading_options(a: argparse.ArgumentParser) -> None:
     g.add_argument("--variable", metavar="PATH",
                    help="MATLAB .mat: the array to read, e.g. Fe.Out.Acc (default: detected)")
     g.add_argument("--row", type=rule_arg("row"), metavar="N",
-                   help="MATLAB .mat: 0-based row of that array holding the acceleration")
+                   help="MATLAB .mat: 0-based row of that array holding the acceleration; "
+                        "UFF: the 0-based number of the data set 58 record to read")
+    g.add_argument("--rate", type=rule_arg("rate"), metavar="HZ",
+                   help="sample rate [Hz] of a table without a time column (a data logger's "
+                        "channels): time = sample number / HZ")
+    g.add_argument("--group", metavar="NAME", help="TDMS: the group to read (default: the only one)")
+    g.add_argument("--channel", metavar="NAME",
+                   help="the acceleration channel by name (TDMS, LVM, a logger's column; "
+                        "default: the channels whose unit or name says acceleration)")
 
 
 #: Most local worker processes ``--workers`` may start (each is a Python process with JAX).

@@ -12,6 +12,8 @@
 * :mod:`~dampfit.io.units` — time [s] and acceleration [m/s²] units: from the header, the
   format or inferred from the values, and the conversion;
 * :mod:`~dampfit.io.matlab` — MATLAB .mat files (v4/v5 via SciPy, v7.3 via h5py);
+* :mod:`~dampfit.io.daq` — LabVIEW .lvm, NI .tdms and UFF 58 files (optional extras);
+* :mod:`~dampfit.io.preamble` — a data logger's settings lines before its table;
 * :mod:`~dampfit.io.recording` — the :class:`Recording` type (time [s], acceleration [m/s²])
   and its validation: monotone time, gap splitting, unit notes.
 """

@@ -51,7 +51,8 @@ _LINE_CHUNK = 1 << 24
 
 #: File extensions read as text tables ("" = no extension), and all extensions read.
 TEXT_EXTS = {".csv", ".txt", ".tsv", ".dat", ""}
-_SUPPORTED_EXTS = TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz", ".mat"}
+_SUPPORTED_EXTS = TEXT_EXTS | {".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz", ".mat", ".lvm",
+                                ".tdms", ".uff", ".unv"}
 
 
 def file_kind(mode: int) -> str | None:

@@ -23,7 +23,7 @@ from dampfit.errors import InputError
 from dampfit.io.text import Column, Table
 from dampfit.io.units import name_words, split_name
 
-__all__ = ["Layout", "identify", "role", "select", "axis_names", "looks_like_acceleration"]
+__all__ = ["Layout", "identify", "role", "select", "axis_names", "looks_like_acceleration", "lookup"]
 
 #: phyphox headers: original with units, and the renamed form without.
 _PHYPHOX_TIME = re.compile(r"^time \(s\)$", re.I)
@@ -92,6 +92,8 @@ def _axis_from_name(name: Column) -> str | None:
 
 def identify(table: Table) -> Layout:
     """Recognise the layout from the header (or positions when there is none)."""
+    if table.layout is not None:  # fixed by the reader (a DAQ file's metadata)
+        return table.layout
     cols = list(table.frame.columns)
     if not table.header:
         n_acc = len(cols) - 1
@@ -204,6 +206,12 @@ def _lookup(table: Table, key: Column) -> Column:
     raise InputError(f"column {str(key)!r} not found; available columns: {_column_listing(table)}")
 
 
+def lookup(table: Table, key: Column) -> Column:
+    """A column of ``table`` by name (exact, then case-insensitive) or 0-based position; an
+    unknown one is an :class:`InputError` listing the columns."""
+    return _lookup(table, key)
+
+
 def select(table: Table, layout: Layout, time_column: Column | None,
             accel_columns: tuple[Column, ...] | None) -> tuple[Column, list[Column]]:
     """Time and acceleration columns: the user's ``time_column``/``accel_columns`` (names or
@@ -224,6 +232,7 @@ def select(table: Table, layout: Layout, time_column: Column | None,
         raise InputError(
             f"no {missing} column recognised among columns {_column_listing(table)}; "
             "name them with --time-column/--accel-columns"
+            + (" (or give the sample rate with --rate HZ)" if time is None else "")
         )
     if time in accel:
         raise InputError(f"column {str(time)!r} cannot be both time and acceleration")

@@ -48,10 +48,22 @@ Formats (``Recording.format``)
     or named by ``variable="Fe.Out.Acc"``, with a time row, a sibling time vector or sample
     rate; ``row=`` picks the acceleration row, which is required when the variable has
     several data rows (:mod:`dampfit.io.matlab`).
+``"lvm"`` / ``"tdms"`` / ``"uff58"``
+    LabVIEW Measurement ``.lvm``, NI ``.tdms`` (``group=``, ``channel=``) and UFF data set 58
+    ``.uff``/``.unv`` (``row=`` picks the record) through lvm-read, npTDMS and pyuff, optional
+    extras (:mod:`dampfit.io.daq`).
 ``"npy"`` / ``"npz"``
     NumPy arrays: ``.npy`` of shape (2, N) / (N, 2) = time, acceleration or (4, N) / (N, 4)
     = time, x, y, z; ``.npz`` with arrays named like ``t``/``time`` and ``a``/``acc``/``x``…
     (else the first array is time and the others acceleration).
+
+No time column, and a logger's preamble
+---------------------------------------
+``rate=`` [Hz] gives the time of a table without a time column (``i / rate``); ``channel=``
+names its acceleration column. A data logger's settings lines before the table (CONTEC,
+Graphtec …) are skipped with a note (:mod:`dampfit.io.preamble`). Time stamps that repeat
+split the recording into segments (the longest is analysed); time that goes backwards keeps
+its longest run (:func:`dampfit.io.recording.untangle`).
 
 Empty cells
 -----------
@@ -105,10 +117,12 @@ from dampfit.errors import InputError
 from dampfit.io import bounded
 from dampfit.io import matlab as matfile
 from dampfit.io.bounded import TEXT_EXTS, decode, read_bytes
-from dampfit.io.columns import axis_names, identify, select
+from dampfit.io.columns import axis_names, identify, lookup, role, select
 from dampfit.io.containers import container_table, npy_table, xls_table
+from dampfit.io.daq import daq_kind, daq_table
+from dampfit.io.preamble import strip_preamble
 from dampfit.io.labexports import is_logger_pro, logger_pro_table, native_file_hint, split_runs
-from dampfit.io.recording import Recording, gap_summary
+from dampfit.io.recording import Recording, gap_summary, untangle
 from dampfit.io.text import PEEK_ROWS, Column, Table, text_table
 from dampfit.io.units import ACCEL_ALIASES, TIME_ALIASES, accel_block, canonical_unit, time_axis
 
@@ -117,7 +131,9 @@ __all__ = ["read", "detect_format", "READ_OPTIONS"]
 #: The reading options of :func:`read`, as recorded in ``Recording.read_options`` and
 #: ``provenance.options`` (each is also a ``dampfit analyze`` option, ``_`` → ``-``).
 READ_OPTIONS = ("time_column", "accel_columns", "time_unit", "accel_unit", "sheet", "variable",
-                "row", "run")
+                "row", "run", "rate", "group", "channel")
+#: Largest --rate [Hz] (beyond any accelerometer DAQ).
+MAX_RATE_HZ = 1e7
 
 #: Magic bytes: NumPy .npy, ZIP (also .xlsx and .npz) and OLE2 (legacy .xls).
 _NPY_MAGIC = b"\x93NUMPY"
@@ -137,6 +153,9 @@ def read(
     row: int | None = None,
     run: str | int | None = None,
     window: tuple[float, float] | None = None,
+    rate: float | None = None,
+    group: str | None = None,
+    channel: str | None = None,
 ) -> Recording:
     """Read an accelerometer recording.
 
@@ -160,7 +179,8 @@ def read(
         MATLAB file: the array to read, a dotted struct path such as ``"Fe.Out.Acc"``;
         default: detected (:mod:`dampfit.io.matlab`).
     row
-        MATLAB file: 0-based row (variable) of that array holding the acceleration.
+        MATLAB file: 0-based row (variable) of that array holding the acceleration; UFF file:
+        the 0-based data-set number of the UFF 58 record to read.
     run
         Lab export with several runs: the run to read, by label (``"Run #2"``, ``"Latest"``)
         or number (``2``); default: the first.
@@ -168,6 +188,14 @@ def read(
         (start, end) [s] of the analysis window, if one will be given: rows with empty cells
         outside it are dropped instead of refused (module docstring, "Empty cells"). Not a
         reading option (it is recorded with the analysis options).
+    rate
+        Sample rate [Hz] of a table without a time column (a data logger's channels, a TDMS
+        channel without waveform properties): time is ``i / rate``.
+    group
+        TDMS file: the group to read (default: the only one).
+    channel
+        The acceleration channel by name: of a TDMS group, an LVM file, or a table's column
+        (as ``accel_columns=[channel]``); default: detected.
 
     Returns
     -------
@@ -183,7 +211,7 @@ def read(
     p = Path(path)
     try:
         opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable,
-                             row, run)
+                             row, run, rate, group, channel)
         data = _read_input(p)
         table = _load_table(p, data, opts, nrows=None)
         return _to_recording(table, opts, p, hashlib.sha256(data).hexdigest(), _window(window))
@@ -216,10 +244,13 @@ class _Options:
     variable: str | None = None
     row: int | None = None
     run: str | int | None = None
+    rate: float | None = None
+    group: str | None = None
+    channel: str | None = None
 
     @classmethod
     def make(cls, time_column, accel_columns, time_unit, accel_unit, sheet, variable=None,
-             row=None, run=None) -> _Options:
+             row=None, run=None, rate=None, group=None, channel=None) -> _Options:
         if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
             raise InputError(f"row must be a 0-based row number, got {row!r}")
         if run is not None and (isinstance(run, bool) or not isinstance(run, (str, int))
@@ -241,6 +272,9 @@ class _Options:
             variable=variable,
             row=row,
             run=run,
+            rate=_rate(rate),
+            group=None if group is None else str(group),
+            channel=None if channel is None else str(channel),
         )
 
     def recorded(self) -> dict:
@@ -249,6 +283,21 @@ class _Options:
         if out["accel_columns"] is not None:
             out["accel_columns"] = list(out["accel_columns"])
         return out
+
+
+def _rate(rate) -> float | None:
+    """``rate`` [Hz] checked: a finite number in (0, :data:`MAX_RATE_HZ`] (text from a
+    masses.csv too)."""
+    if rate is None:
+        return None
+    try:
+        value = float(rate)
+    except (TypeError, ValueError):
+        raise InputError(f"rate must be a sample rate in Hz, got {rate!r}") from None
+    if isinstance(rate, bool) or not (np.isfinite(value) and 0 < value <= MAX_RATE_HZ):
+        raise InputError(f"rate must be a sample rate in Hz, above 0 and at most "
+                         f"{MAX_RATE_HZ:g}, got {rate!r}")
+    return value
 
 
 def _window(window) -> tuple[float, float] | None:
@@ -287,6 +336,15 @@ def _located(path: Path, exc: InputError) -> InputError:
 def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> Table:
     """Dispatch on the content (magic bytes), checked against the extension."""
     ext = path.suffix.lower()
+    kind = daq_kind(data, ext)
+    if kind is not None:
+        if opts.variable is not None or opts.sheet is not None or opts.run is not None:
+            raise InputError("--variable, --sheet and --run do not apply to LVM, TDMS or UFF "
+                             "files; choose with --group, --channel or --row")
+        return daq_table(data, kind, path.name, group=opts.group, channel=opts.channel,
+                         row=opts.row, rate=opts.rate, accel_unit=opts.accel_unit)
+    if opts.group is not None:
+        raise InputError("--group applies to TDMS files only")
     if ext == ".mat" or matfile.is_mat(data):
         if opts.run is not None:
             raise InputError("--run applies to lab exports with runs, not to MATLAB files; "
@@ -305,8 +363,22 @@ def _load_table(path: Path, data: bytes, opts: _Options, nrows: int | None) -> T
     else:
         text = decode(data)
         table = logger_pro_table(text, path.name, nrows) if is_logger_pro(text) else \
-            text_table(text, path.name, "text", nrows)
+            _text_table(text, path.name, nrows)
     return split_runs(table, opts.run)
+
+
+def _text_table(text: str, name: str, nrows: int | None) -> Table:
+    """:func:`~dampfit.io.text.text_table`; text that is no table as it stands is tried once
+    more without a data logger's preamble (:mod:`dampfit.io.preamble`)."""
+    try:
+        return text_table(text, name, "text", nrows)
+    except InputError:
+        stripped, note = strip_preamble(text)
+        if note is None:
+            raise
+    table = text_table(stripped, name, "text", nrows)
+    table.notes.insert(0, note)
+    return table
 
 
 def _mat_table(data: bytes, name: str, opts: _Options) -> Table:
@@ -320,7 +392,7 @@ def _format_name(table: Table, kind: str) -> str:
     ``npz``, ``matlab``), the software that wrote it (``table.origin``) and the layout kind
     (``phyphox``, ``sensor-logger``, ``generic``)."""
     source = table.source
-    if source in ("npy", "npz", "matlab"):
+    if source in ("npy", "npz", "matlab", "lvm", "tdms", "uff58"):
         return source
     if table.origin == "logger-pro":
         return "logger-pro-txt"
@@ -337,20 +409,36 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str,
                   window: tuple[float, float] | None = None) -> Recording:
     """Select, convert and validate: the final step of every reader."""
     layout = identify(table)
-    time_col, accel_cols = select(table, layout, opts.time_column, opts.accel_columns)
+    wanted = opts.accel_columns
+    if wanted is None and opts.channel is not None and table.layout is None:
+        wanted = (opts.channel,)
+    if opts.rate is not None and table.layout is None:
+        time_col, accel_cols = _rate_columns(table, layout, opts.time_column, wanted)
+    else:
+        time_col, accel_cols = select(table, layout, opts.time_column, wanted)
     axes = axis_names(table, accel_cols)
     if set(axes) <= {"x", "y", "z"}:
         order = sorted(range(len(axes)), key=lambda i: axes[i])
         axes, accel_cols = [axes[i] for i in order], [accel_cols[i] for i in order]
-    time, time_notes, time_unit, time_source = time_axis(table, time_col, opts.time_unit, layout.units)
+    if time_col is None:  # --rate: time from the sample number
+        time = np.arange(len(table.frame), dtype=np.float64) / opts.rate
+        time_notes, time_unit, time_source = \
+            [f"time from --rate {opts.rate:g} Hz (the table has no time column)"], "s", "given"
+    else:
+        time, time_notes, time_unit, time_source = time_axis(table, time_col, opts.time_unit,
+                                                             layout.units)
     accel, accel_notes = accel_block(table, accel_cols, opts.accel_unit, layout.units)
     notes = list(table.notes) + list(layout.notes)
-    if layout.kind == "generic" and table.header:
+    if layout.kind == "generic" and table.header and table.layout is None and time_col is not None:
         notes.append(f"time from column {str(time_col)!r}; acceleration from {', '.join(repr(str(c)) for c in accel_cols)}")
     keep, empty_notes = _rows_to_keep(time, accel, window)
     if keep is not None:
         time, accel = time[keep], accel[keep]
     notes += empty_notes
+    order, breaks, order_note = untangle(time)
+    if order is not None:
+        time, accel = time[order], accel[order]
+        notes.append(order_note)
     rec = Recording(
         time=time,
         accel=accel,
@@ -363,8 +451,31 @@ def _to_recording(table: Table, opts: _Options, path: Path, sha256: str,
         time_unit=time_unit,
         time_unit_source=time_source,
         read_options=opts.recorded(),
+        breaks=breaks,
     )
-    return rec.with_notes(gap_summary(rec.time, rec.segments)) if len(rec.segments) > 1 else rec
+    return rec.with_notes(gap_summary(rec.time, rec.segments)) \
+        if len(rec.segments) > 1 and not breaks else rec
+
+
+def _rate_columns(table: Table, layout, time_column, wanted) -> tuple[None, list]:
+    """Acceleration columns of a table read with ``rate=`` (time from the sample number): the
+    named ones, else those named as acceleration, else the only column; a table with a time
+    column, or several columns none of which says acceleration, is refused naming them."""
+    if time_column is not None:
+        raise InputError("--rate is for tables without a time column; give --time-column or "
+                         "--rate, not both")
+    if table.header and layout.time_col is not None and role(layout.time_col) == "time":
+        raise InputError(f"has a time column {str(layout.time_col)!r}; --rate is for tables "
+                         "without one (leave --rate out)")
+    cols = list(table.frame.columns)
+    if wanted is not None:
+        return None, [lookup(table, c) for c in wanted]
+    named = [c for c in cols if table.header and role(c) == "accel"]
+    if named or len(cols) == 1:
+        return None, named or cols
+    listing = ", ".join(repr(str(c)) for c in cols[:12]) + (", …" if len(cols) > 12 else "")
+    raise InputError(f"has {len(cols)} columns and none is named as acceleration ({listing}); "
+                     "choose the channel with --channel NAME (or --accel-columns)")
 
 
 def _rows_to_keep(time: np.ndarray, accel: np.ndarray, window: tuple[float, float] | None):

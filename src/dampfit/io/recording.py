@@ -10,7 +10,9 @@ stage may rely on its invariants:
 * |acceleration| ≤ :data:`MAX_ACCEL` (a larger value is a wrong column, unit or a corrupt cell).
 
 The time stamps may have gaps: :func:`time_segments` splits them where a gap is far larger than
-the typical step (a dropout of many seconds, a clock jump or one corrupt time stamp), and the
+the typical step (a dropout of many seconds, a clock jump or one corrupt time stamp), or where
+a reader removed a repeated time stamp (``breaks``: a spliced export, a phone re-excited and
+re-started; :func:`untangle` makes the time increasing first), and the
 analysis uses one continuous segment (:func:`dampfit.signal.prepare.prepare`); the recording itself
 keeps every sample. The time base is judged here, once: ``Recording.segments`` holds the
 continuous segments and ``Recording.time_unit_verdict`` the sentence naming a likely time-unit
@@ -29,7 +31,7 @@ import numpy as np
 from dampfit.errors import InputError
 
 __all__ = ["Recording", "MIN_SAMPLES", "STANDARD_GRAVITY", "MAX_ACCEL", "time_segments",
-           "gap_summary", "GAP_FACTOR", "MIN_GAP_S", "PLAUSIBLE_RATE_HZ"]
+           "gap_summary", "untangle", "GAP_FACTOR", "MIN_GAP_S", "PLAUSIBLE_RATE_HZ"]
 
 #: Fewest samples a recording may have to be analysed at all.
 MIN_SAMPLES = 16
@@ -81,6 +83,9 @@ class Recording:
         The reading options it was read with (:data:`dampfit.io.readers.READ_OPTIONS`, None
         where not given), JSON-safe; recorded in ``provenance.options`` so that the analysis
         can be reproduced. Empty when not read from a file.
+    breaks : tuple of int
+        Sample indices where a new segment starts although the time step there is ordinary:
+        a repeated time stamp was removed before it (:func:`untangle`). Empty by default.
     segments : tuple of (int, int)
         Continuous segments ``(start, stop)`` of the sample indices (:func:`time_segments`),
         judged once when the recording is made.
@@ -100,6 +105,7 @@ class Recording:
     time_unit: str | None = None
     time_unit_source: str | None = None
     read_options: dict = field(default_factory=dict)
+    breaks: tuple[int, ...] = ()
     segments: tuple[tuple[int, int], ...] = field(init=False, repr=False, compare=False)
     time_unit_verdict: str | None = field(init=False, repr=False, compare=False)
 
@@ -109,7 +115,8 @@ class Recording:
         object.__setattr__(self, "accel", a)
         object.__setattr__(self, "axes", tuple(str(x) for x in self.axes))
         object.__setattr__(self, "notes", tuple(self.notes))
-        object.__setattr__(self, "segments", tuple(time_segments(t)))
+        object.__setattr__(self, "breaks", tuple(int(b) for b in self.breaks if 0 < b < t.size))
+        object.__setattr__(self, "segments", tuple(time_segments(t, self.breaks)))
         object.__setattr__(self, "time_unit_verdict", self._judge_time_unit())
 
     def with_notes(self, *notes: str) -> "Recording":
@@ -242,29 +249,94 @@ def _coerce(time, accel, n_axes: int) -> tuple[np.ndarray, np.ndarray]:
     return t, a
 
 
-def time_segments(time: np.ndarray) -> list[tuple[int, int]]:
+def time_segments(time: np.ndarray, breaks=()) -> list[tuple[int, int]]:
     """Continuous parts of strictly increasing ``time`` [s]: ``[(start, stop), …]`` index ranges.
 
     A step larger than both ``GAP_FACTOR`` × the median step and ``MIN_GAP_S`` ends a segment
-    (a long dropout, a clock jump or a corrupt time stamp); one segment means no such gap.
+    (a long dropout, a clock jump or a corrupt time stamp), and so does each index of
+    ``breaks`` (a removed repeated time stamp); one segment means neither.
     """
     t = np.asarray(time, dtype=np.float64)
     if t.size < 2:
         return [(0, int(t.size))]
     dt = np.diff(t)
-    limit = max(GAP_FACTOR * float(np.median(dt)), MIN_GAP_S)
-    cuts = np.flatnonzero(dt > limit) + 1
-    bounds = [0, *cuts.tolist(), int(t.size)]
+    limit = _gap_limit(dt)
+    cuts = sorted(set((np.flatnonzero(dt > limit) + 1).tolist()) | {int(b) for b in breaks})
+    bounds = [0, *cuts, int(t.size)]
     return list(zip(bounds[:-1], bounds[1:]))
 
 
+def _gap_limit(dt: np.ndarray) -> float:
+    return max(GAP_FACTOR * float(np.median(dt)), MIN_GAP_S)
+
+
 def gap_summary(time: np.ndarray, segments: list[tuple[int, int]]) -> str:
-    """One sentence on the gaps between ``segments`` of ``time`` [s] (see :func:`time_segments`)."""
+    """One sentence on the gaps and splices between ``segments`` of ``time`` [s] (see
+    :func:`time_segments`)."""
     t = np.asarray(time, dtype=np.float64)
-    gaps = [(t[a - 1], t[a]) for a, _ in segments[1:]]
-    widest = max(gaps, key=lambda g: g[1] - g[0])
     step = float(np.median(np.diff(t)))
-    more = f" and {len(gaps) - 1} more" if len(gaps) > 1 else ""
-    return (f"time stamps jump by {widest[1] - widest[0]:.4g} s after t = {widest[0]:.6g} s{more} "
-            f"(> {GAP_FACTOR:g}× the median step {step:.3g} s and > {MIN_GAP_S:g} s: a long "
-            f"dropout, clock jump or corrupt time stamp); {len(segments)} continuous segments")
+    limit = _gap_limit(np.diff(t))
+    gaps = [(t[a - 1], t[a]) for a, _ in segments[1:] if t[a] - t[a - 1] > limit]
+    splices = [t[a] for a, _ in segments[1:] if t[a] - t[a - 1] <= limit]
+    parts = []
+    if gaps:
+        widest = max(gaps, key=lambda g: g[1] - g[0])
+        more = f" and {len(gaps) - 1} more" if len(gaps) > 1 else ""
+        parts.append(f"time stamps jump by {widest[1] - widest[0]:.4g} s after t = "
+                     f"{widest[0]:.6g} s{more} (> {GAP_FACTOR:g}× the median step {step:.3g} s "
+                     f"and > {MIN_GAP_S:g} s: a long dropout, clock jump or corrupt time stamp)")
+    if splices:
+        more = f" and {len(splices) - 1} more" if len(splices) > 1 else ""
+        parts.append(f"a time stamp repeats at t = {splices[0]:.6g} s{more} (a spliced or "
+                     "re-started recording)")
+    return f"{'; '.join(parts)}; {len(segments)} continuous segments"
+
+
+def untangle(time: np.ndarray) -> tuple[np.ndarray | None, tuple[int, ...], str | None]:
+    """(samples to keep, ``breaks``, one-line note) for finite ``time`` [s] that repeats or
+    goes backwards; ``(None, (), None)`` when it increases (or nothing usable would be left:
+    :class:`Recording` then refuses it with the first bad sample).
+
+    * Only repeats (a spliced export, a phone re-excited): the second sample of each repeated
+      stamp is dropped and a segment starts after it (``breaks``); every other sample is kept
+      in the one time base, so ``--window`` can reach each segment.
+    * Time goes backwards (recordings appended, a clock reset): the runs of increasing time
+      are separate time bases; the one with the most samples is kept.
+    """
+    t = np.asarray(time, dtype=np.float64)
+    if t.size < 2 or not np.isfinite(t).all():
+        return None, (), None
+    dt = np.diff(t)
+    bad = np.flatnonzero(dt <= 0)
+    if bad.size == 0:
+        return None, (), None
+    starts = [0, *(bad + 1).tolist()]
+    runs = list(zip(starts, [*(bad + 1).tolist(), int(t.size)]))
+    if not (dt < 0).any():
+        keep = np.ones(t.size, dtype=bool)
+        keep[bad + 1] = False
+        position = np.cumsum(keep) - 1
+        breaks = tuple(sorted({int(position[j]) for j in bad + 2 if j < t.size and keep[j]}))
+        kept = t[keep]
+        bounds = [0, *breaks, int(kept.size)]
+        segs = list(zip(bounds[:-1], bounds[1:]))
+        if max(b - a for a, b in segs) < MIN_SAMPLES:
+            return None, (), None
+        named = ", ".join(f"{kept[a]:.6g}–{kept[b - 1]:.6g} s ({b - a} samples)"
+                          for a, b in segs[:4]) + (", …" if len(segs) > 4 else "")
+        return keep, breaks, (
+            f"time stamp t = {t[bad[0]]:.6g} s repeats (sample {bad[0] + 2}"
+            f"{f' and {bad.size - 1} more' if bad.size > 1 else ''}): {len(segs)} segments, "
+            f"{named}; the longest segment is analysed (give --window START END for another)")
+    i, j = max(runs, key=lambda r: r[1] - r[0])
+    if j - i < MIN_SAMPLES:
+        return None, (), None
+    back = int(bad[np.argmax(dt[bad] < 0)])
+    named = ", ".join(f"samples {a + 1}–{b} ({t[a]:.6g}–{t[b - 1]:.6g} s)"
+                      for a, b in runs[:4]) + (", …" if len(runs) > 4 else "")
+    keep = np.zeros(t.size, dtype=bool)
+    keep[i:j] = True
+    return keep, (), (
+        f"time goes backwards at sample {back + 2} (t = {t[back + 1]:.6g} s after "
+        f"{t[back]:.6g} s): {len(runs)} runs of time stamps, {named}; only the longest, samples "
+        f"{i + 1}–{j}, is read (cut the file to read another)")

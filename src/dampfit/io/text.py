@@ -46,6 +46,8 @@ class Table:
     ``origin`` names the lab software that wrote it when the layout tells (``"logger-pro"``,
     ``"graphical-analysis"``, ``"capstone"``; :mod:`dampfit.io.labexports`), and ``runs``
     maps a column to its (run label, column name) where a parser read the runs itself.
+    ``layout`` is a :class:`~dampfit.io.columns.Layout` fixed by a reader that knows the
+    columns from the file's metadata (:mod:`dampfit.io.daq`); None: judged from the header.
     """
 
     frame: pd.DataFrame
@@ -56,6 +58,7 @@ class Table:
     positional_fallback: bool = False
     origin: str | None = None
     runs: dict[str, tuple[str, str]] | None = None
+    layout: object | None = None
 
 
 def _strip_comments(text: str) -> str:

@@ -50,12 +50,15 @@ def read_png(directory: str | os.PathLike, name: str) -> tuple[bytes, int, int] 
 # ----------------------------------------------------------------------------- renderers
 _CSS = """
 body{font-family:system-ui,-apple-system,'Segoe UI',Roboto,Helvetica,Arial,sans-serif;
- max-width:1150px;margin:1.5em auto;padding:0 1em;color:#1d1d1d;line-height:1.45}
+ max-width:1240px;margin:1.5em auto;padding:0 1em;color:#1d1d1d;line-height:1.45}
 h1{font-size:1.55em}h2{border-bottom:1px solid #bbb;margin-top:1.8em;font-size:1.3em}
 h3{font-size:1.1em}h4{font-size:1em;margin:1em 0 .3em}
-table{border-collapse:collapse;margin:.5em 0 1em;font-size:.9em}
+table{border-collapse:collapse;margin:.5em 0 1em;font-size:.9em;display:block;max-width:100%;
+ overflow-x:auto}
 th,td{border:1px solid #c8c8c8;padding:.22em .55em;text-align:left;vertical-align:top}
 th{background:#f0f0f0}td.n{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+td.n.iv{white-space:normal}td.n span{white-space:nowrap}
+p,li,figcaption,.box{overflow-wrap:anywhere}
 .box{border:2px solid;border-radius:4px;padding:.5em 1em;margin:1em 0}
 .box ul{margin:.3em 0;padding-left:1.2em}
 .bad{border-color:#b3001b;background:#fdecee}.ok{border-color:#2e7d32;background:#edf7ed}
@@ -68,6 +71,18 @@ pre{background:#f4f4f4;padding:.6em;white-space:pre-wrap;word-break:break-all}
  figure,.box,table{break-inside:avoid}}
 """
 _NUMERIC = re.compile(r"^[-+−\[\]\d.,e± ]+$|^—$")  # right-aligned table cells
+
+
+def _cell(value: Any, numeric: bool) -> str:
+    """One ``<td>``; a numeric cell with an interval (``0.265 [0.237, 0.296]``) may break
+    between the value and its interval only, so wide tables fit a 1300 px window."""
+    text = str(value)
+    if not numeric:
+        return f"<td>{_h(text)}</td>"
+    head, sep, rest = text.partition(" [")
+    if not sep or not head.strip():
+        return f"<td class=n>{_h(text)}</td>"
+    return f'<td class="n iv"><span>{_h(head)}</span> <span>[{_h(rest)}</span></td>'
 
 
 def _missing_png(name: str) -> str:
@@ -102,8 +117,8 @@ def render_html(title: str, blocks: list[Block], directory: str | os.PathLike) -
             head = "".join(f"<th>{_h(c)}</th>" for c in blk[1])
             text_cols = {0} | {j for j, c in enumerate(blk[1]) if c in ("unit", "note")}
             rows = "".join("<tr>" + "".join(
-                f"<td{' class=n' if j not in text_cols and _NUMERIC.match(str(c)) else ''}>"
-                f"{_h(c)}</td>" for j, c in enumerate(r)) + "</tr>" for r in blk[2])
+                _cell(c, j not in text_cols and bool(_NUMERIC.match(str(c))))
+                for j, c in enumerate(r)) + "</tr>" for r in blk[2])
             out.append(f"<table><thead><tr>{head}</tr></thead><tbody>{rows}</tbody></table>")
         elif kind == "figure":
             name, caption, why = blk[1:]

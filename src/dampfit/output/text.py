@@ -164,6 +164,7 @@ def text(s: dict[str, Any]) -> str:
     if d["warnings"]:
         lines.append("")
         lines += [f"  WARNING: {w}" for w in d["warnings"]]
+    lines.extend(_assumption_lines(s))
     return "\n".join(lines)
 
 
@@ -414,3 +415,23 @@ def html_table(s: dict[str, Any]) -> str:
     return (lead + "<table><thead><tr><th>quantity</th><th>median</th><th>90 % interval</th>"
             f"<th>unit</th></tr></thead><tbody>{rows}</tbody></table>"
             + (f"<p>{'; '.join(foot)}</p>" if foot else ""))
+
+
+#: Words of a reader's or the preparation's note that records an assumption changing a number.
+_ASSUMED = ("assumed", "presumed", "converted", "--rate", "skipped a", "repeats",
+            "goes backwards", "axis auto", "read as", "handheld start")
+
+
+def _assumption_lines(s: dict[str, Any]) -> list[str]:
+    """The assumptions that change a number, one a line, at the end of the table: units
+    guessed or converted, the time base (``--rate``, a preamble skipped, segments), the axis
+    chosen, the mass sd missing (the notes are in summary.json as well)."""
+    inp = s.get("input") if isinstance(s.get("input"), dict) else {}
+    pre = s.get("preprocessing") if isinstance(s.get("preprocessing"), dict) else {}
+    notes = [*(inp.get("notes") or []), *(pre.get("notes") or [])]
+    out = [n for n in notes if isinstance(n, str) and any(w in n for w in _ASSUMED)]
+    m = s.get("mass")
+    if isinstance(m, dict) and isinstance(m.get("value"), (int, float)) and not m.get("sd"):
+        out.append("mass sd not given: the intervals of c and k treat the mass as exact "
+                   "(give --mass-sd KG)")
+    return ["", "  assumptions"] + [f"    {n}" for n in dict.fromkeys(out)] if out else []

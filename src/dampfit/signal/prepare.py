@@ -57,7 +57,7 @@ from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
 from dampfit.signal.spectrum import auto_band, axis_share_warning, dominant_frequency
 from dampfit.signal.window import (
-    DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, noise_floor,
+    DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, later_decay, noise_floor,
 )
 
 __all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_length"]
@@ -452,12 +452,20 @@ def _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor, bnd, note
     (:func:`~dampfit.signal.window.detect_window`), its start moved past the band-pass
     filter's settling, and why it ends; too few cycles left is an :class:`InputError`."""
     spikes = ~usable & ~clipped
-    w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor,
-                                               impacts(t, y, usable, spikes, f0))
-    notes.extend(wnotes)
+    events = impacts(t, y, usable, spikes, f0)
+    w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor, events)
     guard = max(0.5 / f0, 3.0 / bnd[1])
     if (w1 - min(w0 + guard, w1)) * f0 < MIN_CYCLES:
-        raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
+        later = later_decay(grid, env, f0, floor, events, w1, guard, MIN_CYCLES)
+        if later is None:
+            notes.extend(wnotes)
+            raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
+        first, cut = w0, (w1 - w0) * f0
+        w0, w1, wnotes, end_reason = later
+        wnotes = [f"the first decay (from {first:.4g} s) was cut short after {cut:.1f} cycles "
+                  f"(a handheld start?); the longest free decay after it, from {w0:.4g} s, is "
+                  "analysed", *wnotes]
+    notes.extend(wnotes)
     return min(w0 + guard, w1), w1, end_reason
 
 

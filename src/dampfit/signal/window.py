@@ -275,6 +275,31 @@ def detect_window(
     return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes, reason
 
 
+def later_decay(grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events,
+                after: float, guard: float, min_cycles: float, tries: int = 8):
+    """The longest free decay that starts after ``after`` [s] (a handheld start: the first
+    "release" was the hand's motion, cut short where the real release made the envelope rise
+    again): :func:`detect_window` on the rest of the recording, again after each window it
+    finds, up to ``tries`` times. Returns ``(start, end, notes, end_reason)`` of the window with
+    the most cycles of ``f0`` [Hz] past ``guard`` [s], if it has at least ``min_cycles``;
+    else None."""
+    ev_t, ev_a = events
+    best, best_cycles = None, min_cycles
+    per_s = 1.0 / f0
+    for _ in range(tries):
+        i = int(np.searchsorted(grid, after))
+        if grid.size - i < 8 * max(1, int(round(1.0 / (f0 * (grid[1] - grid[0]))))):
+            break
+        keep = ev_t >= grid[i]
+        w0, w1, notes, reason = detect_window(grid[i:], env[i:], f0, floor,
+                                              (ev_t[keep], ev_a[keep]))
+        cycles = (w1 - min(w0 + guard, w1)) * f0
+        if cycles >= best_cycles:
+            best, best_cycles = (w0, w1, notes, reason), cycles
+        after = max(w1, after + per_s)
+    return best
+
+
 def release_time(grid: np.ndarray, env: np.ndarray, start: float, f0: float) -> float:
     """Time [s] the oscillation was released, for a decay window starting at ``start`` [s].
 

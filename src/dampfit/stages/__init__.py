@@ -68,6 +68,10 @@ MIN_EXPLAINED = 0.5
 #: them a unit mix-up (time in ms read as s, or the reverse) is the likely cause.
 PLAUSIBLE_F0_HZ = (0.05, 2000.0)
 PLAUSIBLE_K_N_PER_M = (1e-3, 1e8)
+#: Formats a phone app writes, and the masses [kg] a phone (with a light holder) has: above
+#: PHONE_MASS_KG[1] or below [0] a phone's mass was likely given in grams, or as a tiny part.
+PHONE_FORMATS = ("phyphox-csv", "phyphox-zip", "phyphox-xlsx", "sensor-logger")
+PHONE_MASS_KG = (0.05, 20.0)
 
 #: Residual power relative to the signal's below which a record is noise-free (rounding
 #: only: residual rms < 1e-8 of the signal, 40 dB below a 24-bit converter's resolution).
@@ -129,7 +133,25 @@ def unit_plausibility(rec: Recording, prep: prepare.Prepared, mass: float | None
             out.append(f"the implied stiffness k ≈ {k:.3g} N/m for {mass:g} kg is outside "
                        f"{k_lo:g}–{k_hi:g} N/m; check the time unit (--time-unit: a time "
                        "1000× too small makes k 10⁶× too large) and the mass")
+        out += _phone_mass(rec.format, mass, k)
     return out
+
+
+def _phone_mass(fmt: str, mass: float, k: float) -> list[str]:
+    """A note naming the likely mistake when ``mass`` [kg] cannot be a phone's, for a
+    recording a phone app wrote (``fmt`` in :data:`PHONE_FORMATS`; k [N/m] as implied)."""
+    if fmt not in PHONE_FORMATS:
+        return []
+    lo, hi = PHONE_MASS_KG
+    if mass > hi:
+        return [f"mass {mass:g} kg for a phone recording ({fmt}): a phone weighs about 0.2 kg; "
+                f"if you weighed it in grams, give --mass {mass / 1000:g} (k = {k:.4g} N/m "
+                f"would then be {k / 1000:.4g} N/m)"]
+    if mass < lo:
+        return [f"mass {mass:g} kg for a phone recording ({fmt}) makes k = {k:.3g} N/m the "
+                f"stiffness of a phone weighing {mass * 1000:.3g} g; give the mass in kg of what "
+                "oscillates (the phone with its holder, about 0.2 kg)"]
+    return []
 
 
 def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:

@@ -162,21 +162,51 @@ def _zeta_panel(ax, curve: dict, wins: list[dict], a: np.ndarray) -> np.ndarray:
         if grid.size > 1 and zeta_eq is not None:
             ax.plot(grid, zeta_eq, color=_colour(name, entry),
                     lw=2.0 if name == chosen else 1.0, ls="-" if name == chosen else "--",
-                    label=f"{plain(name)}{' (chosen)' if name == chosen else ''}: ζ_eq(a)")
+                    label=f"{plain(name)}{' (chosen)' if name == chosen else ''}: ζ_eq(a)"
+                          + _flat_note(name, zeta_eq))
     return grid
+
+
+#: What a non-viscous law's extra term is, for the note on a curve its fit left flat.
+_EXTRA_TERM = {"coulomb": "friction", "quadratic": "drag", "power": "exponent ≠ 1"}
+
+
+def _flat_note(name: str, zeta_eq: np.ndarray) -> str:
+    """`` (no friction at its fit: flat)`` for a non-viscous law whose least-squares fit put
+    its amplitude-dependent term at zero (ζ_eq constant to 0.1 %): the law's own shape (a
+    Coulomb ζ_eq falling as 1/a) is then absent from the data, not from the drawing."""
+    z = zeta_eq[np.isfinite(zeta_eq)]
+    if name not in _EXTRA_TERM or z.size < 2 or not np.all(z > 0):
+        return ""
+    return f" (no {_EXTRA_TERM[name]} at its fit: flat)" if z.max() < 1.001 * z.min() else ""
+
+
+def _mantissa_formatter(span: float):
+    """Plain tick labels (``0.0002``) of a log axis spanning less than a decade (``span`` =
+    largest / smallest amplitude shown): every minor tick below a 3× span, else only the
+    mantissas 2 and 5 (and the decades), so that labels never overlap."""
+    from matplotlib.ticker import FuncFormatter
+
+    keep = range(1, 10) if span < 3 else (1, 2, 5)
+
+    def label(v, _):
+        if not (np.isfinite(v) and v > 0):
+            return ""
+        m = v / 10 ** math.floor(math.log10(v) + 1e-9)
+        return f"{v:.3g}" if abs(m - round(m)) < 1e-6 and round(m) in keep else ""
+
+    return FuncFormatter(label)
 
 
 def _log_amplitudes(ax, ax_f, span: np.ndarray) -> None:
     """The shared amplitude axis on a log scale; plain numbers on a span of less than a
     decade (``span``: the amplitudes [m] shown)."""
-    from matplotlib.ticker import FuncFormatter
-
     ax.set_xscale("log")
     L.log_ticks(ax.xaxis)
-    fixed = FuncFormatter(lambda v, _: f"{v:.3g}")  # not 2.2×10⁻¹ on a short log span
-    if span.size and span.max() < 10 * span.min():
-        ax_f.xaxis.set_major_formatter(fixed)
-        ax_f.xaxis.set_minor_formatter(fixed)
+    if span.size and span.max() < 10 * span.min():  # not 2.2×10⁻¹ on a short log span
+        ratio = float(span.max() / span.min())
+        ax_f.xaxis.set_major_formatter(_mantissa_formatter(ratio))
+        ax_f.xaxis.set_minor_formatter(_mantissa_formatter(ratio))
 
 
 def _zeta_title(ax, slope: Any) -> None:

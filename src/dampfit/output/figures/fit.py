@@ -78,6 +78,7 @@ def fit_figure(an: Any) -> "Figure":
         ax.set_ylabel("acceleration [m/s²]")
         L.title(ax, f"{name} {ZOOM_CYCLES:g} cycles")
         ax.grid(alpha=0.3)
+        _phase_comment(ax, t_fit[s], y_fit[s], t_mod, y_mod, f0)
     ax_z0.legend(loc="upper right", fontsize=7, framealpha=0.9)
 
     rows_res = _residuals(ax_res, t_fit, a["fit_residual"], dot, per_cycle, many, sigma, d)
@@ -101,6 +102,34 @@ def fit_figure(an: Any) -> "Figure":
         L.place(gs, left=left, right=0.2, top=top, bottom=bottom,
                 wgap=L.y_room([ax_z1]) + 0.15)
     return fig
+
+
+#: |phase| [deg] between the data and the model in a zoom panel from which it is commented.
+PHASE_COMMENT_DEG = 30.0
+
+
+def phase_offset(t: np.ndarray, y: np.ndarray, t_mod: np.ndarray, y_mod: np.ndarray,
+                 f0: float) -> float:
+    """Phase [deg] of the data ``y`` relative to the model over the samples ``t`` [s]: ``y ≈
+    A·m + B·q`` by least squares, with m the model interpolated at ``t`` and q its quadrature
+    (dm/dt)/(2π·f0), φ = atan2(B, A) (> 0: the data lead). NaN with too few samples."""
+    if t.size < 8 or t_mod.size < 2 or not f0 > 0:
+        return float("nan")
+    m = np.interp(t, t_mod, y_mod)
+    q = np.gradient(m, t) / (2 * np.pi * f0)
+    coef, *_ = np.linalg.lstsq(np.column_stack([m, q]), y, rcond=None)
+    return float(np.degrees(np.arctan2(coef[1], coef[0])))
+
+
+def _phase_comment(ax, t, y, t_mod, y_mod, f0) -> None:
+    """A note in a zoom panel whose model is out of phase with the data (|φ| >
+    :data:`PHASE_COMMENT_DEG`): the frequency drifts, or the model is wrong there."""
+    phi = phase_offset(t, y, t_mod, y_mod, f0)
+    if np.isfinite(phi) and abs(phi) > PHASE_COMMENT_DEG:
+        ax.text(0.02, 0.04, f"model {abs(phi):.0f}° {'behind' if phi > 0 else 'ahead of'} the "
+                "data here:\nthe frequency drifts over the decay\n(see f(A) in amplitude.png)",
+                transform=ax.transAxes, fontsize=7, color="tab:red", va="bottom",
+                bbox=dict(boxstyle="round", fc="white", ec="tab:red", alpha=0.85), zorder=5)
 
 
 def _residuals(ax, t_fit, res, dot, per_cycle, many, sigma, d) -> int:

@@ -15,6 +15,7 @@ lose the recording. Its command re-analyses the recording into a new folder besi
 
 from __future__ import annotations
 
+import math
 import os
 import shlex
 from pathlib import Path
@@ -74,7 +75,8 @@ def _modes_flags(opts: dict) -> list[str]:
 #: The reading options recorded in ``provenance.options`` (:data:`dampfit.io.readers.READ_OPTIONS`)
 #: and what each value may be to become a flag again.
 _READ_FLAGS = {"time_column": "one", "accel_columns": "many", "time_unit": "one",
-               "accel_unit": "one", "sheet": "one", "variable": "one", "row": "int", "run": "one"}
+               "accel_unit": "one", "sheet": "one", "variable": "one", "row": "int", "run": "one",
+               "rate": "number", "group": "one", "channel": "one"}
 
 
 def _flag(flag: str, value: str) -> list[str]:
@@ -94,6 +96,9 @@ def _read_flags(opts: dict) -> list[str]:
         flag = "--" + key.replace("_", "-")
         if kind == "int" and isinstance(v, int) and not isinstance(v, bool) and v >= 0:
             parts += [flag, str(v)]
+        elif kind == "number" and isinstance(v, (int, float)) and not isinstance(v, bool) \
+                and math.isfinite(v) and v > 0:
+            parts += [flag, repr(float(v))]
         elif kind == "one" and isinstance(v, (str, int)) and not isinstance(v, bool):
             parts += _flag(flag, str(v))
         elif kind == "many" and isinstance(v, list) and v and all(
