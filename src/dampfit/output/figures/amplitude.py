@@ -167,8 +167,9 @@ def _zeta_panel(ax, curve: dict, wins: list[dict], a: np.ndarray) -> np.ndarray:
     return grid
 
 
-#: What a non-viscous law's extra term is, for the note on a curve its fit left flat.
-_EXTRA_TERM = {"coulomb": "friction", "quadratic": "drag", "power": "exponent ≠ 1"}
+#: The note on a non-viscous law's curve that its fit left flat (no extra term found).
+_FLAT_NOTE = {"coulomb": " (no friction at its fit: flat)", "quadratic": " (no drag at its fit: flat)",
+              "power": " (exponent 1 at its fit: flat)"}
 
 
 def _flat_note(name: str, zeta_eq: np.ndarray) -> str:
@@ -176,9 +177,9 @@ def _flat_note(name: str, zeta_eq: np.ndarray) -> str:
     its amplitude-dependent term at zero (ζ_eq constant to 0.1 %): the law's own shape (a
     Coulomb ζ_eq falling as 1/a) is then absent from the data, not from the drawing."""
     z = zeta_eq[np.isfinite(zeta_eq)]
-    if name not in _EXTRA_TERM or z.size < 2 or not np.all(z > 0):
+    if name not in _FLAT_NOTE or z.size < 2 or not np.all(z > 0):
         return ""
-    return f" (no {_EXTRA_TERM[name]} at its fit: flat)" if z.max() < 1.001 * z.min() else ""
+    return _FLAT_NOTE[name] if z.max() < 1.001 * z.min() else ""
 
 
 def _mantissa_formatter(span: float):
