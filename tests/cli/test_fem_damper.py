@@ -102,7 +102,7 @@ def test_law_viscous_writes_c_linear_and_warns(tmp_path, capsys):
     c_lin = json.loads((folder / "summary.json").read_text())["damper"]["c_linear"]["q50"]
     text = out.read_text()
     assert lsdyna.read_deck(text)["c"] == pytest.approx(c_lin, rel=1e-6)
-    assert "warning: --law viscous" in err and "power law" in err
+    assert "dampfit: warning: --law viscous" in err and "power law" in err
     assert "--law viscous: a linear dashpot" in " ".join(
         line[2:] for line in text.splitlines() if line.startswith("$"))
     assert "dampfit export" in text and "--law viscous" in text  # the command in the header
@@ -124,7 +124,7 @@ def test_a_misfit_exports_nothing_without_force_law(tmp_path, capsys):
     (folder / "summary.json").write_text(json.dumps(summary))
     code, _, err = run(["export", folder, "--format", "opensees", "--out", out,
                         "--force-law", "power"], capsys)
-    assert code == 0 and "warning: --force-law power" in err
+    assert code == 0 and "dampfit: warning: --force-law power" in err
     assert "law_alpha = 0.6" in out.read_text()
 
 

@@ -27,7 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="hang the mass under gravity, released from static equilibrium + u0")
     parser.add_argument("--duration", type=float_arg, metavar="S",
                         help="simulated time [s] (default: the analysed window)")
-    parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT)")
+    parser.add_argument("--out", metavar="FILE", help="output file (default: DIR/sdof_FORMAT.EXT; "
+                        "with --draws a folder, default DIR/sdof_FORMAT_draws)")
     parser.add_argument("--force", action="store_true", help="replace an existing output file")
     parser.add_argument("--law", metavar="LAW",
                         help="'viscous': a linear dashpot (under a non-viscous verdict the "
@@ -46,10 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def command(args: argparse.Namespace) -> int:
     """Write the deck and print what it holds; exit code 0."""
-    import sys
-
     import numpy as np
 
+    from dampfit.cli import messages
     from dampfit.fem.export import export
 
     out, info = export(args.folder, args.format, args.out, units=args.units,
@@ -58,17 +58,15 @@ def command(args: argparse.Namespace) -> int:
                        force_law=getattr(args, "force_law", None),
                        draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     dmp = info["damper"]
+    for warning in dmp.warnings:  # also in the deck; printed once the command has succeeded
+        messages.defer(f"dampfit: warning: {warning}")
     if "rows" in info:  # --draws
-        for warning in dmp.warnings:
-            print(f"warning: {warning}", file=sys.stderr)
         z = np.array([r["zeta_eq_at_design"] for r in info["rows"]])
         print(f"wrote {out}: draws.csv and {info['n']} {FORMATS[args.format][0]}s of the "
               f"{info['law']} damper (posterior draws, seed {info['seed']}, units {info['units']})")
         print(f"  zeta_eq at the design amplitude over the draws: median {np.median(z):.4g}, "
               f"5-95 % [{np.quantile(z, 0.05):.4g}, {np.quantile(z, 0.95):.4g}]")
         return 0
-    for warning in dmp.warnings:
-        print(f"warning: {warning}", file=sys.stderr)
     s, u = info["sdof"], units_mod.get(info["units"])
     print(f"wrote {out} ({FORMATS[args.format][0]}, units {u.name}, posterior quantile "
           f"{info['quantile']:g}{', gravity' if info['gravity'] else ''})")

@@ -316,22 +316,22 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
         if kind == "u" and "u_linear" in a:
             ax.plot(t[sel], scale * a["u_linear"][sel], color="tab:blue", lw=0.8, ls=":",
                     label="OpenSees FEM (linear dashpot at the design amplitude)")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
     if "band" in a:
         b = a["band"]
         full.fill_between(b["t"], 1e3 * b["lo"], 1e3 * b["hi"], color="tab:orange", alpha=0.35,
                           lw=0, label=f"envelope of {b['n']} posterior draws (5-95 %)")
         full.fill_between(b["t"], -1e3 * b["hi"], -1e3 * b["lo"], color="tab:orange", alpha=0.35,
                           lw=0)
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
     full.legend(loc="upper right")
     rep = result["report"]
     s = rep["system"]
     full.set_title(f"FEM (m = {s['mass']['value']:.4g} kg, k = {s['k']['value']:.5g} N/m, "
                    f"{law} damper) vs measurement — displacement NMSE "
                    f"{_fmt(rep['displacement']['vs_measured']['nmse'])}, acceleration NMSE "
-                   f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}; "
+                   f"{_fmt(rep['acceleration']['vs_measured']['nmse'])}\n"
                    + envelope_words(rep), fontsize=9)
     path = Path(path)
     fmt = figure_format(path)
