@@ -232,6 +232,9 @@ def test_sanitisers_keep_ordinary_text_readable():
     assert sanitize.python_comment("/data/run 3") == "/data/run 3"
     assert shown("/data/run 3") == "/data/run 3"
     assert sanitize.lsdyna_comment("") == ["$"]
+    # dampfit's own verdicts reach deck headers: their symbols are spelled, not turned into "?"
+    assert (sanitize.ascii_line("ζ changes by at most 0.35 % — F = c·|v|^α, ≤ 2 µm")
+            == "zeta changes by at most 0.35 % - F = c*|v|^alpha, <= 2 um")
 
 
 # -- bad summary.json values: exit 2, one line naming field and file, nothing written --------

@@ -18,8 +18,10 @@ card. Every such value goes through the function of its format:
 (A value inside a one-line error message goes through :func:`dampfit.errors.shown`.)
 
 The deck sanitisers reduce text to printable ASCII (letters with accents lose the accent,
-``Dämpfer`` → ``Dampfer``; other characters become ``?``), turn every line break and control
-character into a blank and shorten text beyond ``limit`` characters with ``...``.
+``Dämpfer`` → ``Dampfer``; the symbols dampfit's own texts use are spelled out, ``ζ`` →
+``zeta``, ``·`` → ``*``, ``≤`` → ``<=`` (:data:`SPELLED`); other characters become ``?``), turn
+every line break and control character into a blank and shorten text beyond ``limit``
+characters with ``...``.
 """
 
 from __future__ import annotations
@@ -33,6 +35,17 @@ __all__ = ["ascii_line", "calculix_comment", "lsdyna_comment", "lsdyna_title", "
 #: Longest text kept from one value in a comment [characters].
 COMMENT_LIMIT = 500
 
+#: ASCII spellings of the symbols in dampfit's own verdicts and notes (Greek letters of the
+#: quantities, operators, dashes), so a deck's comment reads "zeta changes" rather than "? changes".
+SPELLED = {
+    "ζ": "zeta", "α": "alpha", "β": "beta", "γ": "gamma", "δ": "delta", "η": "eta", "λ": "lambda",
+    "Λ": "Lambda", "μ": "mu", "ν": "nu", "ρ": "rho", "σ": "sigma", "τ": "tau", "φ": "phi",
+    "ψ": "psi", "ω": "omega", "Ω": "Omega", "θ": "theta", "χ": "chi", "Δ": "Delta",
+    "·": "*", "×": "x", "±": "+/-", "≤": "<=", "≥": ">=", "≈": "~", "≠": "!=", "−": "-",
+    "–": "-", "—": "-", "→": "->", "²": "^2", "³": "^3", "√": "sqrt", "∞": "inf", "°": " deg",
+    "µ": "u", "…": "...", "‘": "'", "’": "'", "“": "'", "”": "'",
+}
+
 
 def _shorten(text: str, limit: int | None) -> str:
     if limit is not None and len(text) > limit:
@@ -43,9 +56,10 @@ def _shorten(text: str, limit: int | None) -> str:
 def ascii_line(text: object, limit: int | None = COMMENT_LIMIT) -> str:
     """``text`` as one line of printable ASCII (0x20–0x7E), blanks collapsed, at most ``limit``
     characters. Accents are dropped (NFKD), other non-ASCII characters become ``?``, line
-    breaks, tabs and every other control or format character a blank."""
+    breaks, tabs and every other control or format character a blank; the symbols of
+    :data:`SPELLED` are spelled out first."""
     out = []
-    for ch in unicodedata.normalize("NFKD", str(text)):
+    for ch in unicodedata.normalize("NFKD", "".join(SPELLED.get(c, c) for c in str(text))):
         if " " <= ch <= "~":
             out.append(ch)
         elif unicodedata.category(ch) == "Mn":  # combining accent of a decomposed letter
