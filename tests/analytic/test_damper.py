@@ -278,3 +278,19 @@ def test_an_edited_damper_section_renders_everywhere_without_a_crash():
             render.text(s), render.html_table(s), render.headline(s)
             title, blocks = build_single({"summary": s}, __import__("pathlib").Path("."), "now")
             assert blocks[0][0] == "h1"
+
+
+@pytest.mark.parametrize("verdict", ["misfit", "inconclusive", "adequate"])
+def test_the_report_verdict_words_speak_of_zeta_without_a_mass(verdict):
+    from pathlib import Path
+
+    from dampfit.output.report.checks import model_checks
+
+    s = summary(mass={"value": None, "sd": None, "unit": "kg"})
+    s["model_checks"] = {"verdict": verdict, "verdict_reasons": ["why"], "verdict_law": None}
+    words = str(model_checks(s, Path(".")))
+    assert "viscous c" not in words and "c and its interval" not in words
+    assert "ζ" in words
+    s["mass"]["value"] = 0.2
+    with_mass = str(model_checks(s, Path(".")))
+    assert any(w in with_mass for w in ("viscous c", "(c)", "so c and"))

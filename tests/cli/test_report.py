@@ -591,7 +591,7 @@ def test_one_number_is_printed_alike_by_the_tables_and_the_reports(summary):
     ls = point(0.20031234, q["q05"], q["q95"])
     assert ls == "0.200" and point(q["q50"], q["q05"], q["q95"]) == med
     table = render.text(s)
-    row = next(x for x in table.splitlines() if x.lstrip().startswith("c "))
+    row = next(x for x in table.splitlines() if x.lstrip().startswith("c      [N s/m]"))
     assert re.search(rf" {re.escape(med)} +\[ *{re.escape(lo)}, +{re.escape(hi)}\]", row), row
     assert f"c = {ls}," in next(x for x in table.splitlines() if "least squares" in x)
     assert f"<td>{med}</td><td>[{lo}, {hi}]</td>" in render.html_table(s)

@@ -51,4 +51,5 @@ def test_the_recommended_damper_is_the_simulated_law(law, tmp_path):
     draws = back.damper_draws
     assert draws.attrs["law"] == law and draws.sizes["draw"] == d["draws"]["n"]
     for name in truth:
-        assert float(np.median(draws[name])) == pytest.approx(d["coefficients"][name]["q50"])
+        assert float(np.median(draws[name])) == pytest.approx(d["coefficients"][name]["q50"],
+                                                              rel=0.02)  # a thinned subset

@@ -30,8 +30,9 @@ need the mass (:attr:`~dampfit.model.laws.Coefficient.per_mass`) are given per k
 ones (α), ``mass``, ``k`` and ``c_linear`` are null and ``missing`` says why; ζ_lin, f_n and the
 ±10 % range are given. No FEM damper can be written from it.
 
-The draws (a seeded, thinned subset of at most :data:`MAX_DRAWS`) are kept for posterior.nc's
-``damper`` group. Numeric only: no I/O.
+Every summary is of all the law's draws (so the viscous c is printed with the interval of
+``parameters.c``); a seeded, thinned subset of at most :data:`MAX_DRAWS` is kept for
+posterior.nc's ``damper`` group. Numeric only: no I/O.
 """
 
 from __future__ import annotations
@@ -290,11 +291,12 @@ def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
     if not (np.isfinite(lo) and np.isfinite(hi) and 0 < lo <= hi):
         return _empty(v, "no displacement amplitude was measured in the window",
                       misfit_advice({}))
-    keep = _thin(len(draws.a0), seed)
-    d = LawDraws(name, np.asarray(draws.theta)[keep], np.asarray(draws.a0)[keep],
-                 None if draws.mass is None else np.asarray(draws.mass)[keep],
+    d = LawDraws(name, np.asarray(draws.theta, float), np.asarray(draws.a0, float),
+                 None if draws.mass is None else np.asarray(draws.mass, float),
                  draws.method, draws.converged, draws.note, draws.span_s)
     numbers, arrays = _numbers(name, d, (float(lo), float(hi)), amplitude, mass, mass_sd)
+    keep = _thin(len(d.a0), seed)  # the summaries are of every draw; the group keeps a subset
+    arrays = {k: np.asarray(v)[keep] for k, v in arrays.items()}
     section: dict[str, Any] = {"status": "viscous-stands" if verdict == "inconclusive"
                                else "recommended", "verdict": v, "law": name, **numbers}
     section["reason"] = _reason(verdict, name, first, ctx, d)
@@ -306,7 +308,7 @@ def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
         "per-kilogram coefficients are under per_unit_mass")
     section["posterior"] = {"method": d.method, "converged": bool(d.converged),
                             "note": d.note or None}
-    section["draws"] = {"group": "damper", "n": int(len(d.a0))}
+    section["draws"] = {"group": "damper", "n": int(len(keep))}
     attrs = {"law": name, "design_amplitude_m": section["design_amplitude"]["displacement_m"]}
     return Damper(section, arrays, attrs)
 

@@ -20,22 +20,23 @@ __all__ = ["CRITERIA_WORDS", "VERDICT_WORDS", "amplitude", "model_checks"]
 
 
 #: The adequacy verdicts (:data:`dampfit.damping.checks.VERDICTS`) in plain words — the rule
-#: of :func:`dampfit.damping.checks.adequacy`, which needs evidence both ways.
+#: of :func:`dampfit.damping.checks.adequacy`, which needs evidence both ways; ``{c}`` is c, or
+#: ζ without a mass (no c was computed).
 VERDICT_WORDS = {
-    "adequate": "one viscous damping coefficient c describes the whole decay: the data rule out "
+    "adequate": "one viscous damping ({c}) describes the whole decay: the data rule out "
                 "a change of ζ by 1.25× or more over the recorded amplitudes, and the residual "
                 "is white at f₀.",
     "amplitude-dependent": "damping depends on amplitude — the windowed ζ(A) slope shows it, or "
                            "decisive evidence for a damping law that the windows confirm; the "
-                           "{law} law describes it best. A single viscous c holds at one "
-                           "amplitude only (the equivalent c below).",
+                           "{law} law describes it best, and it is the recommended damper at "
+                           "the top. A single viscous {c} holds at one amplitude only.",
     "amplitude-dependent-nolaw": "damping depends on amplitude (the windowed ζ(A) slope shows "
                                  "it), but no damping law describes it reliably (each sits on a "
-                                 "prior bound or is ill-conditioned). A single viscous c holds "
+                                 "prior bound or is ill-conditioned). A single viscous {c} holds "
                                  "at one amplitude only.",
     "misfit": "the free-decay model does not describe this waveform and no damping law explains "
-              "it, so c and its interval are not trustworthy; check the window and the set-up.",
-    "inconclusive": "the recording cannot tell whether one viscous c is adequate: either it "
+              "it, so {c} and its interval are not trustworthy; check the window and the set-up.",
+    "inconclusive": "the recording cannot tell whether one viscous {c} is adequate: either it "
                     "could not have seen a dependence (the amplitudes span too little, or the "
                     "residual is structured at f₀), or the evidence of one is weak, or no decay "
                     "was measured — the first reason below says which.",
@@ -111,6 +112,11 @@ def _laws(s: dict) -> list[Block]:
                        "note"], rows),
             ("p", ["Weight: posterior probability of each law from its log evidence; parameters "
                    "with their units; ζ_eq the energy-equivalent viscous damping ratio."])]
+
+
+def _c_or_zeta(s: dict) -> str:
+    """"c", or "ζ" when no mass was given (then no c was computed)."""
+    return "c" if isnum(get(s, "mass", "value")) else "ζ"
 
 
 def _coefficients(entry: dict) -> dict[str, str]:
@@ -243,7 +249,8 @@ def model_checks(s: dict, directory: Path) -> list[Block]:
                and "verdict_law" in mc and not mc.get("verdict_law") else verdict)
         words = VERDICT_WORDS.get(key, "") if isinstance(key, str) else ""
         out.append(("p", [("b", f"Verdict: {number(verdict)}")]
-                    + ([" — " + words.format(law=number(law))] if words else [])))
+                    + ([" — " + words.format(law=number(law), c=_c_or_zeta(s))] if words
+                       else [])))
         reasons = mc.get("verdict_reasons")
         if isinstance(reasons, list) and reasons:
             out += [("p", ["Why:"]), ("ul", [[number(r)] for r in reasons])]
