@@ -1,15 +1,19 @@
 """Benchmark: peak memory of reading (and analysing) a long CSV recording (issue 33).
 
 A free decay of ``--rows`` samples (default 10 million: 5.6 h at 500 Hz) is written as a
-two-column CSV (time [s] ``%.10g``, acceleration [m/s²] ``%.7g``: about 20 bytes a row, 200 MB for 10 M
-rows as in the issue), then a child process runs ``dampfit.read`` of it (``--analyze``: the
+two-column CSV (time [s] ``%.10g``, acceleration [m/s²] ``%.7g``: about 20 bytes a row, 213 MB for 10 M
+rows; the issue's file was 174 MB), then a child process runs ``dampfit.read`` of it (``--analyze``: the
 whole ``dampfit analyze FILE --no-figures``) and reports its peak resident memory
 (``resource.getrusage(RUSAGE_CHILDREN).ru_maxrss``, the same number ``/usr/bin/time -v``
-prints as "Maximum resident set size"). The child is a fresh ``python -I`` with this
-source on its path, so the number is that of the command, imports included.
+prints as "Maximum resident set size"). The child is a fresh ``python`` with this
+source (or ``--src``) on its path, so the number is that of the command, imports included.
 
 The issue's bound: ≤ 2 GB at the row limit and about 20× the file size at most. Measured
-numbers of this machine are printed and, with ``--json FILE``, written for paper/results.
+(paper/results/bench_memory.json): reading 10 M rows of time and one axis peaks at 1.26 GiB
+(6.3× the file; the same before and after issue 33); reading costs about 60 bytes a value,
+hence :data:`dampfit.io.bounded.MAX_CELLS` = 30 M values. The analysis of a long recording
+costs far more than its reading (1.5 GB for 1 M samples of time and three axes): not bounded
+yet.
 
 Usage: ``python paper/bench_memory.py [--rows N] [--analyze] [--json FILE]``.
 """
@@ -45,9 +49,10 @@ def write_csv(path: Path, rows: int, fs: float = 500.0, block: int = 1_000_000) 
     return path.stat().st_size
 
 
-def peak_of(code: str) -> tuple[float, float]:
-    """(peak resident memory [bytes], wall time [s]) of ``python -I -c code``."""
-    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "DAMPFIT_JAX_CACHE": "off"}
+def peak_of(code: str, src: Path = ROOT / "src") -> tuple[float, float]:
+    """(peak resident memory [bytes], wall time [s]) of ``python -c code`` with the dampfit
+    source ``src`` (another checkout's ``src`` to compare versions)."""
+    env = {**os.environ, "PYTHONPATH": str(src), "DAMPFIT_JAX_CACHE": "off"}
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
     wall = time.perf_counter() - t0
@@ -59,6 +64,8 @@ def main() -> None:
     ap.add_argument("--rows", type=int, default=10_000_000)
     ap.add_argument("--analyze", action="store_true", help="the whole dampfit analyze")
     ap.add_argument("--json", type=Path)
+    ap.add_argument("--src", type=Path, default=ROOT / "src",
+                    help="the dampfit source measured (default this checkout's)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         csv = Path(tmp) / "long.csv"
@@ -69,8 +76,8 @@ def main() -> None:
                     "'--quiet', '--max-modes', '1']))")
         else:
             code = f"from dampfit.io.readers import read; read({str(csv)!r})"
-        peak, wall = peak_of(code)
-    result = {"rows": args.rows, "file_bytes": size, "what": "analyze" if args.analyze else "read",
+        peak, wall = peak_of(code, args.src)
+    result = {"src": str(args.src), "rows": args.rows, "file_bytes": size, "what": "analyze" if args.analyze else "read",
               "peak_rss_bytes": peak, "peak_over_file": peak / size, "wall_s": wall}
     print(f"{result['what']} of {args.rows} rows ({size / 1e6:.0f} MB): peak "
           f"{peak / 2**30:.2f} GiB = {peak / size:.1f}× the file, {wall:.0f} s")

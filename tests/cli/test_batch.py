@@ -394,6 +394,7 @@ def _summary(verdict, damper=None, reasons=("the decay rate stays within its int
                       "not_ruled_out": "a Coulomb share below 20 %"}, "inconclusive"),
     ("misfit", {"status": "none", "reason": "no law fits the residuals",
                 "try": "a longer window"}, "misfit"),
+    (None, {"status": "none", "reason": "no verdict could be made"}, "inconclusive"),
 ])
 def test_a_rows_status_is_its_verdict_with_the_verdicts_reason(verdict, damper, status):
     from dampfit.batch.task import status_of

@@ -74,13 +74,15 @@ def damper_of(summary: dict[str, Any]) -> dict[str, Any]:
 def status_of(summary: dict[str, Any]) -> tuple[str, str]:
     """A row's status from its verdict, and the verdict's own reason: ``ok`` only when a
     damper is recommended (``damper.status`` "recommended"; a summary without the section:
-    ``model_checks.verdict`` adequate or amplitude-dependent); ``misfit`` when no law fits;
-    else ``inconclusive``."""
+    ``model_checks.verdict`` adequate or amplitude-dependent); ``misfit`` when no law fits
+    (verdict misfit); else ``inconclusive`` (viscous stands unproven, or no verdict could be
+    made)."""
     d = summary.get("damper") if isinstance(summary.get("damper"), dict) else None
     checks = summary.get("model_checks") if isinstance(summary.get("model_checks"), dict) else {}
     verdict = checks.get("verdict")
     if d is not None and isinstance(d.get("status"), str):
-        status = {"recommended": "ok", "none": "misfit"}.get(d["status"], "inconclusive")
+        status = ("ok" if d["status"] == "recommended" else
+                  "misfit" if d["status"] == "none" and verdict == "misfit" else "inconclusive")
         reason = " ".join(x for x in (d.get("reason"), d.get("not_ruled_out"), d.get("try"))
                           if isinstance(x, str) and x)
     else:

@@ -8,7 +8,8 @@ directories are refused before they are opened, so a ``/dev/zero`` link or a nam
 neither block nor read forever. :func:`decode` turns the bytes of a text table into ``str``
 (UTF-8 with or without BOM, UTF-16 with BOM, else Latin-1; ``\r\n`` and lone ``\r`` read as
 ``\n``) after refusing binary junk, lines over :data:`MAX_LINE_BYTES` [bytes] and more than
-:data:`MAX_ROWS` lines.
+:data:`MAX_ROWS` lines; :func:`dampfit.io.text.text_table` refuses more than
+:data:`MAX_CELLS` values before parsing (the memory of a parse grows with the values).
 
 All limits on hostile input live here (sizes in bytes); the other readers look them up through
 this module at call time, so one ``monkeypatch.setattr(bounded, "MAX_…", …)`` lowers a limit
@@ -27,7 +28,7 @@ import numpy as np
 from dampfit.errors import InputError, shown
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO", "RATIO_MIN_BYTES",
-           "MAX_LINE_BYTES", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "decode", "file_kind",
+           "MAX_LINE_BYTES", "MAX_CELLS", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "decode", "file_kind",
            "open_regular", "read_fd", "read_regular", "read_bytes", "size_text"]
 
 #: Largest input file [bytes] read at all (1 GiB: ~25 million rows of phone CSV).
@@ -46,6 +47,11 @@ MAX_LINE_BYTES = 64 * 1024
 MAX_COLUMNS = 1000
 #: Most lines of a text table (11 hours at 500 Hz); bounds the parsed table's memory.
 MAX_ROWS = 20_000_000
+#: Most values (rows × columns) of a text table: reading one peaks at about 60 bytes a value
+#: (the file's bytes, its text, the parsed columns and the recording;
+#: ``paper/bench_memory.py``), so 30 M values stay under 2 GB — 15 M rows of time and one
+#: axis, 7.5 M rows of time and three axes, 6 M rows of phyphox's five columns.
+MAX_CELLS = 30_000_000
 #: Bytes scanned at a time when looking for the longest line.
 _LINE_CHUNK = 1 << 24
 

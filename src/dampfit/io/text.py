@@ -154,16 +154,14 @@ def text_table(text: str, name: str, source: str, nrows: int | None) -> Table:
     """Parse delimited text with pandas' C engine after sniffing the dialect ourselves."""
     text = _strip_comments(text)
     dialect = sniff_dialect(text)
+    _check_cells(text, dialect)
     notes = []
     if dialect.decimal == ",":
         sep_name = {"\t": "tab", ";": "semicolon", "|": "pipe", r"\s+": "whitespace"}.get(dialect.sep, "")
         notes.append(f"read as {sep_name}-separated text with decimal comma")
     try:
-        # UTF-8 bytes, not a StringIO: CPython's StringIO holds its text as 4-byte code
-        # points (4× the file); the C engine reads bytes in chunks (paper/bench_memory.py)
         frame = pd.read_csv(
-            io.BytesIO(text.encode("utf-8")),
-            encoding="utf-8",
+            io.StringIO(text),
             sep=dialect.sep if dialect.sep is not None else ",",
             decimal=dialect.decimal,
             header=0 if dialect.header else None,
@@ -181,6 +179,21 @@ def text_table(text: str, name: str, source: str, nrows: int | None) -> Table:
     if frame.shape[0] == 0:
         raise InputError("has a header but no data rows")
     return Table(frame, dialect.header, source, name, notes)
+
+
+def _check_cells(text: str, dialect: _Dialect) -> None:
+    """Refuse, before parsing, a table of more than :data:`~dampfit.io.bounded.MAX_CELLS`
+    values (data lines × the columns of the first data line): the parse's memory grows
+    with them (about 60 bytes a value at its peak)."""
+    rows = text.count("\n") + (not text.endswith("\n")) - dialect.header
+    lines = (ln for ln in io.StringIO(text[:1 << 20]) if ln.strip())
+    if dialect.header:
+        next(lines, "")
+    width = max(len(_split(next(lines, "").rstrip("\n"), dialect.sep)), 1)
+    if rows * width > bounded.MAX_CELLS:
+        raise InputError(f"has {rows} rows of {width} column(s), {rows * width} values, more "
+                         f"than the limit of {bounded.MAX_CELLS} (about 2 GB to read); keep "
+                         "fewer columns, split or decimate the recording")
 
 
 def drop_empty_unnamed(frame: pd.DataFrame) -> pd.DataFrame:

@@ -32,7 +32,7 @@ from pathlib import Path
 from dampfit.errors import InputError, shown
 from dampfit.io import bounded
 
-__all__ = ["DIGESTED", "check_digest", "digest_fd", "file_digests", "MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_GENERATOR",
+__all__ = ["DIGESTED", "ForeignFile", "check_digest", "digest_fd", "file_digests", "MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_GENERATOR",
            "REPORT_MARKERS", "Unusable", "open_regular", "read_optional", "read_regular",
            "written_by_dampfit"]
 
@@ -183,6 +183,10 @@ def file_digests(folder: Path, names=DIGESTED) -> dict[str, dict[str, object]]:
     return out
 
 
+class ForeignFile(InputError):
+    """A result file that is not the one its summary.json records (another analysis's)."""
+
+
 def check_digest(fd: int, path: Path, summary: dict | None) -> None:
     """Refuse the open ``fd`` of ``path`` (posterior.nc or signals.npz) when ``summary``
     (the folder's summary.json) records another SHA-256 for it: the file is of another
@@ -194,7 +198,7 @@ def check_digest(fd: int, path: Path, summary: dict | None) -> None:
     if not isinstance(expected, str):
         return
     if digest_fd(fd)["sha256"] != expected:
-        raise InputError(f"{shown(path)} does not belong to {shown(path.parent / 'summary.json')}: "
+        raise ForeignFile(f"{shown(path)} does not belong to {shown(path.parent / 'summary.json')}: "
                          f"its SHA-256 is not the one recorded there (files.{path.name}); it was "
                          "replaced or swapped in from another analysis. Re-run 'dampfit "
                          "analyze', or put back the file written with this summary")

@@ -160,10 +160,12 @@ def _summary_of(folder: Any) -> dict | None:
 
 
 def check_files(folder: str | os.PathLike) -> None:
-    """Refuse result ``folder`` when its posterior.nc or signals.npz is not the file its
-    summary.json records (:func:`dampfit.result.files.check_digest`; one line): ``dampfit
-    report`` checks it before drawing anything. A missing file is left to its reader."""
-    from dampfit.result.files import DIGESTED
+    """Refuse result ``folder`` when its posterior.nc or signals.npz is a readable file of
+    another analysis, not the one its summary.json records
+    (:func:`dampfit.result.files.check_digest`; one line): ``dampfit report`` checks it
+    before drawing anything. A missing or unreadable file is left to its reader (the
+    figures it feeds are then not drawn, with a note)."""
+    from dampfit.result.files import DIGESTED, ForeignFile
 
     folder = folder_of(folder)
     summary = read_summary(folder).data
@@ -171,10 +173,18 @@ def check_files(folder: str | os.PathLike) -> None:
         path = folder / name
         try:
             fd = open_regular(path, 2**40, missing=FileNotFoundError())
-        except (FileNotFoundError, Unusable):
+        except (FileNotFoundError, InputError):
             continue
         try:
             check_digest(fd, path, summary)
+        except ForeignFile:
+            reader = read_posterior if name == "posterior.nc" else load_signals
+            try:
+                reader(folder, summary=summary)  # raises ForeignFile only if it is readable
+            except ForeignFile:
+                raise
+            except InputError:
+                continue
         finally:
             os.close(fd)
 
@@ -197,10 +207,10 @@ def read_posterior(folder: str | os.PathLike | Any, summary: dict | None = None)
         what="a posterior of the longest allowed chain is about 2 GB")
     try:
         size = os.fstat(fd).st_size
-        check_digest(fd, path, expected)
         name = _fd_path(fd, path)
         _check_declared(name, size, path)
         idata = _read_idata(name, path)
+        check_digest(fd, path, expected)  # readable, but is it this summary's?
     finally:
         os.close(fd)
     if "posterior" not in idata.groups():
@@ -297,7 +307,6 @@ def load_signals(folder: str | os.PathLike | Any, checked: bool = True,
         raise InputError(f"{shown(path)} not found as a regular file: it is {exc.reason}; "
                          f"{again}") from None
     with os.fdopen(fd, "rb") as fh:
-        check_digest(fh.fileno(), path, expected)
         _check_npz(fh, path)
         fh.seek(0)
         try:
@@ -313,6 +322,7 @@ def load_signals(folder: str | os.PathLike | Any, checked: bool = True,
             raise
         except Exception as exc:  # noqa: BLE001 - a corrupt file is the user's input
             raise InputError(f"{shown(path)} is not a readable .npz ({type(exc).__name__})") from None
+        check_digest(fh.fileno(), path, expected)  # readable, but is it this summary's?
     sig = check_signals(sig, path)
     if checked:
         for key in ("p", "omega_d", "t0"):
