@@ -122,3 +122,27 @@ def test_a_terminal_gets_a_bar(recording, tmp_path, capsys, monkeypatch):
     drawn = tty.getvalue()
     assert "viscous posterior:" in drawn and "\r" in drawn and "%|" in drawn, drawn
     assert not ETA_LINE.search(drawn)  # bars, not the lines of a log
+
+
+def test_a_kernel_compiled_on_a_cold_store_is_announced_with_an_estimate(tmp_path, monkeypatch):
+    """The first run's compiles are said, each with this machine's last compile time of that
+    kernel (none yet: said so); a kernel loaded from the store says nothing."""
+    import numpy as np
+
+    from dampfit.inference import executables
+
+    monkeypatch.setenv(executables.ENV, str(tmp_path / "store"))
+
+    def double(x):
+        return 2.0 * x
+
+    log = io.StringIO()
+    with _progress.reporting(log):
+        executables.Kernel(double)(np.ones(3))
+        executables.Kernel(double)(np.ones(5))  # a new shape: compiled, estimated from the first
+        executables.Kernel(double)(np.ones(3))  # a new process's view: loaded, nothing to say
+    lines = log.getvalue().splitlines()
+    assert len(lines) == 2, lines
+    assert lines[0].startswith("compiling kernel double for this recording's shapes")
+    assert "first compile here" in lines[0]
+    assert re.search(r"\(once per machine; ~\d+ s, as last time\)$", lines[1]), lines[1]
