@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any, Iterator, TextIO
 
 __all__ = ["LineProgress", "Reporter", "active", "announce", "eta_text", "progress_bar",
-           "reporting", "stage_bar"]
+           "reporting", "silenced", "stage_bar"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,16 @@ def reporting(file: TextIO | None = None, *, bars: bool | None = None) -> Iterat
     token = _REPORTER.set(Reporter(file, bars))
     try:
         yield _REPORTER.get()
+    finally:
+        _REPORTER.reset(token)
+
+
+@contextlib.contextmanager
+def silenced() -> Iterator[None]:
+    """No progress inside this block (the analyses inside ``dampfit warm-up``'s own stage)."""
+    token = _REPORTER.set(None)
+    try:
+        yield
     finally:
         _REPORTER.reset(token)
 

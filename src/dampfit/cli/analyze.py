@@ -348,5 +348,17 @@ def demo(args) -> int:
     inside = c["q05"] <= truth["c"] <= c["q95"]
     print(f"\n  truth c = {truth['c']:g} N s/m is {'inside' if inside else 'OUTSIDE'} the 90 % "
           f"interval [{c['q05']:.5g}, {c['q95']:.5g}]")
-    print(f"\n  {NEXT_STEP}")
+    _suggest_warm_up()
+    print(f"\n  {NEXT_STEP}")  # the last line
     return 0
+
+
+def _suggest_warm_up() -> None:
+    """After a demo that had to compile kernels (a new machine or dampfit version): say that
+    ``dampfit warm-up`` compiles those of every other recording length once."""
+    from dampfit.inference.executables import compiled_count
+
+    if compiled_count():
+        print(f"\n  this machine compiled {compiled_count()} kernels for the demo's recording "
+              "length; `dampfit warm-up` compiles those of every other length once, so that "
+              "a first analysis of your own recording starts at once")

@@ -53,6 +53,11 @@ never load an executable of the old code. Outputs must be arrays or (nested) tup
 arrays (their structure is stored as JSON, not pickled); a kernel with other outputs is
 compiled and kept in memory only.
 
+A compile is announced where progress is reported (:func:`dampfit._progress.announce`: the
+CLI without ``--quiet``) with an estimate, this kernel's last compile time on this machine,
+kept in the store's ``compile-times.json`` entry (authenticated as the others; an estimate
+only, so a missing or damaged one just means "its first compile here").
+
 Calls go through :class:`jax.stages.Compiled` (≈ 50 µs more per call than ``jax.jit``'s C++
 path), so kernels called thousands of times per run (the sampler's log-probability) stay on
 ``jax.jit``.
@@ -76,8 +81,8 @@ from typing import Any, Callable
 from dampfit._progress import announce
 from dampfit.files.private import PrivateStore, UnsafeFolder, open_store
 
-__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "kernel", "open_checked", "source_digest",
-           "store", "store_dir"]
+__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "compiled_count", "kernel",
+           "open_checked", "source_digest", "store", "store_dir"]
 
 #: Environment variable naming the checked folder of stored executables (set by the CLI for
 #: itself and its child processes; unset: :data:`SWITCH` or the default folder decides).
@@ -331,6 +336,7 @@ class Kernel:
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
         self.compiled += 1
+        _COMPILED[0] += 1
         _record_time(folder, stem, time.monotonic() - t0)
         try:
             payload, _, out_tree = serialize_executable.serialize(compiled)
@@ -344,6 +350,16 @@ class Kernel:
         except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
             pass
         return compiled, False
+
+
+#: Kernels compiled in this process because the store lacked them (:func:`compiled_count`).
+_COMPILED = [0]
+
+
+def compiled_count() -> int:
+    """How many kernels this process compiled because the store lacked them (a warm store:
+    none; the count ``dampfit warm-up`` reports)."""
+    return _COMPILED[0]
 
 
 #: The store's entry of the last compile time [s] of each kernel on this machine (the
