@@ -15,8 +15,8 @@ from dampfit import simulate as sim
 from dampfit.cli import main
 
 #: one line of a stage's progress: "viscous posterior: 50 %, ~12 s left"
-ETA_LINE = re.compile(r"^(?P<stage>[^\n:]+(?::[^\n:%]+)?): (?P<pct>\d+) %, ~\d+(\.\d)? (s|min|h) left$",
-                      re.M)
+ETA_LINE = re.compile(
+    r"^(?P<stage>[^\n:]+(?::[^\n:%]+)?): (?P<pct>\d+) %, ~\d+(\.\d)? (s|min|h) left$", re.M)
 FAST = ["--mass", "5.3", "--no-figures", "--max-modes", "1", "--model", "viscous"]
 
 

@@ -64,7 +64,8 @@ def test_after_warm_up_a_new_recording_compiles_no_kernel(tmp_path):
     assert prepare.padded_length(prepare.fit_data(prepare.prepare(rec)).tau.size) <= 512
     warm = _dampfit(["warm-up", "--max-samples", "512"], env)
     assert warm.returncode == 0, warm.stderr
-    assert re.search(r"3 sample buckets \(256 … 512 samples\) warm; [1-9]\d* kernels", warm.stdout)
+    assert re.search(r"3 sample buckets \(256 … 512 samples\) warm; [1-9]\d* kernels",
+                     warm.stdout), warm.stdout
     assert "warm-up: sample buckets: done in" in warm.stderr
     first = _dampfit(["analyze", new, "--mass", "5.3", "--no-figures", "--out",
                       tmp_path / "o"], env)
