@@ -48,7 +48,8 @@ def analyze(
     ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
     the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
     (start, end) [s] and ``band`` (low, high) [Hz] override the automatic choices. ``seed``
-    makes the posterior reproducible; ``progress`` shows a progress bar.
+    makes the posterior reproducible; ``progress`` shows the progress of every long stage
+    (:mod:`dampfit._progress`).
 
     ``model`` (``auto``, ``viscous``, ``coulomb``, ``quadratic``, ``power``) chooses the damping
     law reported as ``c_equivalent`` (:mod:`dampfit.damping`): ``auto`` compares them all and
@@ -82,11 +83,23 @@ def analyze(
     # BLAS on one thread (threadpoolctl): every matrix here is thin (n × a few columns), and
     # OpenBLAS's spinning worker threads only compete with the CLI's figure process or a
     # batch's other worker for the cores (measured: 0.3 s of a 4 s CLI run on 2 cores)
-    with threadpool_limits(limits=1, user_api="blas"):
+    with threadpool_limits(limits=1, user_api="blas"), _reporting(progress):
         return _analyze(recording, mass, mass_sd, axis=axis, window=window, band=band,
                         seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
                         model=model, amplitude=amplitude, on_stage=on_stage,
                         max_modes=max_modes, mode_of_mass=mode_of_mass)
+
+
+def _reporting(progress: bool):
+    """With ``progress`` and no caller's :func:`dampfit._progress.reporting`: tqdm bars of
+    every long stage (the CLI chooses bars or lines itself)."""
+    import contextlib
+
+    from dampfit import _progress
+
+    if progress and not _progress.active():
+        return _progress.reporting(bars=True)
+    return contextlib.nullcontext()
 
 
 def _analyze(recording, mass, mass_sd, *, axis, window, band, seed, progress, max_steps,

@@ -218,6 +218,7 @@ LAYERS = (
     ("dampfit.result", 7),
     ("dampfit.output", 8),
     ("dampfit.analysis", 9), ("dampfit.pipeline", 9), ("dampfit.campaign", 9),
+    ("dampfit.warmup", 9),
     ("dampfit.fem", 10), ("dampfit.record", 10),
     ("dampfit.study", 11), ("dampfit.batch", 11),
     ("dampfit.api", 12),

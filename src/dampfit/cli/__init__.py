@@ -54,6 +54,7 @@ from dampfit.cli import report as _report
 from dampfit.cli import simulate as _simulate
 from dampfit.cli import study as _study
 from dampfit.cli import verify as _verify
+from dampfit.cli import warm_up as _warm_up
 from dampfit.cli import messages
 from dampfit.cli.options import Parser as _Parser
 from dampfit.errors import DampfitError, InputError
@@ -80,6 +81,8 @@ COMMANDS = (
      _batch.add_arguments, _batch.command),
     ("study", "simulation study comparing damping estimators (Dask, resumable)",
      _study.add_arguments, _study.command),
+    ("warm-up", "compile the analysis kernels once per machine (a first analysis then loads them)",
+     _warm_up.add_arguments, _warm_up.command),
 )
 
 

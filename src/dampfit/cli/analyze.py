@@ -186,15 +186,33 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
     if shown_path is not None or notes:
         rec = dataclasses.replace(rec, path=str(shown_path) if shown_path else rec.path,
                                   notes=(*rec.notes, *notes))
-    an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                 window=tuple(args.window) if args.window else None,
-                 band=tuple(args.band) if args.band else None, seed=args.seed,
-                 progress=not args.quiet and sys.stderr.isatty(),
-                 max_steps=args.max_steps, model=args.model, amplitude=args.amplitude,
-                 on_stage=figs.send, **modes_options(args))
-    gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
-    an.save(folder, figures=not args.no_figures, figure_process=figs)
+    with progress_reporting(args):
+        an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
+                     window=tuple(args.window) if args.window else None,
+                     band=tuple(args.band) if args.band else None, seed=args.seed,
+                     progress=not args.quiet, max_steps=args.max_steps, model=args.model,
+                     amplitude=args.amplitude, on_stage=figs.send, **modes_options(args))
+        gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
+        save_with_progress(an, folder, figures=not args.no_figures, figure_process=figs)
     return an
+
+
+def progress_reporting(args):
+    """The long stages' progress on stderr (:mod:`dampfit._progress`): a tqdm bar with its ETA
+    on a terminal, a few lines a stage with their ETAs anywhere else; none with ``--quiet``."""
+    from dampfit._progress import reporting
+
+    return contextlib.nullcontext() if args.quiet else reporting(sys.stderr)
+
+
+def save_with_progress(an, folder, **kw) -> None:
+    """``an.save(folder, **kw)`` as the last stage of the progress: "writing results"."""
+    from dampfit._progress import stage_bar
+
+    with stage_bar(1, "writing results" + (" and figures" if kw.get("figures") else ""),
+                   unit="folder") as bar:
+        an.save(folder, **kw)
+        bar.update(1)
 
 
 def _check_campaign_options(args, files: list[str]) -> None:
@@ -270,13 +288,15 @@ def campaign_command(args, files: list[str]) -> int:
         recs = [_read_named(read, f, opts) for f in files]
         kw = {"added_mass": list(args.added_mass), "added_mass_sd": args.added_mass_sd or 0.0} \
             if args.added_mass is not None else {}
-        an = analyze_campaign(recs, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                              window=tuple(args.window) if args.window else None,
-                              band=tuple(args.band) if args.band else None, seed=args.seed,
-                              progress=not args.quiet and sys.stderr.isatty(),
-                              max_steps=args.max_steps,
-                              max_modes=modes_options(args, campaign=True)["max_modes"], **kw)
-        an.save(folder, figures=not args.no_figures)
+        with progress_reporting(args):
+            an = analyze_campaign(recs, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
+                                  window=tuple(args.window) if args.window else None,
+                                  band=tuple(args.band) if args.band else None,
+                                  seed=args.seed, progress=not args.quiet,
+                                  max_steps=args.max_steps,
+                                  max_modes=modes_options(args, campaign=True)["max_modes"],
+                                  **kw)
+            save_with_progress(an, folder, figures=not args.no_figures)
         folder.publish()
         if args.report:
             _write_report(out)
@@ -316,10 +336,10 @@ def demo(args) -> int:
             sim.write_truth(truth, csv.with_suffix(".truth.json"))
         # the recording is read from the staging folder but lives at its final path
         rec = dataclasses.replace(read(csv), path=str(folder.target / csv.name))
-        an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
-                     progress=not args.quiet and sys.stderr.isatty(),
-                     on_stage=figs.send)
-        an.save(folder, figures=not args.no_figures, figure_process=figs)
+        with progress_reporting(args):
+            an = analyze(rec, mass=cfg.mass, mass_sd=DEMO_MASS_SD, seed=args.seed,
+                         progress=not args.quiet, on_stage=figs.send)
+            save_with_progress(an, folder, figures=not args.no_figures, figure_process=figs)
         folder.publish()
         if args.report:
             _write_report(out)
@@ -328,5 +348,17 @@ def demo(args) -> int:
     inside = c["q05"] <= truth["c"] <= c["q95"]
     print(f"\n  truth c = {truth['c']:g} N s/m is {'inside' if inside else 'OUTSIDE'} the 90 % "
           f"interval [{c['q05']:.5g}, {c['q95']:.5g}]")
-    print(f"\n  {NEXT_STEP}")
+    _suggest_warm_up()
+    print(f"\n  {NEXT_STEP}")  # the last line
     return 0
+
+
+def _suggest_warm_up() -> None:
+    """After a demo that had to compile kernels (a new machine or dampfit version): say that
+    ``dampfit warm-up`` compiles those of every other recording length once."""
+    from dampfit.inference.executables import compiled_count
+
+    if compiled_count():
+        print(f"\n  this machine compiled {compiled_count()} kernels for the demo's recording "
+              "length; `dampfit warm-up` compiles those of every other length once, so that "
+              "a first analysis of your own recording starts at once")

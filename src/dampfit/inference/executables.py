@@ -53,6 +53,11 @@ never load an executable of the old code. Outputs must be arrays or (nested) tup
 arrays (their structure is stored as JSON, not pickled); a kernel with other outputs is
 compiled and kept in memory only.
 
+A compile is announced where progress is reported (:func:`dampfit._progress.announce`: the
+CLI without ``--quiet``) with an estimate, this kernel's last compile time on this machine,
+kept in the store's ``compile-times.json`` entry (authenticated as the others; an estimate
+only, so a missing or damaged one just means "its first compile here").
+
 Calls go through :class:`jax.stages.Compiled` (≈ 50 µs more per call than ``jax.jit``'s C++
 path), so kernels called thousands of times per run (the sampler's log-probability) stay on
 ``jax.jit``.
@@ -68,14 +73,16 @@ import platform
 import re
 import struct
 import threading
+import time
 import warnings
 from pathlib import Path
 from typing import Any, Callable
 
+from dampfit._progress import announce
 from dampfit.files.private import PrivateStore, UnsafeFolder, open_store
 
-__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "kernel", "open_checked", "source_digest",
-           "store", "store_dir"]
+__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "compiled_count", "kernel",
+           "open_checked", "source_digest", "store", "store_dir"]
 
 #: Environment variable naming the checked folder of stored executables (set by the CLI for
 #: itself and its child processes; unset: :data:`SWITCH` or the default folder decides).
@@ -323,9 +330,14 @@ class Kernel:
             folder = None
         except Exception:  # noqa: BLE001 - missing or stale entry: compile instead
             pass
+        announce(f"compiling kernel {stem} for this recording's shapes (once per machine; "
+                 f"{_estimate(folder, stem)})")
+        t0 = time.monotonic()
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
         self.compiled += 1
+        _COMPILED[0] += 1
+        _record_time(folder, stem, time.monotonic() - t0)
         try:
             payload, _, out_tree = serialize_executable.serialize(compiled)
             skeleton = _skeleton(out_tree)
@@ -338,6 +350,51 @@ class Kernel:
         except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
             pass
         return compiled, False
+
+
+#: Kernels compiled in this process because the store lacked them (:func:`compiled_count`).
+_COMPILED = [0]
+
+
+def compiled_count() -> int:
+    """How many kernels this process compiled because the store lacked them (a warm store:
+    none; the count ``dampfit warm-up`` reports)."""
+    return _COMPILED[0]
+
+
+#: The store's entry of the last compile time [s] of each kernel on this machine (the
+#: estimate announced before the next compile of it: :func:`_estimate`).
+_TIMES = "compile-times.json"
+
+
+def _compile_times(folder: PrivateStore | None) -> dict[str, float]:
+    try:
+        entry = _unpack(folder.read(_TIMES)) if folder is not None else None
+    except Exception:  # noqa: BLE001 - an estimate only
+        entry = None
+    times = entry[0].get("seconds") if entry is not None else None
+    return times if isinstance(times, dict) else {}
+
+
+def _estimate(folder: PrivateStore | None, stem: str) -> str:
+    """``~N s`` from this kernel's last compile on this machine, or that it is its first."""
+    from dampfit._progress import eta_text
+
+    seconds = _compile_times(folder).get(stem)
+    if isinstance(seconds, (int, float)) and seconds >= 0:
+        return f"{eta_text(seconds)}, as last time"
+    return "its first compile here: seconds to a minute"
+
+
+def _record_time(folder: PrivateStore | None, stem: str, seconds: float) -> None:
+    if folder is None:
+        return
+    times = _compile_times(folder)
+    times[stem] = round(float(seconds), 3)
+    try:
+        folder.write(_TIMES, _pack({"seconds": times}, b""))
+    except Exception:  # noqa: BLE001 - an estimate only
+        pass
 
 
 def _pack(meta: dict, payload: bytes) -> bytes:

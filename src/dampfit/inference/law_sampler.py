@@ -224,6 +224,17 @@ class _DeadlineBar:
     def __init__(self, bar, deadline: float | None):
         self.bar, self.deadline = bar, deadline
 
+    @property
+    def total(self):
+        return self.bar.total
+
+    @total.setter
+    def total(self, value) -> None:  # the steps the stopping rule now needs (the ETA's basis)
+        self.bar.total = value
+
+    def refresh(self) -> None:
+        self.bar.refresh()
+
     def update(self, n: int) -> None:
         self.bar.update(n)
         if self.deadline is not None and time.monotonic() > self.deadline:
@@ -271,7 +282,8 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
     sampler = ensemble(k, log_prob, rng, N_WALKERS)
     from dampfit._progress import progress_bar
 
-    with progress_bar(steps_allowed, f"{model} posterior", enabled=progress) as bar:
+    with progress_bar(steps_allowed, f"damping laws: {model} posterior",
+                      enabled=progress) as bar:
         try:
             run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
                                block=block, bar=_DeadlineBar(bar, deadline))

@@ -71,6 +71,7 @@ import numpy as np
 
 from dampfit import physics
 from dampfit._arviz import arviz
+from dampfit._progress import stage_bar
 from dampfit.inference import posterior as _post
 from dampfit.inference.executables import kernel
 from dampfit.inference.law_sampler import Budget
@@ -280,8 +281,9 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
     deadline = None if budget is None or budget.max_seconds is None else \
         t_start + budget.max_seconds
     sampler = _post.ensemble(2 * k, _make_log_prob(k, fd, lw, temper), rng, n_walkers)
-    run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
-                             block=block, x64=True, deadline=deadline)
+    with stage_bar(steps_allowed, f"modes: K = {k}, posterior") as bar:
+        run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
+                                 block=block, x64=True, deadline=deadline, bar=bar)
     wall = time.monotonic() - t_start
     stop = _stop_reason(run, wall, budget, steps_allowed, max_steps)
     warns = [] if run.converged else [

@@ -72,6 +72,7 @@ import numpy as np
 from scipy.special import gammaln
 
 from dampfit import physics
+from dampfit._progress import stage_bar
 from dampfit.errors import InputError
 from dampfit.inference import noise as _noise
 from dampfit.inference.modes import (
@@ -398,21 +399,28 @@ def _greedy_fits(fd: FitData, band, span: float, pencil, max_modes: int) -> list
     zeta = _zeta_guess(pencil)
     out: list[Tried] = []
     theta, resid = None, fd.y - fd.drift @ (fd.drift.T @ fd.y)
-    for k in range(1, max_modes + 1):
-        why = support(fd, k)
-        if not why and k > 1 and not (out[-1].fit is not None and out[-1].fit.found):
-            why = f"not tried: {k - 1} mode{'s' if k > 2 else ''} could not be fitted"
-        cands = [] if why else _candidates(fd, theta, resid, pencil, band, span, zeta)
-        if not why and not cands:
-            why = "no candidate left for another mode"
-        if why:
-            out.append(Tried(None, why))
-            continue
-        fit = fit_modes(fd, _starts(theta, cands), band=band)
-        out.append(Tried(fit, ""))
-        if fit.found:
-            theta, resid = fit.theta, fit.residuals
+    with stage_bar(max_modes, f"modes: K = 1 … {max_modes} by evidence", unit="K") as bar:
+        for k in range(1, max_modes + 1):
+            theta, resid = _greedy_step(fd, band, span, pencil, zeta, k, theta, resid, out)
+            bar.update(1)
     return out
+
+
+def _greedy_step(fd, band, span, pencil, zeta, k, theta, resid, out: list[Tried]):
+    """The K = ``k`` step of :func:`_greedy_fits`: its :class:`Tried` appended to ``out``;
+    returns the (θ, residuals) the next K builds on."""
+    why = support(fd, k)
+    if not why and k > 1 and not (out[-1].fit is not None and out[-1].fit.found):
+        why = f"not tried: {k - 1} mode{'s' if k > 2 else ''} could not be fitted"
+    cands = [] if why else _candidates(fd, theta, resid, pencil, band, span, zeta)
+    if not why and not cands:
+        why = "no candidate left for another mode"
+    if why:
+        out.append(Tried(None, why))
+        return theta, resid
+    fit = fit_modes(fd, _starts(theta, cands), band=band)
+    out.append(Tried(fit, ""))
+    return (fit.theta, fit.residuals) if fit.found else (theta, resid)
 
 
 def _new_mode(fit: ModeFit, prev: ModeFit) -> float:

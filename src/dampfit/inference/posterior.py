@@ -353,6 +353,7 @@ def _run_blocks(sampler, start, min_ess, max_steps, block, first, bar, x64,
             continue
         need = max(50.0 * t, 3.0 * t + 1.2 * min_ess * t / sampler.nwalkers)
         n = int(np.clip(np.ceil(need - steps), first // 2, block))
+        _revise_total(bar, min(max_steps, max(steps + n, int(np.ceil(need)))))
         if steps < 50 * t:
             reason = f"chain shorter than 50 autocorrelation times ({t:.0f} steps)"
             continue
@@ -363,6 +364,15 @@ def _run_blocks(sampler, start, min_ess, max_steps, block, first, bar, x64,
             break
         reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
     return AdaptiveRun(steps=steps, tau=np.asarray(tau), converged=converged, reason=reason)
+
+
+def _revise_total(bar, total: int) -> None:
+    """Tell ``bar`` the steps the stopping rule now expects to need (its ETA follows them, not
+    ``max_steps``, which a converging chain never reaches)."""
+    if bar is not None and hasattr(bar, "total"):
+        bar.total = total
+        if hasattr(bar, "refresh"):
+            bar.refresh()
 
 
 def burn_thin(tau: np.ndarray) -> tuple[int, int]:
@@ -415,4 +425,4 @@ def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.Inferen
 def _progress(total: int, enabled: bool):
     from dampfit._progress import progress_bar
 
-    return progress_bar(total, "posterior (emcee steps)", enabled=enabled)
+    return progress_bar(total, "viscous posterior", enabled=enabled)
