@@ -145,3 +145,15 @@ def ctrl_c_default() -> None:
 
     signal.signal(signal.SIGINT, signal.SIG_DFL)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
+
+
+def record_child(url: str, out: Path) -> subprocess.Popen:
+    """``dampfit record URL --out OUT --no-analyze --duration 60`` in a child process of this
+    checkout's source, ready to be sent Ctrl-C, SIGTERM or SIGKILL (:func:`ctrl_c_default`)."""
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root / "src"), str(root),
+                                                        os.environ.get("PYTHONPATH", "")])}
+    return subprocess.Popen([sys.executable, "-m", "dampfit", "record", url, "--out", str(out),
+                             "--no-analyze", "--duration", "60"], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=ctrl_c_default)

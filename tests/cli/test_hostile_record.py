@@ -8,14 +8,10 @@ keeps every sample that arrived. The phone is :class:`tests._support.fake_phypho
 from __future__ import annotations
 
 import json
-import os
 import signal
-import subprocess
-import sys
 import threading
 import time
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,9 +21,8 @@ from dampfit.record import live as L
 from dampfit.record.phyphox import NotPhyphox, PhyphoxClient, parse_meta
 from dampfit.record.session import DEFAULT_DURATION, MAX_RATE_HZ
 from tests._support.fake_phyphox import FakePhone, Quirks
-from tests._support.hostile import assert_one_line_error, ctrl_c_default, run
+from tests._support.hostile import assert_one_line_error, record_child, run
 
-ROOT = Path(__file__).resolve().parents[2]
 FAST = ["--quiet", "--no-analyze"]
 
 
@@ -136,13 +131,6 @@ def test_a_resolution_of_1e308_records_and_analyses(tmp_path, capsys):
 
 
 # ------------------------------------------------------------------ SIGTERM, kill -9
-def _child(url: str, out: Path) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT),
-                                                        os.environ.get("PYTHONPATH", "")])}
-    return subprocess.Popen([sys.executable, "-m", "dampfit", "record", url, "--out", str(out),
-                             "--no-analyze", "--duration", "60"], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=ctrl_c_default)
 
 
 def _stop_after(phone, proc, sig, at: float = 10.0) -> tuple[float, str]:
@@ -165,7 +153,7 @@ def _stop_after(phone, proc, sig, at: float = 10.0) -> tuple[float, str]:
 def test_sigterm_says_exactly_what_is_kept(tmp_path):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
-        _, err = _stop_after(phone, _child(phone.url, out), signal.SIGTERM)
+        _, err = _stop_after(phone, record_child(phone.url, out), signal.SIGTERM)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("dampfit: terminated; the recording so far "
                                                    "is kept:"), err
@@ -176,7 +164,7 @@ def test_sigterm_says_exactly_what_is_kept(tmp_path):
 def test_kill_9_keeps_the_samples_streamed_to_disk(tmp_path):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
-        when, _ = _stop_after(phone, _child(phone.url, out), signal.SIGKILL)
+        when, _ = _stop_after(phone, record_child(phone.url, out), signal.SIGKILL)
         truth_t, truth_a = phone.t, phone.a
     assert not (out / "recording.csv").exists()
     rec = read(out / "recording.partial.csv")

@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import re
 import shlex
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -26,9 +24,8 @@ from dampfit import simulate as sim
 from dampfit.files.folder import MARKER
 from dampfit.io.readers import read
 from tests._support.fake_phyphox import FakePhone, Quirks
-from tests._support.hostile import assert_one_line_error, ctrl_c_default, run
+from tests._support.hostile import assert_one_line_error, record_child, run
 
-ROOT = Path(__file__).resolve().parents[2]
 FAST = ["--quiet", "--no-analyze", "--timeout", "2"]
 
 
@@ -281,13 +278,6 @@ def test_the_live_line_on_a_terminal(tmp_path, capsys, monkeypatch):
     assert quiet == ""
 
 
-def _subprocess(url: str, out: Path) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT),
-                                                        os.environ.get("PYTHONPATH", "")])}
-    return subprocess.Popen([sys.executable, "-m", "dampfit", "record", url, "--out", str(out),
-                             "--no-analyze", "--duration", "60"], env=env, text=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=ctrl_c_default)
 
 
 @pytest.mark.parametrize("sig,code,stopped", [(signal.SIGINT, 0, "interrupted"),
@@ -295,7 +285,7 @@ def _subprocess(url: str, out: Path) -> subprocess.Popen:
 def test_ctrl_c_and_sigterm_keep_what_was_recorded(tmp_path, sig, code, stopped):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
-        proc = _subprocess(phone.url, out)
+        proc = record_child(phone.url, out)
         try:
             deadline = time.monotonic() + 60
             while phone.phone_time() < 10.0 or phone.count("/get") < 3:

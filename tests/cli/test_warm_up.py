@@ -11,7 +11,6 @@ import sys
 
 import pytest
 
-from dampfit.cli import main
 from dampfit.signal import prepare
 from dampfit.warmup import recording_in_bucket, sample_buckets
 from tests._support.hostile import assert_one_line_error, run

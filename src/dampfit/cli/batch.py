@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options

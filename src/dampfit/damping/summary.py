@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from dampfit._json import jsonable
-from dampfit.damping import checks, quantities
+from dampfit.damping import quantities
 from dampfit.damping import evidence as compare
 from dampfit.physics import damping_coefficient
 from dampfit.model import laws as models
