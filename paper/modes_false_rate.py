@@ -23,6 +23,9 @@ they finish; a rerun skips what is there. Usage::
     python paper/modes_false_rate.py --summary paper/results/modes_false_rate.csv
 
 ``--summary`` prints the Markdown table of paper/modes.md ("False modes on structure").
+``--stage-only`` runs the least squares and the modes stage alone (no one-mode posterior and
+no damping-law verdict, so the split check is not exercised): for a loaded machine; write its
+rows to another CSV.
 """
 
 from __future__ import annotations
@@ -90,13 +93,33 @@ def simulate(case: str, seed: int):
     raise SystemExit(f"unknown case {case!r}")
 
 
-def run(case: str, seed: int) -> dict:
-    """One replicate: the whole analysis and the row of :data:`FIELDS`."""
+def _stage_only(rec, seed: int) -> dict:
+    """The summary sections the counts read, from the least squares and the modes stage
+    alone (no one-mode posterior, no damping-law assessment: ``verdict`` None, so the split
+    check, which needs an amplitude-dependent verdict, is not exercised)."""
+    from dampfit import stages
+    from dampfit.signal import prepare
+
+    prep = prepare.prepare(rec)
+    st = stages.fit_stages(prep, MASS)
+    ls = st.least_squares
+    ms = stages.modes_stage(prep, max_modes=4, mass=MASS, seed=seed, min_ess=300,
+                            one_mode=(ls.p, ls.omega_d))
+    modes = (ms.summary or {}).get("modes") or [
+        {"f_n": {"q50": ls.omega_d / (2 * math.pi)}}]
+    return {"window": {"start_s": prep.window[0], "end_s": prep.window[1]}, "modes": modes,
+            "modes_seen": list(ms.seen), "modes_evidence": ms.evidence, "model_checks": {}}
+
+
+def run(case: str, seed: int, stage_only: bool = False) -> dict:
+    """One replicate: the whole analysis (or ``stage_only``: :func:`_stage_only`) and the row
+    of :data:`FIELDS`."""
     import dampfit
 
     rec, truth = simulate(case, seed)
     start = time.perf_counter()
-    s = dampfit.analyze(rec, mass=MASS, seed=seed, min_ess=300, max_modes=4).summary()
+    s = _stage_only(rec, seed) if stage_only else dampfit.analyze(
+        rec, mass=MASS, seed=seed, min_ess=300, max_modes=4).summary()
     seconds = time.perf_counter() - start
     true_f = [m["f_n"] for m in truth["modes"]]
     span = s["window"]["end_s"] - s["window"]["start_s"]
@@ -126,7 +149,7 @@ def _done(path: Path) -> set[tuple[str, int]]:
         return {(r["case"], int(r["seed"])) for r in csv.DictReader(fh)}
 
 
-def measure(cases, replicates: int, workers: int, out: Path) -> None:
+def measure(cases, replicates: int, workers: int, out: Path, stage_only: bool = False) -> None:
     """Run every missing (case, seed) and append its row to ``out``."""
     todo = [(c, s) for c in cases for s in range(replicates) if (c, s) not in _done(out)]
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -136,7 +159,7 @@ def measure(cases, replicates: int, workers: int, out: Path) -> None:
         if new:
             writer.writeheader()
         with cf.ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
-            futures = {pool.submit(run, c, s): (c, s) for c, s in todo}
+            futures = {pool.submit(run, c, s, stage_only): (c, s) for c, s in todo}
             for fut in cf.as_completed(futures):
                 c, s = futures[fut]
                 try:
@@ -183,13 +206,16 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=1)
     ap.add_argument("--out", type=Path, default=Path("paper/results/modes_false_rate.csv"))
     ap.add_argument("--summary", type=Path, help="print the table of this CSV and stop")
+    ap.add_argument("--stage-only", action="store_true",
+                    help="least squares and the modes stage only (no one-mode posterior, no "
+                         "damping verdict: the split check is not exercised); a cheaper run")
     args = ap.parse_args(argv)
     if args.summary is not None:
         print(summary(args.summary))
         return 0
     if args.replicates < 1:
         ap.error("--replicates must be at least 1")
-    measure(args.cases, args.replicates, args.workers, args.out)
+    measure(args.cases, args.replicates, args.workers, args.out, args.stage_only)
     print(summary(args.out))
     return 0
 
