@@ -127,3 +127,27 @@ def test_only_a_close_pair_is_flagged_not_one_hundreds_of_cells_apart():
     assert len(warns) == 1 and "modes 1 and 2" in warns[0]
     far = [r for r in rows if r["modes"] == [1, 3]][0]
     assert far["separation_resolution"] > 100 and far["inflation_f_n"] < 1.25
+
+
+def test_a_disagreement_on_the_fundamental_is_stated_and_the_mass_row_is_the_headline():
+    """The modal ζ of the fundamental excludes the one-mode value: stated (never resolved
+    silently); the mass's row carries the one-mode c and k, the modal ones as *_modal."""
+    from dampfit import stages
+
+    w = 2 * math.pi * 7.85
+    ls = types.SimpleNamespace(p=0.004 * w, omega_d=w * math.sqrt(1 - 0.004**2))
+    row = {"index": 2, "mass_mode": True, "fundamental": True,
+           "f_n": {"q05": 7.849, "q50": 7.85, "q95": 7.851},
+           "zeta": {"q05": 0.005, "q50": 0.006, "q95": 0.007},
+           "c": {"q50": 1.39}, "k": {"q50": 23077.0}}
+    (said,) = stages.modes_disagreement([{"index": 1}, row], 1, ls)
+    assert "disagree on the fundamental (mode 2)" in said and "zeta 0.004" in said
+    assert "modes[1].c_modal" in said
+    agree = dict(row, zeta={"q05": 0.0035, "q50": 0.004, "q95": 0.0045})
+    assert stages.modes_disagreement([agree], 1, ls) == []
+    params = {"c": {"q50": 0.212}, "k": {"q50": 570.0}, "u0": None}
+    (out,) = stages.one_mode_values([row], params)
+    assert out["c"] == {"q50": 0.212} and out["c_modal"] == {"q50": 1.39}
+    assert out["k"] == {"q50": 570.0} and out["mass_values"].startswith("one-mode")
+    other = dict(row, fundamental=False)
+    assert stages.one_mode_values([other], params)[0]["c"] == {"q50": 1.39}

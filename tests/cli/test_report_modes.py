@@ -220,3 +220,26 @@ def test_the_flag_threshold_is_the_analysis_own():
     assert (report_modes.CLOSE_HALF_POWER, report_modes.CLOSE_CELLS) == (CLOSE_HALF_POWER,
                                                                          CLOSE_CELLS)
     assert json.dumps(report_modes.CONVENTIONS, ensure_ascii=False).count("[1]") == 4
+
+
+def test_components_seen_but_not_modes_are_listed_without_a_damping_row(two):
+    """A component without the evidence of a mode (modes_seen) is listed in the text table and
+    the report with its kind and reason — no ζ row, no Rayleigh — also beside one mode, and a
+    hostile reason renders inert."""
+    from dampfit.output import text as render_text
+
+    s = copy.deepcopy(two[0].summary())
+    seen = {"index": 3, "f_n": {"q05": 1.51, "q50": 2.77, "q95": 5.29, "unit": "Hz"},
+            "zeta": {"q05": 1e-5, "q50": 0.004, "q95": 0.15, "unit": "1"}, "kind": "basin",
+            "reason": "its f_n interval spans 88% of its basin " + EVIL}
+    s["modes_seen"] = [seen]
+    text = render_text.text(s)
+    assert "seen, not modes" in text and "2.77 Hz  basin: its f_n interval spans 88%" in text
+    html, md = _render(s)
+    sec = _section(md)
+    assert "### Seen, not modes" in sec and "basin" in sec and "<script>" not in html
+    one = copy.deepcopy(s)
+    one.update(n_modes=1, modes=one["modes"][:1], rayleigh=None)
+    html1, md1 = _render(one)
+    assert "### Seen, not modes" in _section(md1) and "### Rayleigh" not in _section(md1)
+    assert "seen, not modes" in render_text.text(one)

@@ -1,0 +1,224 @@
+"""The false-mode rate of the several-mode analysis on structure that is not a mode (issue 34).
+
+Cases (:mod:`dampfit.simulate.structure`, each replicate with its own seed and lightly drawn
+frequencies, damping and noise):
+
+* one-mode decays with harmonics or a split — ``clipped`` (sensor range at 0.5–0.7 of the
+  first peak), ``coulomb`` (friction), ``quadratic`` (drag), ``drifting`` (−1 to −3 % over
+  the record): every identified mode beyond the fundamental is a **false mode**;
+* ``modulated`` — a fundamental and a real second mode with sidebands f₂ ± f₁: a sideband
+  identified as a mode is a false mode; the second mode should be found;
+* ``mode_at_2f`` — a real mode at exactly 2 f₁ decaying 5–10× slower than a harmonic could:
+  it should be found (identified);
+* ``close_pair`` — two modes 0.1 % apart, 60 s at ζ 0.002: resolved as two, or flagged as an
+  unresolved pair (a split / close entry), never an amplitude-dependent verdict alone.
+
+Each replicate runs the whole analysis (:func:`dampfit.analyze`, max modes 4, the seed given)
+and keeps: the identified modes' f_n, the components seen but not modes (kind), the damping
+verdict, the modal sampler's steps and whether it converged. Rows are appended to the CSV as
+they finish; a rerun skips what is there. Usage::
+
+    python paper/modes_false_rate.py --replicates 100 --workers 2 \\
+        --out paper/results/modes_false_rate.csv
+    python paper/modes_false_rate.py --summary paper/results/modes_false_rate.csv
+
+``--summary`` prints the Markdown table of paper/modes.md ("False modes on structure").
+``--stage-only`` runs the least squares and the modes stage alone (no one-mode posterior and
+no damping-law verdict, so the split check is not exercised): for a loaded machine; write its
+rows to another CSV.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures as cf
+import csv
+import json
+import math
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
+                                   "intra_op_parallelism_threads=1")
+
+import numpy as np  # noqa: E402
+
+MASS = 0.5  # [kg]
+FIELDS = ("case", "seed", "n_identified", "identified_hz", "false_modes", "second_found",
+          "seen", "verdict", "pair_flagged", "modal_steps", "modal_converged", "seconds")
+ONE_MODE = ("clipped", "coulomb", "quadratic", "drifting")
+
+
+def simulate(case: str, seed: int):
+    """(Recording, truth) of replicate ``seed`` of ``case`` (module docstring)."""
+    from dampfit.simulate import structure as S
+
+    r = np.random.default_rng(10_000 + seed)
+    f = float(np.exp(r.uniform(np.log(1.5), np.log(6.0))))
+    noise = float(np.exp(r.uniform(np.log(100.0), np.log(1000.0))))
+    common = dict(noise_density=noise, seed=seed)
+    if case == "clipped":
+        return S.clipped(f, float(r.uniform(0.002, 0.01)), level=float(r.uniform(0.5, 0.7)),
+                         u0=0.05 / f**2, **common)
+    if case == "coulomb":
+        k = MASS * (2 * math.pi * f) ** 2
+        u0 = 0.05 / f**2
+        cycles = float(r.uniform(20, 60))  # friction stops the mass after this many cycles
+        return S.nonlinear(f, F_c=k * u0 / (4 * cycles), mass=MASS, u0=u0, **common)
+    if case == "quadratic":
+        u0, w = 0.05 / f**2, 2 * math.pi * f
+        zeta = float(r.uniform(0.002, 0.005))
+        # drag as large as the viscous part at the release: ζ_eq = 8/(3π)·c₂·ω·u0/(2mω)
+        c2 = zeta * 2 * MASS * w * float(r.uniform(1, 3)) / (8 / (3 * math.pi) * w * u0)
+        return S.nonlinear(f, zeta, c2=c2, mass=MASS, u0=u0, **common)
+    if case == "drifting":
+        return S.drifting(f, float(r.uniform(0.002, 0.006)), drift=float(r.uniform(-0.03, -0.01)),
+                          u0=0.05 / f**2, **common)
+    if case == "modulated":
+        f2 = f * float(r.uniform(5.5, 7.0))
+        return S.modulated(f, 0.003, f2, 0.002, depth=float(r.uniform(0.2, 0.5)),
+                           u0=0.02 / f**2, fs=max(200.0, 10 * f2), **common)
+    if case == "mode_at_2f":
+        zeta1 = float(r.uniform(0.003, 0.008))
+        # a harmonic decays at ≥ 2 p₁, i.e. ζ₂ ≥ ζ₁ at 2 f₁; this mode is 5–10x slower
+        return S.two_modes(f, zeta1, ratio=2.0, zeta2=zeta1 / float(r.uniform(5, 10)),
+                           amplitude=float(r.uniform(0.1, 0.3)), u0=0.05 / f**2, **common)
+    if case == "close_pair":
+        f1 = float(r.uniform(15, 25))
+        return S.two_modes(f1, 0.002, ratio=1.001, zeta2=0.002, amplitude=0.8,
+                           u0=0.05 / f1**2, duration=60.0, fs=200.0, kind="close_pair",
+                           **common)
+    raise SystemExit(f"unknown case {case!r}")
+
+
+def _stage_only(rec, seed: int) -> dict:
+    """The summary sections the counts read, from the least squares and the modes stage
+    alone (no one-mode posterior, no damping-law assessment: ``verdict`` None, so the split
+    check, which needs an amplitude-dependent verdict, is not exercised)."""
+    from dampfit import stages
+    from dampfit.signal import prepare
+
+    prep = prepare.prepare(rec)
+    st = stages.fit_stages(prep, MASS)
+    ls = st.least_squares
+    ms = stages.modes_stage(prep, max_modes=4, mass=MASS, seed=seed, min_ess=300,
+                            one_mode=(ls.p, ls.omega_d))
+    modes = (ms.summary or {}).get("modes") or [
+        {"f_n": {"q50": ls.omega_d / (2 * math.pi)}}]
+    return {"window": {"start_s": prep.window[0], "end_s": prep.window[1]}, "modes": modes,
+            "modes_seen": list(ms.seen), "modes_evidence": ms.evidence, "model_checks": {}}
+
+
+def run(case: str, seed: int, stage_only: bool = False) -> dict:
+    """One replicate: the whole analysis (or ``stage_only``: :func:`_stage_only`) and the row
+    of :data:`FIELDS`."""
+    import dampfit
+
+    rec, truth = simulate(case, seed)
+    start = time.perf_counter()
+    s = _stage_only(rec, seed) if stage_only else dampfit.analyze(
+        rec, mass=MASS, seed=seed, min_ess=300, max_modes=4).summary()
+    seconds = time.perf_counter() - start
+    true_f = [m["f_n"] for m in truth["modes"]]
+    span = s["window"]["end_s"] - s["window"]["start_s"]
+    ident = [m["f_n"]["q50"] for m in s["modes"] if isinstance(m.get("f_n"), dict)]
+
+    def matches(f, g):  # within 1 % or 3 resolution cells
+        return abs(f - g) <= max(0.01 * g, 3.0 / span)
+
+    false = [f for f in ident if not any(matches(f, g) for g in true_f)]
+    second = len(true_f) > 1 and case != "close_pair" and any(matches(f, true_f[1]) for f in ident)
+    ev = s.get("modes_evidence") or {}
+    sampling = ev.get("sampling") or {}
+    return {"case": case, "seed": seed, "n_identified": len(ident),
+            "identified_hz": json.dumps([round(f, 5) for f in ident]),
+            "false_modes": len(false), "second_found": int(bool(second)),
+            "seen": json.dumps(sorted(e.get("kind") for e in s.get("modes_seen") or [])),
+            "verdict": (s.get("model_checks") or {}).get("verdict"),
+            "pair_flagged": int(any(p.get("flagged") for p in ev.get("pairs") or [])),
+            "modal_steps": sampling.get("n_steps"), "modal_converged": sampling.get("converged"),
+            "seconds": round(seconds, 2)}
+
+
+def _done(path: Path) -> set[tuple[str, int]]:
+    if not path.exists():
+        return set()
+    with path.open(newline="") as fh:
+        return {(r["case"], int(r["seed"])) for r in csv.DictReader(fh)}
+
+
+def measure(cases, replicates: int, workers: int, out: Path, stage_only: bool = False) -> None:
+    """Run every missing (case, seed) and append its row to ``out``."""
+    todo = [(c, s) for c in cases for s in range(replicates) if (c, s) not in _done(out)]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    new = not out.exists()
+    with out.open("a", newline="") as fh:
+        writer = csv.DictWriter(fh, FIELDS)
+        if new:
+            writer.writeheader()
+        with cf.ProcessPoolExecutor(max_workers=max(1, workers)) as pool:
+            futures = {pool.submit(run, c, s, stage_only): (c, s) for c, s in todo}
+            for fut in cf.as_completed(futures):
+                c, s = futures[fut]
+                try:
+                    row = fut.result()
+                except Exception as exc:  # a failed replicate is reported, not hidden
+                    print(f"{c} seed {s}: FAILED {exc}", file=sys.stderr)
+                    continue
+                writer.writerow(row)
+                fh.flush()
+                print(f"{c} seed {s}: {row['n_identified']} identified, "
+                      f"{row['false_modes']} false, seen {row['seen']}, {row['seconds']} s",
+                      file=sys.stderr)
+
+
+def summary(path: Path) -> str:
+    """The Markdown table of the CSV: per case, replicates, recordings with a false mode,
+    the second mode found, pairs flagged, amplitude-dependent verdicts, median seconds."""
+    with path.open(newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    lines = ["| case | replicates | recordings with a false mode | second mode found | "
+             "pair flagged or split seen | verdict amplitude-dependent | median s |",
+             "|---|---|---|---|---|---|---|"]
+    for case in dict.fromkeys(r["case"] for r in rows):
+        rs = [r for r in rows if r["case"] == case]
+        n = len(rs)
+        false = sum(int(r["false_modes"]) > 0 for r in rs)
+        second = sum(int(r["second_found"]) for r in rs)
+        paired = sum(int(r["pair_flagged"]) or "split" in r["seen"] for r in rs)
+        amp = sum(r["verdict"] == "amplitude-dependent" for r in rs)
+        secs = float(np.median([float(r["seconds"]) for r in rs]))
+        show2 = f"{second}/{n}" if case in ("modulated", "mode_at_2f") else "—"
+        show_pair = f"{paired}/{n}" if case == "close_pair" else "—"
+        lines.append(f"| {case} | {n} | {false}/{n} ({100 * false / n:.0f} %) | {show2} | "
+                     f"{show_pair} | {amp}/{n} | {secs:.0f} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    from dampfit.simulate.structure import KINDS
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--replicates", type=int, default=100)
+    ap.add_argument("--cases", nargs="+", default=list(KINDS), choices=KINDS)
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--out", type=Path, default=Path("paper/results/modes_false_rate.csv"))
+    ap.add_argument("--summary", type=Path, help="print the table of this CSV and stop")
+    ap.add_argument("--stage-only", action="store_true",
+                    help="least squares and the modes stage only (no one-mode posterior, no "
+                         "damping verdict: the split check is not exercised); a cheaper run")
+    args = ap.parse_args(argv)
+    if args.summary is not None:
+        print(summary(args.summary))
+        return 0
+    if args.replicates < 1:
+        ap.error("--replicates must be at least 1")
+    measure(args.cases, args.replicates, args.workers, args.out, args.stage_only)
+    print(summary(args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
