@@ -42,7 +42,7 @@ never dropped when the one-mode analysis is given: the one-mode posterior identi
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
