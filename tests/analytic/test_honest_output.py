@@ -17,7 +17,7 @@ from dampfit.estimators import baselines
 from dampfit.output import text as render
 from dampfit.output.format import interval
 from dampfit.analysis import _baselines_summary
-from dampfit.inference.law_sampler import (MIN_BUDGET_STEPS, STEP_FACTOR, TIME_ALLOWANCE_S, Budget,
+from dampfit.inference.law_sampler import (MIN_BUDGET_STEPS, STEP_FACTOR, Budget,
                                     conditioning, sample_emcee, sample_laplace)
 from tests._support.summaries import summary
 
@@ -232,10 +232,10 @@ def viscous_case():
     return prep, Data.from_fit_data(fd), res
 
 
-def test_budget_is_tied_to_the_viscous_sampler():
+def test_budget_is_tied_to_the_viscous_sampler_in_steps_only():
     b = Budget.from_viscous(1000, 4.0)
     assert b.max_steps == STEP_FACTOR * 1000
-    assert b.max_seconds == pytest.approx(3 * 4.0 + TIME_ALLOWANCE_S)
+    assert b.max_seconds is None  # the same seed, the same draws under any load (issue 34)
     assert Budget.from_viscous(200, None).max_steps == MIN_BUDGET_STEPS
     assert Budget.from_viscous().max_seconds is None  # no reference: reproducible steps only
 

@@ -25,14 +25,14 @@ Bounded work
 ------------
 A damping law's emcee run gets a :class:`Budget` tied to the viscous posterior of the same
 recording (:meth:`Budget.from_viscous`): at most max(:data:`STEP_FACTOR` × the viscous
-sampler's steps, :data:`MIN_BUDGET_STEPS`) steps and :data:`TIME_FACTOR` × its wall time +
-:data:`TIME_ALLOWANCE_S` (the law's likelihood is compiled inside the run). Without a viscous
-reference the budget is :data:`MIN_BUDGET_STEPS` steps and no wall-time limit (so a seeded
-run stays reproducible). A run stopped by its budget is returned as it is, with
-``converged=False``, ``stop_reason`` "step budget reached …" or "wall-time budget reached …"
-and a warning — never a run many times slower than the viscous one (a Coulomb law on a
-recording with a rattle once took 18,913 steps, 229 s against ≈ 17 s). A wall-time stop
-depends on the machine's speed; the step budget does not.
+sampler's steps, :data:`MIN_BUDGET_STEPS`) steps, counted in steps only, so the same seed gives
+the same draws on any machine and under any load (the viscous sampler's own steps are counted
+the same way). A run stopped by its budget is returned as it is, with ``converged=False``,
+``stop_reason`` "step budget reached …" and a warning — never a run many times longer than the
+viscous one (a Coulomb law on a recording with a rattle once took 18,913 steps, 229 s against
+≈ 17 s). A wall-time limit (``Budget(max_seconds=…)``) is still honoured when a caller sets one
+("wall-time budget reached …"); none is set by default, since such a stop depends on the
+machine's speed and load.
 
 Ill-conditioned laws are not sampled with emcee (:func:`conditioning`): a Laplace covariance
 that is missing or not positive definite, a correlation matrix of θ with condition number above
@@ -60,10 +60,6 @@ N_WALKERS = 64
 STEP_FACTOR = 3
 #: … but never below this many steps (also the budget without a viscous reference).
 MIN_BUDGET_STEPS = 2000
-#: A law's wall-time budget is this many times the viscous sampler's wall time …
-TIME_FACTOR = 3.0
-#: … plus this allowance [s] (compiling the law's likelihood, ≈ 1–3 s).
-TIME_ALLOWANCE_S = 5.0
 #: Condition number of θ's Laplace correlation matrix above which a law is ill-conditioned
 #: (|correlation| ≈ 1 − 10⁻⁸: two parameters the data cannot tell apart). The laws fitted to
 #: the simulated Coulomb, quadratic and viscous test recordings give 1–10².
@@ -83,18 +79,17 @@ class Budget:
 
     @classmethod
     def from_viscous(cls, steps: int | None = None, seconds: float | None = None) -> "Budget":
-        """The budget of the module docstring from the viscous sampler's ``steps`` and wall
-        time ``seconds`` [s] (either may be None: unknown)."""
+        """The budget of the module docstring from the viscous sampler's ``steps`` (None:
+        unknown). Its wall time ``seconds`` [s] is recorded in ``basis`` only: the budget is
+        counted in steps, so that it does not depend on the machine or its load."""
         n = int(steps) if steps is not None and np.isfinite(steps) and steps > 0 else 0
         max_steps = max(STEP_FACTOR * n, MIN_BUDGET_STEPS)
         basis = (f"max({STEP_FACTOR} x the viscous sampler's {n} steps, {MIN_BUDGET_STEPS})"
                  if n else f"{MIN_BUDGET_STEPS} steps (no viscous reference)")
-        sec = None
         if seconds is not None and np.isfinite(seconds) and seconds >= 0:
-            sec = TIME_FACTOR * float(seconds) + TIME_ALLOWANCE_S
-            basis += (f"; {TIME_FACTOR:g} x the viscous wall time {float(seconds):.3g} s "
-                      f"+ {TIME_ALLOWANCE_S:g} s")
-        return cls(max_steps=max_steps, max_seconds=sec, basis=basis)
+            basis += (f" (the viscous sampler took {float(seconds):.3g} s; no wall-time limit, "
+                      "so the same seed gives the same draws under any load)")
+        return cls(max_steps=max_steps, max_seconds=None, basis=basis)
 
     def summary(self) -> dict:
         return {"max_steps": int(self.max_steps), "max_seconds": self.max_seconds,

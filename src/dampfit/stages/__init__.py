@@ -251,7 +251,7 @@ def assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, prog
 
     The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
     when it is not the viscous one (whose emcee posterior is ``parameters``), within a step
-    and time budget tied to the viscous sampler's (:class:`dampfit.inference.law_sampler.Budget`)."""
+    budget tied to the viscous sampler's (:class:`dampfit.inference.law_sampler.Budget`)."""
     from dampfit import damping
     from dampfit.inference.law_sampler import Budget
 
