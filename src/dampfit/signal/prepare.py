@@ -460,11 +460,12 @@ def _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor, bnd, note
         if later is None:
             notes.extend(wnotes)
             raise InputError(_no_decay(rec, t, f0, w0, w1, wnotes))
-        first, cut = w0, (w1 - w0) * f0
+        first, cut, why = w0, (w1 - w0) * f0, end_reason
         w0, w1, wnotes, end_reason = later
-        wnotes = [f"the first decay (from {first:.4g} s) was cut short after {cut:.1f} cycles "
-                  f"(a handheld start?); the longest free decay after it, from {w0:.4g} s, is "
-                  "analysed", *wnotes]
+        by = f" by an {why}" if why and why.startswith("impact") else " (a handheld start?)"
+        wnotes = [f"the first decay (from {first:.4g} s) was cut short after {cut:.1f} cycles"
+                  f"{by}; the longest free decay after it, from {w0:.4g} s, is analysed",
+                  *wnotes]
     notes.extend(wnotes)
     return min(w0 + guard, w1), w1, end_reason
 
