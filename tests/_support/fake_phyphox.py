@@ -404,3 +404,24 @@ if __name__ == "__main__":  # pragma: no cover - manual use
             threading.Event().wait()
         except KeyboardInterrupt:
             pass
+
+
+def stop_after(phone, proc, sig, *, at: float = 10.0, gets: int = 3,
+               settle_s: float = 0.0) -> tuple[float, str]:
+    """Send ``sig`` to the ``dampfit record`` child ``proc`` once ``phone``'s clock has passed
+    ``at`` [s] and it has answered ``gets`` /get requests (then ``settle_s`` [s] more); the
+    phone time at the signal and the child's stderr. The child is killed if anything fails."""
+    try:
+        deadline = time.monotonic() + 60
+        while phone.phone_time() < at or phone.count("/get") < gets:
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "the recording did not start"
+            time.sleep(0.05)
+        time.sleep(settle_s)
+        when = phone.phone_time()
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    return when, err

@@ -20,7 +20,7 @@ from dampfit.io.readers import read
 from dampfit.record import live as L
 from dampfit.record.phyphox import NotPhyphox, PhyphoxClient, parse_meta
 from dampfit.record.session import DEFAULT_DURATION, MAX_RATE_HZ
-from tests._support.fake_phyphox import FakePhone, Quirks
+from tests._support.fake_phyphox import FakePhone, Quirks, stop_after
 from tests._support.hostile import assert_one_line_error, record_child, run
 
 FAST = ["--quiet", "--no-analyze"]
@@ -133,27 +133,11 @@ def test_a_resolution_of_1e308_records_and_analyses(tmp_path, capsys):
 # ------------------------------------------------------------------ SIGTERM, kill -9
 
 
-def _stop_after(phone, proc, sig, at: float = 10.0) -> tuple[float, str]:
-    try:
-        deadline = time.monotonic() + 60
-        while phone.phone_time() < at or phone.count("/get") < 4:
-            assert proc.poll() is None, proc.communicate()
-            assert time.monotonic() < deadline, "the recording did not start"
-            time.sleep(0.05)
-        time.sleep(1.2)  # the journal syncs at least every second
-        when = phone.phone_time()
-        proc.send_signal(sig)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    return when, err
-
-
 def test_sigterm_says_exactly_what_is_kept(tmp_path):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
-        _, err = _stop_after(phone, record_child(phone.url, out), signal.SIGTERM)
+        _, err = stop_after(phone, record_child(phone.url, out), signal.SIGTERM, gets=4,
+                            settle_s=1.2)  # the journal syncs at least every second
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("dampfit: terminated; the recording so far "
                                                    "is kept:"), err
@@ -164,7 +148,8 @@ def test_sigterm_says_exactly_what_is_kept(tmp_path):
 def test_kill_9_keeps_the_samples_streamed_to_disk(tmp_path):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
-        when, _ = _stop_after(phone, record_child(phone.url, out), signal.SIGKILL)
+        when, _ = stop_after(phone, record_child(phone.url, out), signal.SIGKILL, gets=4,
+                             settle_s=1.2)
         truth_t, truth_a = phone.t, phone.a
     assert not (out / "recording.csv").exists()
     rec = read(out / "recording.partial.csv")

@@ -23,7 +23,7 @@ import pytest
 from dampfit import simulate as sim
 from dampfit.files.folder import MARKER
 from dampfit.io.readers import read
-from tests._support.fake_phyphox import FakePhone, Quirks
+from tests._support.fake_phyphox import FakePhone, Quirks, stop_after
 from tests._support.hostile import assert_one_line_error, record_child, run
 
 FAST = ["--quiet", "--no-analyze", "--timeout", "2"]
@@ -286,18 +286,7 @@ def test_ctrl_c_and_sigterm_keep_what_was_recorded(tmp_path, sig, code, stopped)
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=4.0)) as phone:
         proc = record_child(phone.url, out)
-        try:
-            deadline = time.monotonic() + 60
-            while phone.phone_time() < 10.0 or phone.count("/get") < 3:
-                assert proc.poll() is None, proc.communicate()
-                assert time.monotonic() < deadline, "the recording did not start"
-                time.sleep(0.05)
-            at = phone.phone_time()
-            proc.send_signal(sig)
-            _, err = proc.communicate(timeout=60)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
+        at, err = stop_after(phone, proc, sig)
     assert proc.returncode == code, err
     assert "Traceback" not in err
     rec, meta = recording(out)
