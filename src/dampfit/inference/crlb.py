@@ -6,7 +6,8 @@ The data model is the acceleration (M1) of :mod:`dampfit.model.viscous` plus whi
 
 with φ = (p, ω_d, A, B, c_0…c_d) and Q the orthonormal Legendre drift basis of
 :func:`dampfit.model.viscous.drift_basis` (degree d; ``drift_degree=None`` drops it). Its Fisher
-information is F = Jᵀ·diag(1/σ²)·J with J = ∂y/∂φ (exact, ``jax.jacfwd`` in float64), and any
+information is F = Jᵀ·diag(1/σ²)·J with J = ∂y/∂φ (exact, in closed form; accumulated over
+blocks of samples for a long design, :func:`_blocked_fisher`), and any
 unbiased estimator has Cov φ̂ ⪰ F⁻¹. Derived quantities g(φ, m) — ζ = p/ω_n, f_n = ω_n/2π,
 u₀ = √(A²+B²)/ω_n² (eq. M2), c = 2mp, k = m·ω_n² with ω_n² = p² + ω_d² — get
 var ĝ ≥ ∇gᵀ·F⁻¹·∇g (delta method). A mass known only to ± s_m is independent prior
@@ -37,7 +38,16 @@ from dampfit import physics
 from dampfit.errors import InputError
 
 __all__ = ["yao_pandit_var_p", "fisher", "bound", "fisher_modes", "bound_modes", "from_noise_density",
-           "UNITS"]
+           "UNITS", "ONE_PIECE", "BLOCK"]
+
+#: A design of at most this many samples gets its Fisher information in one piece, exactly as
+#: before blocks were introduced (the bound of every recording this size or smaller is
+#: unchanged, bit for bit; the longest window of the real recordings has ≈ 1.2e5 samples).
+ONE_PIECE = 1 << 17
+#: Samples per block of a longer design (:func:`_blocked_fisher`): its memory is a few
+#: BLOCK × (4K + d + 1) × 8 bytes (≈ 14 MB each at K = 1, d = 48) whatever its length, where
+#: the whole Jacobian and QR of 10 M samples would take several GB.
+BLOCK = 1 << 15
 
 #: Unit of every quantity :func:`bound` reports.
 UNITS = {name: physics.UNITS[name] for name in ("p", "omega_d", "zeta", "f_n", "u0", "c", "k")}
@@ -142,14 +152,57 @@ def fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree: int | None = 0)
     # ∂y/∂φ of (M1) y = e^{−pτ}(A cos ω_dτ + B sin ω_dτ), in closed form:
     # ∂y/∂p = −τ·y, ∂y/∂ω_d = τ·e^{−pτ}(B cos ω_dτ − A sin ω_dτ), ∂y/∂A = e^{−pτ}cos ω_dτ,
     # ∂y/∂B = e^{−pτ}sin ω_dτ
-    e = np.exp(-p * t)
-    cos, sin = e * np.cos(wd * t), e * np.sin(wd * t)
-    y = a * cos + b * sin
-    jac = np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1)
+    if t.size > ONE_PIECE:
+        return _blocked_fisher(t, s, [(p, wd, a, b)], degree)
+    jac = _mode_columns(t, p, wd, a, b)
     if degree is not None:
         jac = np.concatenate([jac, viscous.drift_basis(t, degree)], axis=1)
     jw = jac / s[:, None]
     return jw.T @ jw
+
+
+def _mode_columns(t: np.ndarray, p: float, wd: float, a: float, b: float) -> np.ndarray:
+    """∂y/∂(p, ω_d, A, B) of (M1) at times ``t`` [s], shape (n, 4)."""
+    e = np.exp(-p * t)
+    cos, sin = e * np.cos(wd * t), e * np.sin(wd * t)
+    y = a * cos + b * sin
+    return np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1)
+
+
+def _blocked_fisher(t: np.ndarray, s: np.ndarray, modes: list[tuple[float, ...]],
+                    degree: int | None) -> np.ndarray:
+    r"""The Fisher information of :func:`fisher` / :func:`fisher_modes` accumulated over
+    blocks of :data:`BLOCK` samples, in memory linear in n with a small constant (never the
+    n × (4K + d + 1) Jacobian at once).
+
+    With V the Legendre Vandermonde matrix of :func:`dampfit.model.viscous.drift_basis` and
+    its QR factor V = QR, the drift basis is Q = V·R⁻¹, and RᵀR = VᵀV (R is the Cholesky
+    factor of the Gram matrix, up to the signs of its rows, which flip the signs of drift
+    coefficients only). So with G = Σ_blocks [J_osc, V]ᵀ·diag(1/σ²)·[J_osc, V] and
+    T = blockdiag(I, R⁻¹), F = Tᵀ·G·T: the same matrix as from the whole Q, to rounding.
+    """
+    from scipy.linalg import cholesky, solve_triangular
+
+    n_osc = 4 * len(modes)
+    n_drift = 0 if degree is None else degree + 1
+    gram = np.zeros((n_osc + n_drift, n_osc + n_drift))
+    vtv = np.zeros((n_drift, n_drift))  # VᵀV, unweighted: Q is orthonormal in 1, not 1/σ²
+    span = max(float(t[-1] - t[0]), 1e-12)
+    for i in range(0, t.size, BLOCK):
+        tb = t[i:i + BLOCK]
+        cols = [_mode_columns(tb, *m) for m in modes]
+        if degree is not None:
+            v = np.polynomial.legendre.legvander(2.0 * (tb - t[0]) / span - 1.0, degree)
+            vtv += v.T @ v
+            cols.append(v)
+        jw = np.concatenate(cols, axis=1) / s[i:i + BLOCK, None]
+        gram += jw.T @ jw
+    if degree is None:
+        return gram
+    transform = np.eye(n_osc + n_drift)
+    transform[n_osc:, n_osc:] = solve_triangular(cholesky(vtv, lower=False), np.eye(n_drift),
+                                                 lower=False)
+    return transform.T @ gram @ transform
 
 
 def _inverse(f: np.ndarray) -> np.ndarray:
@@ -263,13 +316,9 @@ def fisher_modes(times, sigma, modes, drift_degree: int | None = 0) -> np.ndarra
     n_par = 4 * len(modes) + (0 if degree is None else degree + 1)
     if t.size <= n_par:
         raise InputError(f"{t.size} samples cannot identify {n_par} parameters; give more samples")
-    cols = []
-    for p, wd, a, b in modes:
-        e = np.exp(-p * t)
-        cos, sin = e * np.cos(wd * t), e * np.sin(wd * t)
-        y = a * cos + b * sin
-        cols.append(np.stack([-t * y, t * (b * cos - a * sin), cos, sin], axis=1))
-    jac = np.concatenate(cols, axis=1)
+    if t.size > ONE_PIECE:
+        return _blocked_fisher(t, s, modes, degree)
+    jac = np.concatenate([_mode_columns(t, *m) for m in modes], axis=1)
     if degree is not None:
         jac = np.concatenate([jac, viscous.drift_basis(t, degree)], axis=1)
     jw = jac / s[:, None]

@@ -41,7 +41,13 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
     {"schema_version": 1,                          # SCHEMA_VERSION
      "dampfit_version": str,
      "input": {"path", "format", "sha256", "n_samples", "sample_rate_hz", "duration_s",
-             "timing_jitter", "axis", "axis_direction", "gravity_removed", "notes"},
+             "timing_jitter", "axis", "axis_direction", "gravity_removed", "notes",
+             "decimated": null | {"factor", "from_hz", "to_hz", "n_samples_read",
+                   "n_samples_analysed", "band_top_hz", "n_clipped_dropped",
+                   "n_stale_dropped", "method"}},  # more than 1 M samples: decimated to
+                   # 16x the band's top first (dampfit.signal.decimate); n_samples is
+                   # the file's, sample_rate_hz and timing_jitter the analysed samples'
+                   # (null, or absent in older summaries: analysed as read)
      "window": {"start_s", "end_s", "auto", "n_cycles",      # recording's own time base
              "end_reason"},                      # why it ends: noise floor, catch, impact…
      "band": {"low_hz", "high_hz", "auto"},

@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import interpolate, signal
 
-from dampfit.signal import clock, filters, masks
+from dampfit.signal import clock, decimate, filters, masks
 from dampfit.model import viscous
 from dampfit.errors import InputError
 from dampfit.io.recording import MIN_SAMPLES, Recording, gap_summary
@@ -121,6 +121,9 @@ class Prepared:
     #: the sample-clock test (:meth:`dampfit.signal.clock.ClockCheck.summary`); ``time`` holds
     #: the clock's times when ``moved``
     timing: dict = field(default_factory=dict)
+    #: a recording of more than :data:`dampfit.signal.decimate.DECIMATE_ABOVE` samples:
+    #: what was decimated (:meth:`dampfit.signal.decimate.Decimation.summary`), else None
+    decimation: dict | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -288,9 +291,14 @@ def prepare(
     """Run steps 1–8 of the module docstring on ``rec``.
 
     ``axis`` is ``"auto"`` or an axis name of the recording; ``window`` = (start, end) [s] and
-    ``band`` = (low, high) [Hz] override the automatic choices.
+    ``band`` = (low, high) [Hz] override the automatic choices. A recording of more than
+    :data:`~dampfit.signal.decimate.DECIMATE_ABOVE` samples is first decimated to the rate
+    its band needs (:func:`dampfit.signal.decimate.reduce`; ``Prepared.decimation``, a warning).
     """
+    rec, reduced = decimate.reduce(rec, band)  # a long recording: to the useful rate first
     t, a, clipped, n_stale, notes, warnings = _distinct_samples(rec, window)
+    if reduced is not None:
+        warnings.insert(0, reduced.warning())
     fs = float(1.0 / np.median(np.diff(t)))
     jitter = float(np.std(np.diff(t)) / np.mean(np.diff(t)))
     a = a - np.median(a, axis=0)
@@ -351,7 +359,7 @@ def prepare(
         window_auto=window is None, noise_density=nd, noise_floor=floor, n_stale=n_stale,
         n_clipped=n_clipped, n_spikes=n_spikes, notes=tuple(notes), warnings=tuple(warnings),
         window_end_reason=end_reason,
-        timing=timing.summary(),
+        timing=timing.summary(), decimation=None if reduced is None else reduced.summary(),
     )
 
 
