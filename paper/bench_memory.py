@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -49,20 +48,38 @@ def write_csv(path: Path, rows: int, fs: float = 500.0, block: int = 1_000_000) 
     return path.stat().st_size
 
 
+def analyze_code(csv: Path, out: Path, figures: bool = False) -> str:
+    """Python code running ``dampfit analyze CSV --out OUT`` (``--no-figures`` unless
+    ``figures``), failing unless it exits 0."""
+    extra = "" if figures else ", '--no-figures'"
+    return ("from dampfit.cli import main\n"
+            f"rc = main(['analyze', {str(csv)!r}, '--out', {str(out)!r}, '--quiet'{extra}])\n"
+            "assert rc == 0, rc")
+
+
 def peak_of(code: str, src: Path = ROOT / "src") -> tuple[float, float]:
     """(peak resident memory [bytes], wall time [s]) of ``python -c code`` with the dampfit
-    source ``src`` (another checkout's ``src`` to compare versions)."""
+    source ``src`` (another checkout's ``src`` to compare versions): the child's own
+    ``ru_maxrss`` or that of a process it started (the figure process), whichever is larger,
+    measured in the child (a caller's earlier children do not count)."""
     env = {**os.environ, "PYTHONPATH": str(src), "DAMPFIT_JAX_CACHE": "off"}
+    probe = (f"{code}\nimport resource as _r\n"
+             "print('PEAK_KIB', max(_r.getrusage(_r.RUSAGE_SELF).ru_maxrss, "
+             "_r.getrusage(_r.RUSAGE_CHILDREN).ru_maxrss))")
     t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    done = subprocess.run([sys.executable, "-c", probe], check=True, env=env,
+                          capture_output=True, text=True)
     wall = time.perf_counter() - t0
-    return resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * 1024.0, wall
+    kib = next(line.split()[1] for line in reversed(done.stdout.splitlines())
+               if line.startswith("PEAK_KIB"))
+    return float(kib) * 1024.0, wall
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", type=int, default=10_000_000)
     ap.add_argument("--analyze", action="store_true", help="the whole dampfit analyze")
+    ap.add_argument("--figures", action="store_true", help="with --analyze: draw the figures too")
     ap.add_argument("--json", type=Path)
     ap.add_argument("--src", type=Path, default=ROOT / "src",
                     help="the dampfit source measured (default this checkout's)")
@@ -71,9 +88,7 @@ def main() -> None:
         csv = Path(tmp) / "long.csv"
         size = write_csv(csv, args.rows)
         if args.analyze:
-            code = ("import sys; from dampfit.cli import main; sys.exit(main(['analyze', "
-                    f"{str(csv)!r}, '--out', {str(Path(tmp) / 'out')!r}, '--no-figures', "
-                    "'--quiet', '--max-modes', '1']))")
+            code = analyze_code(csv, Path(tmp) / "out", figures=args.figures)
         else:
             code = f"from dampfit.io.readers import read; read({str(csv)!r})"
         peak, wall = peak_of(code, args.src)

@@ -220,3 +220,31 @@ def test_from_noise_density_rejects_bad_input():
         crlb.from_noise_density(-1.0, 100.0)
     with pytest.raises(InputError, match="sample rate"):
         crlb.from_noise_density(0.01, 0.0)
+
+
+@pytest.mark.parametrize("modes", [1, 2])
+def test_a_long_design_blocked_gives_the_same_bound(monkeypatch, modes):
+    """A design longer than ``ONE_PIECE`` samples is accumulated block by block (memory linear
+    in n, issue 33) and must give the bound of the whole Jacobian with its QR drift basis:
+    the drift basis is only re-parametrised (Q = V·R⁻¹), so F⁻¹'s decay block is unchanged."""
+    rng = np.random.default_rng(3)
+    t = np.sort(rng.uniform(0.0, 60.0, 20_000))  # irregular times
+    sigma = 0.01 * (1.0 + rng.uniform(size=t.size))  # one sigma per sample
+    mode_list = [(0.05, 12.5, 1.0, 0.3), (0.2, 41.0, 0.2, -0.1)][:modes]
+
+    def both():
+        if modes == 1:
+            return crlb.bound(t, sigma, p=0.05, omega_d=12.5, a_cos=1.0, a_sin=0.3,
+                              mass=2.0, drift_degree=30)
+        return crlb.bound_modes(t, sigma, mode_list, drift_degree=30, mass=2.0, mode_of_mass=0)
+
+    whole = both()
+    monkeypatch.setattr(crlb, "ONE_PIECE", 1000)
+    monkeypatch.setattr(crlb, "BLOCK", 777)  # blocks that do not divide n
+    blocked = both()
+    pairs = [(whole, blocked)] if modes == 1 else list(zip(whole, blocked))
+    for w, b in pairs:
+        for name in ("p", "omega_d", "zeta", "f_n", "u0", "c", "k"):
+            if name not in w:  # c and k: the mass's mode only
+                continue
+            assert b[name]["sd"] == pytest.approx(w[name]["sd"], rel=1e-7), name

@@ -229,12 +229,20 @@ def _seen_lines(s: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _rate(inp: dict[str, Any]) -> str:
+    """The sample rate [Hz] of ``input``, and the rate analysed if it was decimated."""
+    dec = inp.get("decimated")
+    if isinstance(dec, dict) and isinstance(dec.get("from_hz"), (int, float)):
+        return f"{dec['from_hz']:.4g} Hz, decimated to {inp['sample_rate_hz']:.4g} Hz"
+    return f"{inp['sample_rate_hz']:.4g} Hz"
+
+
 def _head_lines(s: dict[str, Any]) -> list[str]:
     """Input, window, band and mass."""
     inp, win, band = s["input"], s["window"], s["band"]
     lines = [
         f"dampfit {s['dampfit_version']} — {inp['path'] or '(array)'}",
-        f"  {inp['format']}, {inp['n_samples']} samples at {inp['sample_rate_hz']:.4g} Hz "
+        f"  {inp['format']}, {inp['n_samples']} samples at {_rate(inp)} "
         f"({inp['duration_s']:.4g} s), axis {inp['axis']}",
         f"  free-decay window {win['start_s']:.3f}–{win['end_s']:.3f} s "
         f"({win['n_cycles']:.1f} cycles){'' if win['auto'] else ' (given)'}, "

@@ -47,7 +47,8 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
                    "n_stale_dropped", "method"}},  # more than 1 M samples: decimated to
                    # 16x the band's top first (dampfit.signal.decimate); n_samples is
                    # the file's, sample_rate_hz and timing_jitter the analysed samples'
-                   # (null, or absent in older summaries: analysed as read)
+                   # (from_hz the file's rate; null, or absent in older summaries:
+                   # analysed as read)
      "window": {"start_s", "end_s", "auto", "n_cycles",      # recording's own time base
              "end_reason"},                      # why it ends: noise floor, catch, impact…
      "band": {"low_hz", "high_hz", "auto"},
