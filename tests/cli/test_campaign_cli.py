@@ -327,6 +327,18 @@ def test_end_to_end_campaign_round_trip_report_export(recordings, tmp_path, caps
     code, _, err = run(["report", out], capsys)
     assert code == 0, err
     assert "Each test" in (out / "report.md").read_text()
+    # its posterior.nc is recorded in summary.files, and one of another analysis is refused
+    import arviz as az
+
+    files = json.loads((out / "summary.json").read_text())["files"]
+    assert set(files) == {"posterior.nc"}
+    assert files["posterior.nc"]["bytes"] == (out / "posterior.nc").stat().st_size
+    with az.rc_context({"data.load": "eager"}):
+        idata = az.from_netcdf(out / "posterior.nc")
+    idata.posterior["c"] = idata.posterior["c"] * (1 + 1e-9)
+    idata.to_netcdf(str(out / "posterior.nc"))
+    code, _, err = run(["report", out], capsys)
+    assert code == 2 and "posterior.nc does not belong to" in one_line(err), err
 
 
 def test_end_to_end_added_mass(tmp_path, capsys):

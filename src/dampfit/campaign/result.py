@@ -114,7 +114,8 @@ class CampaignAnalysis(ResultViews):
                     self.checks = verdict.assess_sampled(self.tests, self.posterior.posterior,
                                                          self.added_mass is not None,
                                                          self.added_mass_sd)
-                self._summary = summary.summarise(self)
+                # files: set by save(), the posterior.nc written with it (as one recording's)
+                self._summary = {**summary.summarise(self), "files": None}
         return copy.deepcopy(self._summary)
 
     def to_json(self, path: str | os.PathLike) -> Path:
@@ -162,11 +163,22 @@ class CampaignAnalysis(ResultViews):
             write_report(out)
         return out
 
+    def _record_files(self, stage: Path) -> None:
+        """summary.json's ``files``: the SHA-256 and size of the posterior.nc just written into
+        ``stage`` (a campaign writes no signals.npz), so ``dampfit report`` and
+        :func:`dampfit.load` refuse one swapped in from another analysis
+        (:func:`dampfit.result.files.check_digest`), as for one recording."""
+        from dampfit.result.files import file_digests
+
+        self.summary()  # computed (or loaded) before it is amended
+        self._summary["files"] = file_digests(stage, ("posterior.nc",))
+
     def _write(self, folder, figures: bool) -> None:
         stage = folder.stage
         with folder.writing():
-            self.to_json(stage / "summary.json")
             self.to_netcdf(stage / "posterior.nc")
+            self._record_files(stage)
+            self.to_json(stage / "summary.json")
             if figures:
                 from dampfit.output.figures.campaign import save_figures
 

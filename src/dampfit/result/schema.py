@@ -202,7 +202,9 @@ Top-level keys of a campaign's summary (several recordings of one damper,
              "importance_ess_fraction", "log_bayes_factor_shared_frequency",
              "warnings", …},
      "warnings": [str],
-     "provenance": {"seed", "options", "date"}}
+     "provenance": {"seed", "options", "date"},
+     "files": null | {"posterior.nc": {"sha256", "bytes"}}}  # as one recording's (no
+             # signals.npz); absent in campaign summaries written before it was recorded
 """
 
 from __future__ import annotations
