@@ -101,7 +101,7 @@ def reduce(rec: Recording, band: tuple[float, float] | None = None
         return rec, None
     fs = rec.sample_rate
     top = float(band[1]) if band is not None else 1.5 * _peak_frequency(rec, fs)
-    q = int(math.floor(fs / (RATE_FACTOR * top)))
+    q = math.floor(fs / (RATE_FACTOR * top))
     if q < 2:
         _refuse_above_max(n, fs, top, fs)
         return rec, None
@@ -164,7 +164,7 @@ def _decimated(t: np.ndarray, a: np.ndarray, clipped: np.ndarray, fs: float, q: 
     within the filter's reach of a clipped input sample)."""
     dt = np.diff(t)
     if np.max(np.abs(dt * fs - 1.0)) > REGULAR:  # irregular stamps: onto the uniform grid
-        grid = t[0] + np.arange(int(math.floor((t[-1] - t[0]) * fs)) + 1) / fs
+        grid = t[0] + np.arange(math.floor((t[-1] - t[0]) * fs) + 1) / fs
         grid = grid[grid <= t[-1]]
         a = _spline_in_chunks(t, a, grid)
         clipped = np.interp(grid, t, clipped.astype(float)) > 0
