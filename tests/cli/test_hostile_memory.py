@@ -46,13 +46,15 @@ def _peak_kib(path: Path) -> int:
 
 
 def test_reading_a_csv_costs_a_bounded_memory_per_byte(tmp_path):
-    """Memory beyond the imports grows linearly, at under 9 bytes per byte of file (time and
-    three axes; paper/bench_memory.py measures 6.3 at 10 M rows of time and one axis)."""
-    small, large = _csv(tmp_path / "s.csv", 100_000), _csv(tmp_path / "l.csv", 500_000)
+    """Memory beyond the imports grows linearly, at under 6 bytes per byte of file (time and
+    three axes: 2.2 measured; the whole process reading 10 M rows of time and one axis peaks
+    at 4.9× the file, paper/bench_memory.py, and at 6.3× before the text reached pandas as
+    bytes and was sniffed line by line)."""
+    small, large = _csv(tmp_path / "s.csv", 300_000), _csv(tmp_path / "l.csv", 1_500_000)
     grown = (_peak_kib(large) - _peak_kib(small)) * 1024
     per_byte = grown / (large.stat().st_size - small.stat().st_size)
     print(f"{per_byte:.2f} bytes of memory per byte of file")
-    assert per_byte < 9, f"{per_byte:.1f} bytes of memory per byte of file"
+    assert per_byte < 6, f"{per_byte:.1f} bytes of memory per byte of file"
 
 
 def test_a_table_of_too_many_values_is_refused_before_parsing(tmp_path, monkeypatch, capsys):
