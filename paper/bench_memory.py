@@ -12,18 +12,19 @@ command, imports included.
 The issue's bound: ≤ 2 GB at the row limit and about 20× the file size at most. Measured
 (paper/results/bench_memory.json; 2 shared cores, peak RSS does not depend on the load):
 
-* reading 10 M rows of time and one axis: 1.26 GiB before this work, 0.9x GiB after (the
+* reading 10 M rows of time and one axis: 1.26 GiB before this work, 0.98 GiB after (the
   dialect sniffed line by line and pandas fed bytes, not ``io.StringIO``, whose 4-byte
-  characters copied the text twice); reading costs about 60 bytes a value, hence
+  characters copied the text twice); reading costs about 50 bytes a value (60 before), hence
   :data:`dampfit.io.bounded.MAX_CELLS` = 30 M values;
 * ``dampfit analyze`` of the 10 M rows: 3.39 GiB before (the preparation of 10 M samples:
-  spectra zero-padded to 2^26 points, grid, filters, envelope), PEAK10M after: more than
+  spectra zero-padded to 2^26 points, grid, filters, envelope), 1.17 GiB after (with the
+  figures; 5.9× the file, reading is now its largest stage): more than
   :data:`dampfit.signal.decimate.DECIMATE_ABOVE` samples are decimated to 16× the band's top
   first (here 500 → 50 Hz, 1 M samples), and the Cramér–Rao bound accumulates its Fisher
   information in blocks (:data:`dampfit.inference.crlb.BLOCK`) where it formed the whole
   n × 53 Jacobian and a QR of its drift basis;
 * ``dampfit analyze`` of 1 M rows (not decimated): 1.34 GiB before (the CRLB of the
-  270 000-sample window), PEAK1M after.
+  270 000-sample window), 0.83 GiB after (with the figures).
 
 Usage: ``python paper/bench_memory.py [--rows N] [--analyze [--figures]] [--json FILE]``.
 """
