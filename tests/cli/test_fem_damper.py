@@ -108,6 +108,27 @@ def test_law_viscous_writes_c_linear_and_warns(tmp_path, capsys):
     assert "dampfit export" in text and "--law viscous" in text  # the command in the header
 
 
+def test_a_damper_deck_has_the_damper_sections_k_in_every_format(tmp_path):
+    """The law's own posterior k (damper.k, 1 % above the viscous posterior's parameters.k
+    here, as 6.5687 against 6.5618 N/m on the phone spring) is the spring of every deck that
+    carries the law or its c_linear; the viscous posterior's c forced keeps its own k."""
+    folder = write_damper_summary(tmp_path / "p", "power", k=1.01 * K)
+    k_law = 1.01 * K
+    text, info = build(folder, "lsdyna")
+    assert lsdyna.read_deck(text)["k"] == pytest.approx(k_law, rel=1e-9)
+    assert info["k"] == pytest.approx(k_law, rel=1e-12)
+    text, _ = build(folder, "opensees")
+    assert f"k = {k_law!r}" in text
+    text, _ = build(folder, "calculix")
+    assert calculix.read_deck(text)["k"] == pytest.approx(k_law, rel=1e-9)
+    text, _ = build(folder, "lsdyna", law="viscous")  # the law's c_linear with the law's k
+    assert lsdyna.read_deck(text)["k"] == pytest.approx(k_law, rel=1e-9)
+    text, _ = build(folder, "lsdyna", force_law="viscous")  # the viscous posterior's c and k
+    assert lsdyna.read_deck(text)["k"] == pytest.approx(K, rel=1e-9)
+    plain = write_damper_summary(tmp_path / "v", "viscous", k=1.01 * K)
+    assert lsdyna.read_deck(build(plain, "lsdyna")[0])["k"] == pytest.approx(K, rel=1e-9)
+
+
 def test_a_misfit_exports_nothing_without_force_law(tmp_path, capsys):
     folder = write_damper_summary(tmp_path / "m", None, coeffs={}, status="none",
                                   verdict="misfit")

@@ -73,7 +73,9 @@ class Damper:
     ``status``/``verdict``/``recommended`` are the summary's (``None`` for a summary without a
     damper section); ``velocity_range`` and ``displacement_range`` [m/s, m] the measured
     amplitudes, ``design`` the design amplitude entry, ``c_linear`` the equivalent linear c
-    entry (q05/q50/q95), ``notes`` the sentences every deck carries (warnings included) and
+    entry (q05/q50/q95), ``k`` [N/m] the stiffness of the law's own posterior (the section's
+    ``k.q50``; the deck's spring whenever the deck carries the law or its c_linear, so the
+    deck, the damper section and the report give one k), ``notes`` the sentences every deck carries (warnings included) and
     ``warnings`` those also printed on stderr.
     """
 
@@ -86,6 +88,7 @@ class Damper:
     displacement_range: tuple[float, float] | None = None
     design: dict[str, Any] | None = None
     c_linear: dict[str, float] | None = None
+    k: float | None = None
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = field(default=())
 
@@ -266,7 +269,7 @@ def choose(summary: dict[str, Any], path: str | Path, law: str | None = None,
 def _ranges(sec: dict[str, Any], path: Path, status: str) -> dict[str, Any]:
     """Measured ranges, design amplitude and c_linear of the section (None where absent)."""
     out: dict[str, Any] = {"velocity_range": None, "displacement_range": None, "design": None,
-                           "c_linear": None}
+                           "c_linear": None, "k": None}
     mr = sec.get("measured_range")
     if isinstance(mr, dict):
         if mr.get("velocity_m_s") is not None:
@@ -282,6 +285,8 @@ def _ranges(sec: dict[str, Any], path: Path, status: str) -> dict[str, Any]:
                          "source": " ".join(str(d.get("source") or "?").split())[:80]}
     if sec.get("c_linear") is not None:
         out["c_linear"] = _entry(sec["c_linear"], "damper.c_linear", path, nonnegative=True)
+    if sec.get("k") is not None:
+        out["k"] = _entry(sec["k"], "damper.k", path, positive=True)["q50"]
     return out
 
 
@@ -293,6 +298,7 @@ def _forced(summary, sec, path, law, viscous_c, common) -> Damper:
                   if law != "viscous" or viscous_c is None else {"c": viscous_c})
     elif law == "viscous" and viscous_c is not None:
         coeffs = {"c": viscous_c}
+        common = {**common, "k": None}  # the viscous posterior's c with its own k
     else:
         models = (summary.get("damping_models") or {}).get("models") or {}
         if not isinstance(models, dict) or not isinstance(models.get(law), dict):
@@ -300,6 +306,9 @@ def _forced(summary, sec, path, law, viscous_c, common) -> Damper:
                              f"{law}); --force-law {law} cannot write it")
         coeffs = _coefficients(law, models[law].get("parameters"),
                                f"damping_models.models.{law}.parameters", path)
+        k = (models[law].get("parameters") or {}).get("k")  # that law's own k, not the section's
+        common = {**common, "k": None if k is None else _entry(
+            k, f"damping_models.models.{law}.parameters.k", path, positive=True)["q50"]}
     warn = (f"--force-law {law}: the {law} law is written although the verdict is "
             f"{common['verdict']}" + (f" and the recommended damper is {rec}" if rec else
                                       " and no damper is recommended") + ".")

@@ -224,10 +224,18 @@ def canonical_command(folder: Path, fmt: str, units: str = "SI", quantile: float
 def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
     """(damper, system): the damper the deck writes and the system with its linear c — the
     dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
-    (``damper.c_linear``, else c_eq at u0), which the decks only report."""
+    (``damper.c_linear``, else c_eq at u0), which the decks only report.
+
+    Whenever the deck carries a law other than the viscous posterior's (a nonlinear law, or
+    ``--law viscous``'s c_linear of one), its spring is that law's k (``damper.k``: the
+    damper section's, of the law's own posterior), not ``parameters.k`` of the viscous
+    posterior (on the phone spring 6.5687 against 6.5618 N/m): one k in the deck, the damper
+    section and the report."""
     import dataclasses
 
     dmp = damper_mod.choose(summary, path, law, force_law, viscous_c=sdof.c)
+    if dmp.k is not None and (dmp.nonlinear or dmp.recommended not in (None, "viscous")):
+        sdof = dataclasses.replace(sdof, k=dmp.k)
     if dmp.nonlinear:
         if abs(quantile - 0.5) > 1e-12:
             raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "
