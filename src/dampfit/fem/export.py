@@ -233,9 +233,17 @@ def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile)
     section and the report."""
     import dataclasses
 
-    dmp = damper_mod.choose(summary, path, law, force_law, viscous_c=sdof.c)
+    curve = law == damper_mod.MEASURED
+    if curve and force_law is not None:
+        raise InputError("give --law measured or --force-law, not both")
+    dmp = damper_mod.choose(summary, path, None if curve else law, force_law,
+                            viscous_c=sdof.c)
     if dmp.k is not None and (dmp.nonlinear or dmp.recommended not in (None, "viscous")):
         sdof = dataclasses.replace(sdof, k=dmp.k)
+    if curve:  # the curve fitted to the measured envelope (fem/measured.py)
+        from dampfit.fem.measured import measured_damper
+
+        dmp = measured_damper(path.parent, summary, dmp, sdof)
     if dmp.nonlinear:
         if abs(quantile - 0.5) > 1e-12:
             raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "

@@ -121,11 +121,13 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     dt, n_steps, period_error = _step(ident, span, spacing, dt)
     text, script = exported_script(folder, summary, span)
     start = start_state(tau, sig, ident.period, script["damper"]["law"])
+    offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
+    n_steps -= int(round(offset / dt))
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
     script["run_options"] = fem["options"]
-    t_fem = t[0] + fem["t"]
-    u_fem = np.interp(t, t_fem, fem["u"])
-    a_fem = np.interp(t, t_fem, fem["a"])
+    t_fem = t[0] + offset + fem["t"]
+    u_fem = np.interp(t, t_fem, fem["u"], left=np.nan)  # no run before its start: left out
+    a_fem = np.interp(t, t_fem, fem["a"], left=np.nan)
     decay = response.peak_decay_rate(t_fem, fem["u"])
     measured_decay = response.peak_decay_rate(t, sig["displacement"])
     rel = None if decay["p"] is None or p_id == 0 else decay["p"] / p_id - 1.0
@@ -148,7 +150,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
                    "k": {"value": ident.k, "unit": "N/m"}, "c": {"value": ident.c, "unit": "N s/m"},
                    "omega_n": {"value": ident.omega_n, "unit": "rad/s"},
                    "zeta": {"value": ident.zeta, "unit": "1"}, "p": {"value": ident.p, "unit": "1/s"}},
-        "initial_state": {"t_s": float(t[0]), "u": {"value": start["u"], "unit": "m"},
+        "initial_state": {"t_s": float(t[0] + offset), "u": {"value": start["u"], "unit": "m"},
                           "v": {"value": start["v"], "unit": "m/s"},
                           "accel_model_fit_rms": {"value": start["fit_rms"], "unit": "m/s^2"},
                           "method": "least-squares (A, B) of accel_model on exp(-p tau)cos/sin; "
@@ -316,6 +318,9 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
         if kind == "u" and "u_linear" in a:
             ax.plot(t[sel], scale * a["u_linear"][sel], color="tab:blue", lw=0.8, ls=":",
                     label="OpenSees FEM (linear dashpot at the design amplitude)")
+        if kind == "u" and "u_measured" in a:
+            ax.plot(t[sel], scale * a["u_measured"][sel], color="tab:green", lw=0.8, ls="-.",
+                    label="OpenSees FEM (measured curve, --law measured)")
         ax.set_xlabel("time [s]")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
