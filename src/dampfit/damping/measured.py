@@ -165,7 +165,10 @@ def fit(t: np.ndarray, peaks: np.ndarray, omega: float, mass: float, mass_sd: fl
     2·:data:`BLOCK` peaks."""
     from scipy.signal import savgol_filter
 
-    t, ln_p = np.asarray(t, float), np.log(np.asarray(peaks, float))
+    peaks = np.asarray(peaks, float)
+    if not np.all(np.isfinite(peaks) & (peaks > 0)):
+        raise ValueError("the peaks must be positive and finite")
+    t, ln_p = np.asarray(t, float), np.log(peaks)
     if t.size < 2 * BLOCK:
         raise ValueError(f"{t.size} peaks: the measured curve needs at least {2 * BLOCK}")
     al = np.asarray(exponents, float)
