@@ -25,7 +25,7 @@ from typing import Any
 
 from dampfit.errors import InputError, shown
 from dampfit.fem import damper as damper_mod
-from dampfit.fem.verify_damper import EDGE_PERIODS
+from dampfit.fem.response import EDGE_PERIODS
 
 __all__ = ["MIN_SHARE", "measured_damper"]
 

@@ -114,6 +114,9 @@ def peak_decay_rate(t: np.ndarray, y: np.ndarray, start: float | None = None,
 
 #: Peaks of the Savitzky–Golay trend of the measured log envelope (quadratic) [1].
 TREND_PEAKS = 15
+#: Periods at each end of the window where the band-pass filters of the measured signal
+#: settle: left out of the damper's comparisons and of the measured curve's fit.
+EDGE_PERIODS = 3.0
 
 
 def envelope(t: np.ndarray, y: np.ndarray, start: float | None = None,

@@ -34,10 +34,12 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    verification.json, a block of the table).
 
 7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
-   runs as such (its start state from the measured acceleration of the first three periods,
-   :func:`dampfit.fem.verify_damper.start_state`); beside it the linear dashpot at the design
-   amplitude (``dampfit export DIR --format opensees --law viscous``,
-   :func:`dampfit.fem.verify_damper.linear_script`). For both: the log-envelope rms against
+   runs as such (every run of it from the measured state three periods into the window,
+   where the comparison starts, fitted over the next three periods at their local rate, its
+   amplitude the measured trend's, :func:`dampfit.fem.verify_damper.start_state`); beside it
+   the linear dashpot at the design amplitude (``dampfit export DIR --format opensees --law
+   viscous``) and the measured curve (``--law measured``, :mod:`dampfit.fem.measured`; both
+   :func:`dampfit.fem.verify_damper.linear_script`). For each: the log-envelope rms against
    the measured peaks and their trend, the measured scatter, and ζ(A) at the
    ``amplitude_curve`` windows against their 90 % bands (``damper`` in verification.json,
    verify.png, the table); a misfit (no damper recommended) runs the viscous posterior
@@ -92,7 +94,7 @@ from dampfit.result.schema import folder_of
 __all__ = ["exported_script", "figure_format", "modal_run", "plot", "run", "table", "verify"]
 
 #: Periods left out at each end for the "interior" error measures (filter settling).
-EDGE_PERIODS = 3.0
+EDGE_PERIODS = response.EDGE_PERIODS
 #: Largest allowed Newmark period error [1].
 MAX_PERIOD_ERROR = 1e-4
 

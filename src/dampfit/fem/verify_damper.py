@@ -61,9 +61,10 @@ def damper_runs(folder, summary, script, start, steps, measured, exported, omega
         report["draws"], arrays["band"] = band["report"], band["arrays"]
 
 
-#: Periods of the measured acceleration a nonlinear damper's start state is fitted to, and
-#: the periods after the window start where they begin (verify's interior edge).
-START_PERIODS, EDGE_PERIODS = 3.0, 3.0
+#: Periods of the measured acceleration a nonlinear damper's start state is fitted to (they
+#: begin response.EDGE_PERIODS after the window start, verify's interior edge).
+START_PERIODS = 3.0
+EDGE_PERIODS = response.EDGE_PERIODS
 
 
 def start_state(tau: np.ndarray, sig: dict[str, Any], period: float, law: str) -> dict:
