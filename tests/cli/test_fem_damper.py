@@ -382,14 +382,15 @@ def test_fifty_draws_run_and_their_zeta_eq_spread_is_the_posteriors(tmp_path, ca
 def test_real_cantilever_nonlinear_deck_beats_the_linear_dashpot(tmp_path, capsys):
     """The ADXL357 50 cm cantilever (amplitude-dependent, SOURCES.md: m_eff ≈ 0.037 kg):
     the exported deck is the recommended nonlinear law, and its envelope error in verify is
-    below the linear dashpot's (measured: quadratic 1.3 % against 14 %, scatter 0.33 %;
-    paper/damper_verify.py). A summary from before the damper section gets one built from
-    its damping_models (tests/_support/fem.py)."""
+    below the linear dashpot's; the measured curve (--law measured) run beside it is too,
+    and within the measurement's own scatter about its trend (paper/damper_verify.py:
+    RUN_NUMBERS). A summary from before the damper section gets one built from its
+    damping_models (tests/_support/fem.py)."""
     from tests._support.fem import damper_from_summary
     from tests._support.requirements import REAL, require
 
     path = REAL / ("cantilever-adxl357-demirkaya/tests_for_comparing_1st_nfreq/50cm_adxl/"
-                   "08-12_11-46-55_adxl6cmfromtip2cmID/accelerometer_data.npy")
+                   "08-12_11-47-32_adxl6cmfromtip2cmID/accelerometer_data.npy")
     require(path.is_file(), f"the real recordings are not at {REAL}")
     folder = tmp_path / "c50"
     assert main(["analyze", str(path), "--mass", "0.037", "--out", str(folder)]) == 0
@@ -404,6 +405,8 @@ def test_real_cantilever_nonlinear_deck_beats_the_linear_dashpot(tmp_path, capsy
     d = json.loads((folder / "verification.json").read_text())["damper"]
     ex, lin = d["exported"]["envelope"], d["linear"]["envelope"]
     assert ex["rms_vs_trend"] < 0.5 * lin["rms_vs_trend"]
+    cur = d["measured"]["envelope"]
+    assert cur["rms_vs_trend"] < 0.5 * lin["rms_vs_trend"] and cur["within_scatter"] is True
 
 
 @pytest.mark.usefixtures("requires_opensees")
