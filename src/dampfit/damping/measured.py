@@ -140,15 +140,16 @@ def _start(t, ln_p, trend, omega, mass, exponents) -> tuple[np.ndarray, float]:
     return b, float(ln_p.mean() + G.mean(axis=0) @ b)
 
 
-def _refine(t, ln_p, b0, a0, omega, mass, exponents, floor, evals=None) -> np.ndarray:
-    """Step 2: bounded least squares of the averaged envelope (at most ``evals`` residual
-    evaluations: a bootstrap refit starts at the optimum); returns (b…, ln A₀)."""
+def _refine(t, ln_p, b0, a0, system, floor, evals=None) -> np.ndarray:
+    """Step 2: bounded least squares of the averaged envelope (``system`` = (ω, m,
+    exponents); at most ``evals`` residual evaluations: a bootstrap refit starts at the
+    optimum); returns (b…, ln A₀)."""
     from scipy.optimize import least_squares
 
     scale = np.where(b0 > 0, b0, max(float(b0.max()), 1e-12) * 1e-2)
 
     def resid(x):
-        return envelope(x[:-1] * scale, x[-1], t, omega, mass, exponents, floor) - ln_p
+        return envelope(x[:-1] * scale, x[-1], t, *system, floor) - ln_p
 
     x0 = np.concatenate([b0 / scale, [a0]])
     lo = np.concatenate([np.zeros(b0.size), [-np.inf]])
@@ -176,7 +177,7 @@ def fit(t: np.ndarray, peaks: np.ndarray, omega: float, mass: float, mass_sd: fl
     floor = float(ln_p.min()) - 1.0
     trend = savgol_filter(ln_p, BLOCK, 2)
     b0, a0 = _start(tau, ln_p, trend, omega, mass, al)
-    x = _refine(tau, ln_p, b0, a0, omega, mass, al, floor)
+    x = _refine(tau, ln_p, b0, a0, (omega, mass, al), floor)
     fitted = envelope(x[:-1], x[-1], tau, omega, mass, al, floor)
     resid = ln_p - fitted
     rng = np.random.default_rng(seed)
@@ -184,7 +185,7 @@ def fit(t: np.ndarray, peaks: np.ndarray, omega: float, mass: float, mass_sd: fl
     for i in range(N_BOOT):
         starts = rng.integers(0, n, size=-(-n // BLOCK))
         idx = (starts[:, None] + np.arange(BLOCK)[None, :]).ravel()[:n] % n
-        xb = _refine(tau, fitted + resid[idx], x[:-1], x[-1], omega, mass, al, floor,
+        xb = _refine(tau, fitted + resid[idx], x[:-1], x[-1], (omega, mass, al), floor,
                      evals=_BOOT_EVALS)
         m_star = mass + mass_sd * rng.standard_normal() if mass_sd > 0 else mass
         boot[i] = xb[:-1] * m_star / mass

@@ -126,10 +126,8 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
     n_steps -= int(round(offset / dt))
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
-    script["run_options"] = fem["options"]
-    t_fem = t[0] + offset + fem["t"]
-    u_fem = np.interp(t, t_fem, fem["u"], left=np.nan)  # no run before its start: left out
-    a_fem = np.interp(t, t_fem, fem["a"], left=np.nan)
+    script["run_options"], t_fem = fem["options"], t[0] + offset + fem["t"]
+    u_fem, a_fem = (np.interp(t, t_fem, fem[k], left=np.nan) for k in "ua")  # none before it
     decay = response.peak_decay_rate(t_fem, fem["u"])
     measured_decay = response.peak_decay_rate(t, sig["displacement"])
     rel = None if decay["p"] is None or p_id == 0 else decay["p"] / p_id - 1.0
