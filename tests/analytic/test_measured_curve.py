@@ -60,7 +60,7 @@ def test_the_fit_is_seeded_and_the_mass_widens_its_interval():
     np.testing.assert_array_equal(a.boot, b.boot)
     wide = measured.fit(t, p, W, M, mass_sd=0.05 * M, seed=3)
     mid = math.sqrt(a.amplitude_range[0] * a.amplitude_range[1])
-    width = lambda c: c.interval(mid)["q95"] - c.interval(mid)["q05"]  # noqa: E731
+    width = lambda c: c.interval(mid)["q95"] - c.interval(mid)["q05"]
     assert width(wide) > 2 * width(a)
 
 
@@ -69,7 +69,7 @@ def test_a_sigmoid_damping_is_beyond_the_family_and_the_rms_says_so():
     A^(a-1) terms with b >= 0 (log-convex in ln A): the fit's rms stays well above the noise,
     so the outputs can tell the curve does not follow the recording."""
     t = np.arange(0.0, 120.0, math.pi / W)
-    rate = lambda a: 0.004 + 0.008 / (1 + (0.02 / a) ** 12)  # noqa: E731 [1/s]
+    rate = lambda a: 0.004 + 0.008 / (1 + (0.02 / a) ** 12)  # [1/s]
     ln_a = [math.log(U0)]
     for dt in np.diff(t):
         ln_a.append(ln_a[-1] - rate(math.exp(ln_a[-1])) * dt)

@@ -54,7 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BLOCK", "EXPONENTS", "MeasuredCurve", "N_BOOT", "envelope", "fit", "term_rates"]
+__all__ = ["BLOCK", "EXPONENTS", "N_BOOT", "MeasuredCurve", "envelope", "fit", "term_rates"]
 
 #: Exponents α_j of the terms (0.5: strongly softening … 3: stiffening).
 EXPONENTS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)

@@ -124,7 +124,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     text, script = exported_script(folder, summary, span)
     start = start_state(tau, sig, ident.period, script["damper"]["law"])
     offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
-    n_steps -= int(round(offset / dt))
+    n_steps -= round(offset / dt)
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
     script["run_options"], t_fem = fem["options"], t[0] + offset + fem["t"]
     u_fem, a_fem = (np.interp(t, t_fem, fem[k], left=np.nan) for k in "ua")  # none before it
