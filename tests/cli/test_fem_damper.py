@@ -291,6 +291,9 @@ def test_law_measured_writes_the_fitted_curve_in_each_format(tmp_path, capsys):
     code, _, err = run(["export", write_summary(tmp_path / "old"), "--format", "lsdyna",
                         "--law", "measured"], capsys)
     assert_one_line_error(code, err, match="damper section")
+    code, _, err = run(["export", folder, "--format", "lsdyna", "--law", "measured",
+                        "--draws", "5"], capsys)
+    assert_one_line_error(code, err, match="no posterior draws")
 
 
 @pytest.mark.usefixtures("requires_opensees")

@@ -308,6 +308,10 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     if draws is not None:  # N posterior draws: a folder of decks and draws.csv
         from dampfit.fem import draws as draws_mod
 
+        if law == damper_mod.MEASURED:
+            raise InputError("--law measured has no posterior draws (its interval is a "
+                             "bootstrap, stated in the deck); drop --draws or --law measured")
+
         draws_mod.check_count(draws)
         command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,
                                                law, force_law, ("--draws", str(draws),
