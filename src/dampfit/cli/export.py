@@ -33,7 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--law", metavar="LAW",
                         help="'viscous': a linear dashpot (under a non-viscous verdict the "
                              "equivalent linear c at the design amplitude, with a warning); "
-                             "default: the recommended damper of summary.json")
+                             "'measured': the force-velocity curve fitted to the measured "
+                             "envelope (a sum of |v|^a terms; LS-DYNA table, OpenSees "
+                             "Viscous terms); default: the recommended damper of summary.json")
     parser.add_argument("--draws", type=int, metavar="N",
                         help="write N posterior draws of the system and damper: a folder "
                              "(default DIR/sdof_FORMAT_draws) of draws.csv and N decks "

@@ -46,8 +46,8 @@ import numpy as np
 from dampfit.errors import InputError, shown
 from dampfit.result.schema import brief, number
 
-__all__ = ["COEFFICIENTS", "FORCE_TEXT", "Damper", "choose", "describe", "force",
-           "theta", "zero_slope_velocity"]
+__all__ = ["COEFFICIENTS", "FORCE_TEXT", "MEASURED", "Damper", "choose", "describe", "force",
+           "terms", "theta", "unit", "zero_slope_velocity"]
 
 #: Coefficients of each law the decks write, with their SI units.
 COEFFICIENTS: dict[str, dict[str, str]] = {
@@ -58,7 +58,11 @@ COEFFICIENTS: dict[str, dict[str, str]] = {
 }
 #: The force laws in plain ASCII (deck comments).
 FORCE_TEXT = {"viscous": "F = c*v", "coulomb": "F = c*v + F_c*sgn(v)",
-              "quadratic": "F = c*v + c2*v*|v|", "power": "F = c_alpha*|v|^alpha*sgn(v)"}
+              "quadratic": "F = c*v + c2*v*|v|", "power": "F = c_alpha*|v|^alpha*sgn(v)",
+              "measured": "F = sum_j c_a*|v|^a*sgn(v) over the exponents a"}
+#: ``--law measured``: the curve fitted to the measured envelope (:mod:`dampfit.fem.measured`);
+#: its coefficients are named ``c_<a>`` by exponent a (unit N (s/m)^a).
+MEASURED = "measured"
 #: Allowed range of each coefficient (``number`` rules); α ∈ (0, 3] as the law's prior.
 _RULES = {"c": {"nonnegative": True}, "F_c": {"nonnegative": True}, "c2": {"nonnegative": True},
           "c_alpha": {"positive": True}, "alpha": {"positive": True}}
@@ -73,7 +77,9 @@ class Damper:
     ``status``/``verdict``/``recommended`` are the summary's (``None`` for a summary without a
     damper section); ``velocity_range`` and ``displacement_range`` [m/s, m] the measured
     amplitudes, ``design`` the design amplitude entry, ``c_linear`` the equivalent linear c
-    entry (q05/q50/q95), ``notes`` the sentences every deck carries (warnings included) and
+    entry (q05/q50/q95), ``k`` [N/m] the stiffness of the law's own posterior (the section's
+    ``k.q50``; the deck's spring whenever the deck carries the law or its c_linear, so the
+    deck, the damper section and the report give one k), ``notes`` the sentences every deck carries (warnings included) and
     ``warnings`` those also printed on stderr.
     """
 
@@ -86,6 +92,7 @@ class Damper:
     displacement_range: tuple[float, float] | None = None
     design: dict[str, Any] | None = None
     c_linear: dict[str, float] | None = None
+    k: float | None = None
     notes: tuple[str, ...] = ()
     warnings: tuple[str, ...] = field(default=())
 
@@ -99,9 +106,21 @@ class Damper:
         return force(self.law, self.coefficients, v)
 
 
+def terms(coeffs: dict[str, float]) -> list[tuple[float, float]]:
+    """(b, a) of each term b·|v|^a·sgn(v) of a measured curve's ``coeffs`` (``c_<a>``)."""
+    return [(float(b), float(name[2:])) for name, b in coeffs.items()]
+
+
+def unit(law: str, name: str) -> str:
+    """The SI unit of coefficient ``name`` of ``law``."""
+    return f"N (s/m)^{name[2:]}" if law == MEASURED else COEFFICIENTS[law][name]
+
+
 def force(law: str, coeffs: dict[str, float], v):
     """The damping force [N] of ``law`` with ``coeffs`` (SI) at velocity ``v`` [m/s]."""
     v = np.asarray(v, dtype=float)
+    if law == MEASURED:
+        return sum(b * np.abs(v) ** a * np.sign(v) for b, a in terms(coeffs))
     if law == "viscous":
         return coeffs["c"] * v
     if law == "coulomb":
@@ -140,6 +159,8 @@ def c_equivalent(law: str, coeffs: dict[str, float], omega: float, amplitude: fl
     from dampfit.model.laws import lam
 
     v = omega * amplitude
+    if law == MEASURED:
+        return float(sum(b * v ** (a - 1.0) * float(lam(a)) / math.pi for b, a in terms(coeffs)))
     if law == "viscous":
         return coeffs["c"]
     if law == "coulomb":
@@ -266,7 +287,7 @@ def choose(summary: dict[str, Any], path: str | Path, law: str | None = None,
 def _ranges(sec: dict[str, Any], path: Path, status: str) -> dict[str, Any]:
     """Measured ranges, design amplitude and c_linear of the section (None where absent)."""
     out: dict[str, Any] = {"velocity_range": None, "displacement_range": None, "design": None,
-                           "c_linear": None}
+                           "c_linear": None, "k": None}
     mr = sec.get("measured_range")
     if isinstance(mr, dict):
         if mr.get("velocity_m_s") is not None:
@@ -282,6 +303,8 @@ def _ranges(sec: dict[str, Any], path: Path, status: str) -> dict[str, Any]:
                          "source": " ".join(str(d.get("source") or "?").split())[:80]}
     if sec.get("c_linear") is not None:
         out["c_linear"] = _entry(sec["c_linear"], "damper.c_linear", path, nonnegative=True)
+    if sec.get("k") is not None:
+        out["k"] = _entry(sec["k"], "damper.k", path, positive=True)["q50"]
     return out
 
 
@@ -293,6 +316,7 @@ def _forced(summary, sec, path, law, viscous_c, common) -> Damper:
                   if law != "viscous" or viscous_c is None else {"c": viscous_c})
     elif law == "viscous" and viscous_c is not None:
         coeffs = {"c": viscous_c}
+        common = {**common, "k": None}  # the viscous posterior's c with its own k
     else:
         models = (summary.get("damping_models") or {}).get("models") or {}
         if not isinstance(models, dict) or not isinstance(models.get(law), dict):
@@ -300,6 +324,9 @@ def _forced(summary, sec, path, law, viscous_c, common) -> Damper:
                              f"{law}); --force-law {law} cannot write it")
         coeffs = _coefficients(law, models[law].get("parameters"),
                                f"damping_models.models.{law}.parameters", path)
+        k = (models[law].get("parameters") or {}).get("k")  # that law's own k, not the section's
+        common = {**common, "k": None if k is None else _entry(
+            k, f"damping_models.models.{law}.parameters.k", path, positive=True)["q50"]}
     warn = (f"--force-law {law}: the {law} law is written although the verdict is "
             f"{common['verdict']}" + (f" and the recommended damper is {rec}" if rec else
                                       " and no damper is recommended") + ".")
@@ -334,9 +361,9 @@ def describe(dmp: Damper, command: str | None = None) -> list[str]:
     """The header sentences of every deck (plain text; each writer sanitises them): the
     verdict, the law and its coefficients, the measured amplitude range, the notes and the
     command that wrote the deck."""
-    coeffs = ", ".join(f"{k} = {v:.6g} {COEFFICIENTS[dmp.law][k]}"
-                       for k, v in dmp.coefficients.items())
-    lines = [f"Damper: {dmp.law} law {FORCE_TEXT[dmp.law]}; {coeffs} (SI, posterior medians); "
+    coeffs = ", ".join(f"{k} = {v:.6g} {unit(dmp.law, k)}" for k, v in dmp.coefficients.items())
+    what = ("fitted to the measured envelope" if dmp.law == MEASURED else "posterior medians")
+    lines = [f"Damper: {dmp.law} law {FORCE_TEXT[dmp.law]}; {coeffs} (SI, {what}); "
              f"verdict {dmp.verdict or 'not recorded'}"
              + (f", recommended law {dmp.recommended}" if dmp.recommended else "") + "."]
     if dmp.displacement_range or dmp.velocity_range:
@@ -395,6 +422,9 @@ def deck_coefficients(dmp: Damper, units) -> dict[str, float]:
     F, V = factor("force", units), factor("velocity", units)
     alpha = dmp.coefficients.get("alpha", 1.0)
     conv = {"c": F / V, "F_c": F, "c2": F / V**2, "c_alpha": F / V**alpha, "alpha": 1.0}
+    if dmp.law == MEASURED:
+        conv = {name: F / V ** a for name, (_, a) in zip(dmp.coefficients,
+                                                          terms(dmp.coefficients))}
     out = {k: float(v * conv[k]) for k, v in dmp.coefficients.items()}
     for k, v in out.items():
         if not math.isfinite(v):
@@ -427,6 +457,8 @@ def opensees_fields(dmp: Damper | None, units, k: float) -> dict[str, str]:
                                     '# force = c * velocity**1\n',
                 "force_def": "", "force_at_start": "c * args.v_start"}
     vals = deck_coefficients(dmp, units)
+    if dmp.law == MEASURED:
+        return _measured_fields(dmp, vals)
     values = "".join(f"{_SCRIPT_NAME[n]} = {v!r}  # {n} of the {dmp.law} law\n"
                      for n, v in vals.items())
     sgn = "((v > 0) - (v < 0))"
@@ -457,3 +489,24 @@ def opensees_fields(dmp: Damper | None, units, k: float) -> dict[str, str]:
             "force_at_start": "damper_force(args.v_start)",
             "force_def": (f"\n\ndef damper_force(v):\n    \"\"\"The damper's force at velocity v "
                           f"(script units): {FORCE_TEXT[dmp.law]}.\"\"\"\n    return {expr}\n\n")}
+
+
+def _measured_fields(dmp: Damper, vals: dict[str, float]) -> dict[str, str]:
+    """:func:`opensees_fields` of a measured curve: a ``Parallel`` of one ``Viscous b_j a_j``
+    per term (ViscousMaterial: σ = C·|ε̇|^α·sgn ε̇), their sum the tabulated law."""
+    pairs = [(v, a) for v, (_, a) in zip(vals.values(), terms(dmp.coefficients))]
+    values = "".join(f"law_b{j} = {v!r}  # c_{a:g} of the measured curve: |v|**{a!r} term\n"
+                     for j, (v, a) in enumerate(pairs))
+    mats = "".join(f'ops.uniaxialMaterial("Viscous", {11 + j}, law_b{j}, {a!r})  '
+                   f"# law_b{j} * |v|**{a!r} * sgn(v)\n" for j, (_, a) in enumerate(pairs))
+    tags = ", ".join(str(11 + j) for j in range(len(pairs)))
+    mats += f'ops.uniaxialMaterial("Parallel", 2, {tags})  # their sum\n'
+    expr = " + ".join(f"law_b{j} * abs(v) ** {a!r}" for j, (_, a) in enumerate(pairs))
+    return {"damper_doc": "", "damper_values": values, "damper_materials": mats,
+            "damper_model": f"a Parallel material of {len(pairs)} Viscous (b_j, a_j) terms "
+                            "(the curve fitted to the measured envelope)",
+            "c_comment": "equivalent linear c at the design amplitude (not in the model)",
+            "force_at_start": "damper_force(args.v_start)",
+            "force_def": (f"\n\ndef damper_force(v):\n    \"\"\"The damper's force at velocity v "
+                          f"(script units): {FORCE_TEXT[MEASURED]}.\"\"\"\n    return "
+                          f"({expr}) * ((v > 0) - (v < 0))\n\n")}

@@ -237,7 +237,8 @@ def verify_band(build, folder: Path, summary: dict[str, Any], n: int, seed: int,
                                    name=opensees.SCRIPT_NAME,
                                    variant=_variant(draws, i, n, seed, design))
         res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)
-        ts, as_ = response.envelope(t[0] + res["t"], res["a"] / omega_n ** 2)
+        ts, as_ = response.envelope(t[0] + start.get("offset_s", 0.0) + res["t"],
+                                    res["a"] / omega_n ** 2)
         curves.append(np.exp(np.interp(tm, ts, np.log(as_))) if ts.size >= 2 else
                       np.full(tm.size, np.nan))
     c = np.array(curves)

@@ -26,7 +26,10 @@ velocity; the deck says where it is extrapolated), OpenSees ``Viscous c_alpha al
 ElasticPP friction element, its stick stiffness stated), CalculiX (linear *DASHPOT only) the
 linear c at the design amplitude with that limitation stated. Every deck's header gives the
 verdict, the law and its coefficients, the measured amplitude range, the notes and the
-command that writes it (:func:`canonical_command`). ``law="viscous"`` (``--law viscous``)
+command that writes it (:func:`canonical_command`). ``law="measured"`` (``--law measured``) writes
+instead the force–velocity curve fitted to the measured envelope (:mod:`dampfit.fem.measured`:
+Σ c_a·|v|^a·sgn v, LS-DYNA its table, OpenSees a Parallel of Viscous terms, CalculiX its c_eq
+at the design amplitude), said in the deck; ``law="viscous"`` (``--law viscous``)
 writes a linear dashpot: under a non-viscous verdict the equivalent linear c at the design
 amplitude (``damper.c_linear``), with a warning (stderr and deck); ``force_law``
 (``--force-law LAW``) any law, and is needed when no damper is recommended (a misfit). A
@@ -224,10 +227,26 @@ def canonical_command(folder: Path, fmt: str, units: str = "SI", quantile: float
 def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
     """(damper, system): the damper the deck writes and the system with its linear c — the
     dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
-    (``damper.c_linear``, else c_eq at u0), which the decks only report."""
+    (``damper.c_linear``, else c_eq at u0), which the decks only report.
+
+    Whenever the deck carries a law other than the viscous posterior's (a nonlinear law, or
+    ``--law viscous``'s c_linear of one), its spring is that law's k (``damper.k``: the
+    damper section's, of the law's own posterior), not ``parameters.k`` of the viscous
+    posterior (on the phone spring 6.5687 against 6.5618 N/m): one k in the deck, the damper
+    section and the report."""
     import dataclasses
 
-    dmp = damper_mod.choose(summary, path, law, force_law, viscous_c=sdof.c)
+    curve = law == damper_mod.MEASURED
+    if curve and force_law is not None:
+        raise InputError("give --law measured or --force-law, not both")
+    dmp = damper_mod.choose(summary, path, None if curve else law, force_law,
+                            viscous_c=sdof.c)
+    if dmp.k is not None and (dmp.nonlinear or dmp.recommended not in (None, "viscous")):
+        sdof = dataclasses.replace(sdof, k=dmp.k)
+    if curve:  # the curve fitted to the measured envelope (fem/measured.py)
+        from dampfit.fem.measured import measured_damper
+
+        dmp = measured_damper(path.parent, summary, dmp, sdof)
     if dmp.nonlinear:
         if abs(quantile - 0.5) > 1e-12:
             raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "
@@ -288,6 +307,10 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     folder = folder_of(result)
     if draws is not None:  # N posterior draws: a folder of decks and draws.csv
         from dampfit.fem import draws as draws_mod
+
+        if law == damper_mod.MEASURED:
+            raise InputError("--law measured has no posterior draws (its interval is a "
+                             "bootstrap, stated in the deck); drop --draws or --law measured")
 
         draws_mod.check_count(draws)
         command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,

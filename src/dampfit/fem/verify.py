@@ -34,10 +34,12 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    verification.json, a block of the table).
 
 7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
-   runs as such (its start state from the measured acceleration of the first three periods,
-   :func:`dampfit.fem.verify_damper.start_state`); beside it the linear dashpot at the design
-   amplitude (``dampfit export DIR --format opensees --law viscous``,
-   :func:`dampfit.fem.verify_damper.linear_script`). For both: the log-envelope rms against
+   runs as such (every run of it from the measured state three periods into the window,
+   where the comparison starts, fitted over the next three periods at their local rate, its
+   amplitude the measured trend's, :func:`dampfit.fem.verify_damper.start_state`); beside it
+   the linear dashpot at the design amplitude (``dampfit export DIR --format opensees --law
+   viscous``) and the measured curve (``--law measured``, :mod:`dampfit.fem.measured`; both
+   :func:`dampfit.fem.verify_damper.linear_script`). For each: the log-envelope rms against
    the measured peaks and their trend, the measured scatter, and ζ(A) at the
    ``amplitude_curve`` windows against their 90 % bands (``damper`` in verification.json,
    verify.png, the table); a misfit (no damper recommended) runs the viscous posterior
@@ -92,7 +94,7 @@ from dampfit.result.schema import folder_of
 __all__ = ["exported_script", "figure_format", "modal_run", "plot", "run", "table", "verify"]
 
 #: Periods left out at each end for the "interior" error measures (filter settling).
-EDGE_PERIODS = 3.0
+EDGE_PERIODS = response.EDGE_PERIODS
 #: Largest allowed Newmark period error [1].
 MAX_PERIOD_ERROR = 1e-4
 
@@ -121,11 +123,11 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     dt, n_steps, period_error = _step(ident, span, spacing, dt)
     text, script = exported_script(folder, summary, span)
     start = start_state(tau, sig, ident.period, script["damper"]["law"])
+    offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
+    n_steps -= round(offset / dt)
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
-    script["run_options"] = fem["options"]
-    t_fem = t[0] + fem["t"]
-    u_fem = np.interp(t, t_fem, fem["u"])
-    a_fem = np.interp(t, t_fem, fem["a"])
+    script["run_options"], t_fem = fem["options"], t[0] + offset + fem["t"]
+    u_fem, a_fem = (np.interp(t, t_fem, fem[k], left=np.nan) for k in "ua")  # none before it
     decay = response.peak_decay_rate(t_fem, fem["u"])
     measured_decay = response.peak_decay_rate(t, sig["displacement"])
     rel = None if decay["p"] is None or p_id == 0 else decay["p"] / p_id - 1.0
@@ -148,7 +150,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
                    "k": {"value": ident.k, "unit": "N/m"}, "c": {"value": ident.c, "unit": "N s/m"},
                    "omega_n": {"value": ident.omega_n, "unit": "rad/s"},
                    "zeta": {"value": ident.zeta, "unit": "1"}, "p": {"value": ident.p, "unit": "1/s"}},
-        "initial_state": {"t_s": float(t[0]), "u": {"value": start["u"], "unit": "m"},
+        "initial_state": {"t_s": float(t[0] + offset), "u": {"value": start["u"], "unit": "m"},
                           "v": {"value": start["v"], "unit": "m/s"},
                           "accel_model_fit_rms": {"value": start["fit_rms"], "unit": "m/s^2"},
                           "method": "least-squares (A, B) of accel_model on exp(-p tau)cos/sin; "
@@ -316,6 +318,9 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
         if kind == "u" and "u_linear" in a:
             ax.plot(t[sel], scale * a["u_linear"][sel], color="tab:blue", lw=0.8, ls=":",
                     label="OpenSees FEM (linear dashpot at the design amplitude)")
+        if kind == "u" and "u_measured" in a:
+            ax.plot(t[sel], scale * a["u_measured"][sel], color="tab:green", lw=0.8, ls="-.",
+                    label="OpenSees FEM (measured curve, --law measured)")
         ax.set_xlabel("time [s]")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from dampfit.errors import InputError
 from dampfit.fem import response
 
 __all__ = ["START_PERIODS", "damper_check", "damper_lines", "damper_runs", "envelope_words",
@@ -34,13 +35,21 @@ def damper_runs(folder, summary, script, start, steps, measured, exported, omega
 
     (dt, n_steps), (t, u_meas), (t_fem, _), (n_draws, seed) = steps, measured, exported, draws
     runs = {"exported": exported}
-    if script["damper"]["law"] != "viscous":  # the linear dashpot beside it
-        lin_text, lin = linear_script(folder, script)
-        res = opensees.run_steps(lin_text, start["u"], start["v"], dt, n_steps, name=lin["name"])
-        lin["run_options"] = res["options"]
-        runs["linear"] = (t_fem, res["a"] / omega_n ** 2)
-        arrays["u_linear"] = np.interp(t, t_fem, res["u"])
-        report["linear_script"] = lin
+    if script["damper"]["law"] != "viscous":  # the linear dashpot and the measured curve
+        for key, law in (("linear", "viscous"), ("measured", "measured")):
+            try:
+                side_text, side = linear_script(folder, script, law)
+            except InputError as exc:  # too few peaks for a curve: verify the rest
+                if key == "linear":
+                    raise
+                report["measured_script"] = {"law": law, "error": str(exc)}
+                continue
+            res = opensees.run_steps(side_text, start["u"], start["v"], dt, n_steps,
+                                     name=side["name"])
+            side["run_options"] = res["options"]
+            runs[key] = (t_fem, res["a"] / omega_n ** 2)
+            arrays[f"u_{key}"] = np.interp(t, t_fem, res["u"], left=np.nan)
+            report[f"{key}_script"] = side
     report["damper"] = damper_check(summary, folder, t, u_meas, runs, omega_n, interior,
                                     script["damper"])
     if n_draws:
@@ -52,8 +61,10 @@ def damper_runs(folder, summary, script, start, steps, measured, exported, omega
         report["draws"], arrays["band"] = band["report"], band["arrays"]
 
 
-#: Periods of the measured acceleration a nonlinear damper's start state is fitted to.
+#: Periods of the measured acceleration a nonlinear damper's start state is fitted to (they
+#: begin response.EDGE_PERIODS after the window start, verify's interior edge).
 START_PERIODS = 3.0
+EDGE_PERIODS = response.EDGE_PERIODS
 
 
 def start_state(tau: np.ndarray, sig: dict[str, Any], period: float, law: str) -> dict:
@@ -61,13 +72,45 @@ def start_state(tau: np.ndarray, sig: dict[str, Any], period: float, law: str) -
     the fitted model over the window (its model is that decay); of a nonlinear one from the
     measured acceleration over the first :data:`START_PERIODS` periods — the viscous model's
     amplitude at the window start is a compromise over the whole nonlinear decay (6 % low on
-    the phone spring), while over three periods the decay is a constant rate to O(ζ·ω·3T)."""
+    the phone spring), while over three periods the decay is a constant rate to O(ζ·ω·3T).
+    Those periods are the first :data:`EDGE_PERIODS` after the window start, where
+    verify's comparison begins (before them the band-pass filters of the measured signal
+    settle: on the ADXL357 cantilevers the first peaks lie ~1.5 % below the decay that
+    follows), and the runs start there (``offset_s`` after the window start; the viscous
+    run starts at the window start, its state from the fitted model, not from the samples).
+    The state's amplitude is the measured envelope's trend there (the 15-peak trend verify
+    compares every run with, so one noisy span of three periods cannot offset all runs; the
+    same start for each run), its phase the fit's. That rate is the local one of those periods' peaks (:func:`response.peak_decay_rate`,
+    ``p_local``), not the viscous p of the whole window: the amplitude fitted over the span is
+    carried back 1.5 periods to its start at that rate, and with the window's p instead it
+    came out ~1 % low on the ADXL357 cantilevers, an offset every nonlinear run then kept."""
     if law == "viscous":
         return response.initial_state(tau, sig["accel_model"], sig["p"], sig["omega_d"],
                                       tau0=tau[0])
-    sel = tau <= tau[0] + START_PERIODS * period
-    return response.initial_state(tau[sel], sig["accel"][sel], sig["p"], sig["omega_d"],
-                                  tau0=tau[0])
+    begin = tau[0] + EDGE_PERIODS * period
+    sel = (tau >= begin) & (tau <= begin + START_PERIODS * period)
+    local = response.peak_decay_rate(tau[sel], sig["accel"][sel])["p"]
+    p = local if local is not None and local > 0 else sig["p"]
+    out = response.initial_state(tau[sel], sig["accel"][sel], p, sig["omega_d"], tau0=begin)
+    out.update({"p_local": float(p), "offset_s": float(begin - tau[0])})
+    trend = _trend_amplitude(tau, sig["accel"] / sig["omega_d"] ** 2, begin)
+    if trend is not None:  # the amplitude of the measured trend there, the phase of the fit
+        w = sig["omega_d"]
+        scale = trend / float(np.hypot(out["u"], out["v"] / w))
+        out.update({"u": out["u"] * scale, "v": out["v"] * scale, "amplitude_scale": scale})
+    return out
+
+
+def _trend_amplitude(tau: np.ndarray, disp: np.ndarray, at: float) -> float | None:
+    """The measured envelope's trend (:func:`response.log_envelope_error`'s: Savitzky–Golay of
+    ln|peak| over :data:`response.TREND_PEAKS` peaks) at ``at`` [s]; None with too few peaks."""
+    from scipy.signal import savgol_filter
+
+    tp, ap = response.envelope(tau, disp)
+    if tp.size < 2 * response.TREND_PEAKS:
+        return None
+    trend = savgol_filter(np.log(ap), response.TREND_PEAKS, 2)
+    return float(np.exp(np.interp(at, tp, trend)))
 
 def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: np.ndarray,
                  runs: dict[str, tuple[np.ndarray, np.ndarray]], omega_n: float,
@@ -91,6 +134,9 @@ def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: n
     if "linear" in runs:
         a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("exported", "linear"))
         out["exported_beats_linear"] = None if a is None or b is None else bool(a < b)
+    if "measured" in runs:
+        a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("measured", "linear"))
+        out["measured_beats_linear"] = None if a is None or b is None else bool(a < b)
     return out
 
 def _amplitude_windows(summary: dict[str, Any], path: Path) -> list[dict[str, float]]:
@@ -114,26 +160,30 @@ def _amplitude_windows(summary: dict[str, Any], path: Path) -> list[dict[str, fl
                                       path, nonnegative=True)})
     return out
 
-def linear_script(folder: Path, script: dict[str, Any]) -> tuple[str, dict[str, Any]]:
-    """The linear dashpot's script beside a nonlinear export: ``dampfit export DIR --format
-    opensees --law viscous`` (the equivalent linear c at the design amplitude), named
-    ``sdof_opensees_linear.py``, with the export's duration."""
+def linear_script(folder: Path, script: dict[str, Any],
+                  law: str = "viscous") -> tuple[str, dict[str, Any]]:
+    """A script run beside a nonlinear export, with the export's duration: ``dampfit export
+    DIR --format opensees --law viscous`` (the linear dashpot: the equivalent linear c at the
+    design amplitude, ``sdof_opensees_linear.py``) or ``--law measured`` (the curve fitted to
+    the measured envelope, :mod:`dampfit.fem.measured`, ``sdof_opensees_measured.py``)."""
     from dampfit.fem import export as fem_export
 
-    name = "sdof_opensees_linear.py"
+    name = "sdof_opensees_linear.py" if law == "viscous" else f"sdof_opensees_{law}.py"
     text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, script["duration_s"],
-                                  name=name, law="viscous")
-    return text, {"name": name, "law": "viscous", "c": info["sdof"].c,
+                                  name=name, law=law)
+    return text, {"name": name, "law": law, "c": info["sdof"].c,
+                  "coefficients": info["damper"].coefficients,
                   "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
                   "export_command": f"dampfit export {shlex.quote(str(folder.resolve()))} "
-                                    f"--format opensees --law viscous --duration "
+                                    f"--format opensees --law {law} --duration "
                                     f"{script['duration_s']!r} --out {name}"}
 
 def envelope_words(rep: dict[str, Any]) -> str:
     """'log-envelope rms …' of the exported (and linear) run, for the title and the table."""
     d = rep.get("damper") or {}
     parts = []
-    for key, label in (("exported", "exported"), ("linear", "linear dashpot")):
+    for key, label in (("exported", "exported"), ("linear", "linear dashpot"),
+                       ("measured", "measured curve")):
         env = (d.get(key) or {}).get("envelope") or {}
         if env.get("rms_vs_trend") is not None:
             parts.append(f"{label} {100 * env['rms_vs_trend']:.2g} %")
@@ -150,7 +200,8 @@ def damper_lines(rep: dict[str, Any]) -> list[str]:
         return []
     lines = ["", f"  damper: {d['law']} law (verdict {d['verdict'] or 'not recorded'}); "
              + envelope_words(rep)]
-    for key, label in (("exported", "exported deck"), ("linear", "linear dashpot")):
+    for key, label in (("exported", "exported deck"), ("linear", "linear dashpot"),
+                       ("measured", "measured curve")):
         if key not in d:
             continue
         z, env = d[key]["zeta_amplitude"], d[key]["envelope"]
@@ -158,6 +209,10 @@ def damper_lines(rep: dict[str, Any]) -> list[str]:
         lines.append(f"    {label:15s} envelope rms vs peaks {_fmt(env['rms_vs_peaks'])}, vs trend "
                      f"{_fmt(env['rms_vs_trend'])}; zeta(A) inside the measured 90 % bands: "
                      f"{inside}")
+    if "measured" in d:
+        lines.append("    (measured curve: dampfit export DIR --law measured, the force-velocity "
+                     "curve fitted to this envelope; the headline stays the "
+                     f"{d['law']} law)")
     band = rep.get("draws")
     if band:
         lines.append(f"    {band['n']} posterior draws: measured envelope trend inside their "
