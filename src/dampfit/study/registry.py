@@ -150,9 +150,10 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     (``mass_sd`` = 0). No damping-law comparison is made. ``ok`` is False when the least
     squares or the chain did not converge (the numbers are still reported).
     """
+    from dampfit._options import SamplerSettings
     from dampfit.stages import viscous_stages
 
-    st = viscous_stages(prep, mass, 0.0, seed=seed, min_ess=BAYES_MIN_ESS)
+    st = viscous_stages(prep, mass, 0.0, sampler=SamplerSettings(seed=seed, min_ess=BAYES_MIN_ESS))
     post = st.sampling.idata.posterior
 
     def q(name: str) -> tuple[float, float, float]:
