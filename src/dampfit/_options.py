@@ -1,6 +1,7 @@
 """The rules of the analysis and reading options, once: the command line's argparse types
-(:mod:`dampfit.cli.options`) and the Python face's checks (:func:`check_analysis`, used by
-:func:`dampfit.batch.runner.analyze_many`) refuse the same values with the same reasons.
+(:mod:`dampfit.cli.options`) and the Python face's checks (:class:`AnalysisOptions`, which
+:func:`dampfit.analyze` and :func:`dampfit.batch.runner.analyze_many` build) refuse the same
+values with the same reasons.
 
 A rule (:data:`RULES`) is the kind of number (``int`` or ``real``), what it must be (the
 message's words) and the test; :func:`convert` applies one to a value or a command-line text
@@ -28,7 +29,7 @@ from dampfit.errors import InputError
 
 __all__ = ["ANALYSIS_MAX_MODES", "AnalysisOptions", "CAMPAIGN_MAX_MODES", "DEFAULT_MAX_MODES",
            "DEFAULT_MAX_STEPS", "DEFAULT_MIN_ESS", "DEFAULT_SEED", "MAX_MODES_LIMIT", "MAX_STEPS",
-           "MODELS", "RULES", "Rule", "SAMPLER_KEYS", "SEED_LIMIT", "SamplerSettings", "check_analysis",
+           "MODELS", "RULES", "Rule", "SAMPLER_KEYS", "SEED_LIMIT", "SamplerSettings",
            "check_relations", "convert"]
 
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
@@ -127,30 +128,6 @@ def _one(name: str, value):
         return convert(name, value)
     except ValueError as exc:
         raise InputError(f"argument --{name.replace('_', '-')}: {exc}") from None
-
-
-def check_analysis(options: dict[str, Any]) -> dict[str, Any]:
-    """The analysis options of :func:`dampfit.pipeline.analyze` given from Python (axis,
-    window, band, seed, max_steps, model, amplitude, max_modes, mode_of_mass), checked as
-    ``dampfit analyze`` checks them on the command line (the rules above, then
-    :func:`check_relations`); returned with tuples for window and band. One-line
-    :class:`InputError` naming the option as the command line does."""
-    out = dict(options)
-    for name in ("seed", "max_steps", "max_modes", "mode_of_mass", "amplitude"):
-        if out.get(name) is not None:
-            out[name] = _one(name, out[name])
-    for name in ("window", "band"):
-        if out.get(name) is not None:
-            out[name] = _pair(name, out[name])
-    if "model" in out and out["model"] not in MODELS:
-        raise InputError(f"argument --model: invalid choice: {out['model']!r} (choose from "
-                         f"{', '.join(MODELS)})")
-    if "axis" in out and not (isinstance(out["axis"], str) and out["axis"].strip()):
-        raise InputError(f"argument --axis: must be x, y, z, a column name or auto, got "
-                         f"{out['axis']!r}")
-    check_relations(out.get("window"), out.get("band"), out.get("max_modes"),
-                    out.get("mode_of_mass"))
-    return out
 
 
 def _models() -> tuple[str, ...]:
@@ -290,6 +267,18 @@ class AnalysisOptions:
         out.update(reading or {})
         if campaign and opts.max_modes > 1:  # absent for one mode: one-mode summaries unchanged
             out["max_modes"] = opts.max_modes
+        return out
+
+    def to_keywords(self) -> dict[str, Any]:
+        """The keywords of :func:`dampfit.analyze` that rebuild these options (``progress``
+        aside; ``min_ess`` only when not the default): what a batch passes to, and keys,
+        every recording's analysis (:mod:`dampfit.batch`)."""
+        opts, s = self.resolved(), self.sampler
+        out = {"axis": opts.axis, "window": opts.window, "band": opts.band, "seed": s.seed,
+               "max_steps": s.max_steps, "model": opts.model, "amplitude": opts.amplitude,
+               "max_modes": opts.max_modes, "mode_of_mass": opts.mode_of_mass}
+        if s.min_ess != DEFAULT_MIN_ESS:  # absent by default: earlier batches' keys unchanged
+            out["min_ess"] = s.min_ess
         return out
 
     @classmethod

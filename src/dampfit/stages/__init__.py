@@ -247,11 +247,9 @@ def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: float | Non
     from dampfit.inference.law_sampler import Budget
 
     budget = Budget.from_viscous(run.sampling.n_steps, run.posterior_seconds)
-    s = options.sampler
     return damping.assess(prep, run.fit_data, run.least_squares, run.noise, mass, mass_sd,
                           posterior="chosen-nonviscous", model=options.model,
-                          amplitude=options.amplitude, seed=s.seed, max_steps=s.max_steps,
-                          min_ess=s.min_ess, progress=s.progress, budget=budget)
+                          amplitude=options.amplitude, sampler=options.sampler, budget=budget)
 
 
 def crlb_stage(prep, fd, ls, nm, mass, mass_sd) -> tuple[dict[str, Any] | None, list[str]]:
