@@ -10,6 +10,7 @@ Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (bot
 
 from __future__ import annotations
 
+import copy
 import math
 
 from threadpoolctl import threadpool_limits
@@ -100,9 +101,9 @@ def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOpt
     warns.extend(prep.warnings)
     warns.extend(stages.unit_plausibility(recording, prep, m))
 
-    signals: list[dict] = []  # the figure signals, computed once at the fit stage if wanted
+    fitted: list[dict] = []  # the figure signals and fit summary, once, at the fit stage
     run = stages.viscous_stages(prep, m, sd, sampler=opts.sampler,
-                                on_fit=_on_fit(on_stage, recording, prep, m, sd, signals))
+                                on_fit=_on_fit(on_stage, recording, prep, m, sd, fitted))
     if on_stage is not None:
         on_stage("posterior", {"posterior": run.sampling.idata,
                                "summary": {"diagnostics": stages.sampling_summary(run.sampling)}})
@@ -125,23 +126,27 @@ def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOpt
         seed=s.seed, options=opts.to_dict(reading=recording.read_options), warnings=warns,
         modes=modes,
     )
-    if signals:
-        an.keep_signals(signals[0])
+    if fitted:
+        an.keep_fit_stage(fitted[0]["signals"], fitted[0]["summary"])
     return an
 
 
 def _on_fit(on_stage, recording: Recording, prep, m: float | None, sd: float,
-            signals: list[dict]):
-    """The fit stage's callback: with ``on_stage``, the figure signals (kept in ``signals``)
-    and the fit's summary sections are handed to ``on_stage("fit", …)``."""
-    def fitted(st: stages.FitStages) -> None:
+            fitted: list[dict]):
+    """The fit stage's callback: with ``on_stage``, the figure signals and the fit's summary
+    sections (kept in ``fitted``, for the result) are handed to ``on_stage("fit", …)``."""
+    def fitted_stage(st: stages.FitStages) -> None:
         if on_stage is not None:
-            signals.append(stages.figure_signals(prep, st.fit_data, st.least_squares,
-                                                 st.baselines))
-            on_stage("fit", {"signals": signals[0], "summary": stages.fit_summary(
-                recording, prep, st.fit_data, st.least_squares, st.noise, m, sd)})
+            fitted.append({
+                "signals": stages.figure_signals(prep, st.fit_data, st.least_squares,
+                                                 st.baselines),
+                "summary": stages.fit_summary(recording, prep, st.fit_data, st.least_squares,
+                                              st.noise, m, sd)})
+            # the caller's copy of the summary: the result keeps its own
+            on_stage("fit", {"signals": fitted[0]["signals"],
+                             "summary": copy.deepcopy(fitted[0]["summary"])})
 
-    return fitted
+    return fitted_stage
 
 
 def _noise_warning(nm, assessment) -> list[str]:

@@ -378,7 +378,7 @@ def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> law_fit.ModelFit:
 
 def _initial_guess(prep) -> tuple[float, float]:
     """Decay rate [1/s] from a log-linear fit of the band-passed envelope, and 2π·f₀ [rad/s]."""
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1]) & (prep.envelope > 0)
+    sel = prep.grid_in_window & (prep.envelope > 0)
     w = 2 * np.pi * prep.f0
     if sel.sum() < 4:
         return 1e-3 * w, w

@@ -163,7 +163,7 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
     noise-free record."""
     warns: list[str] = []
     # baselines on the uniform grid inside the window (also the initial guess)
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     base: dict[str, baselines.BaselineResult | None] = {}
     for name, fn in (("log_decrement", baselines.log_decrement),
                      ("envelope_pipeline", baselines.envelope_pipeline)):
@@ -263,7 +263,7 @@ def crlb_stage(prep, fd, ls, nm, mass, mass_sd) -> tuple[dict[str, Any] | None, 
     (amplitude with the decimation filter's gain removed); the fitted drift as nuisance."""
     from dampfit.inference import crlb
 
-    sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
+    sel = prep.time_in_window & prep.usable
     density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))
     sigma = crlb.from_noise_density(density, prep.fs)
     a_cos, a_sin = ls.true_quadratures()
@@ -333,7 +333,7 @@ def window_signals(prep: prepare.Prepared, fd, ls, envelope=None) -> dict[str, n
     displacement is NaN); also each test of a campaign (:meth:`CampaignAnalysis.signals`)."""
     from dampfit.model import viscous
 
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     t = prep.grid[sel]
     tau = t - fd.t0
     a_cos, a_sin = ls.true_quadratures()
@@ -491,7 +491,7 @@ def displacement_arrays(prep: prepare.Prepared, base: dict) -> dict[str, np.ndar
     ``disp_zeta``; the log decrement's peaks ``logdec_peak_t`` [s], ``logdec_peak_a`` [m/s²]
     and ``logdec_p`` [1/s] when it found them. Empty when the envelope pipeline failed."""
     env = base.get("envelope_pipeline")
-    n = int(np.count_nonzero((prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])))
+    n = int(np.count_nonzero(prep.grid_in_window))
     det = env.details if env is not None else {}
     if env is None or np.size(det.get("displacement", [])) != n or n < 2:
         return {}

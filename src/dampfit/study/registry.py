@@ -115,7 +115,7 @@ def estimate_from(name, p, f_d, mass, *, p_int=None, zeta_int=None, ok=True, mes
 
 def _window(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
     """Grid times [s] and acceleration [m/s²] inside the free-decay window."""
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     return prep.grid[sel], prep.grid_signal[sel]
 
 
