@@ -124,6 +124,7 @@ class Analysis(ResultViews):
     _summary: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
     _signals: dict[str, np.ndarray] | None = field(default=None, init=False, repr=False,
                                                    compare=False)
+    _fit: dict[str, Any] | None = field(default=None, init=False, repr=False, compare=False)
     _damper_cache: Any = field(default=None, init=False, repr=False, compare=False)
 
     @classmethod
@@ -192,8 +193,11 @@ class Analysis(ResultViews):
             missing = {"c": why, "k": why, "c_crit": why}
         damping = self._damping_summary()
         missing.update(damping.pop("missing", {}))
-        fit = stages.fit_summary(self.recording, self.prepared, self.fit_data,
-                                 self.least_squares, self.noise, self.mass, self.mass_sd)
+        if self._fit is None:  # computed once (kept from the fit stage: keep_fit_stage)
+            self._fit = stages.fit_summary(self.recording, self.prepared, self.fit_data,
+                                           self.least_squares, self.noise, self.mass,
+                                           self.mass_sd)
+        fit = self._fit
         return jsonable({
             "dampfit_version": __version__,
             **{key: fit[key] for key in ("input", "window", "band", "dominant_frequency_hz",
@@ -372,7 +376,7 @@ class Analysis(ResultViews):
         spectrum, the fitted samples and least-squares curve, the envelope pipeline's
         displacement envelopes — bounded in size whatever the recording's length.
 
-        Computed once (:meth:`keep_signals`: the pipeline computes them at the fit stage);
+        Computed once (:meth:`keep_fit_stage`: the pipeline computes them at the fit stage);
         of a loaded result: the arrays of its signals.npz (an older folder has no figure
         arrays).
         """
@@ -383,11 +387,12 @@ class Analysis(ResultViews):
                                                   self.least_squares, self.baselines)
         return {key: np.copy(value) for key, value in self._signals.items()}
 
-    def keep_signals(self, signals: dict[str, np.ndarray]) -> None:
+    def keep_fit_stage(self, signals: dict[str, np.ndarray], fit: dict[str, Any]) -> None:
         """Use ``signals`` — :func:`dampfit.stages.figure_signals` of this analysis's own
         prepared signal, fit data, least squares and baselines, computed at the fit stage — as
-        :meth:`signals` (so they are not computed twice)."""
-        self._signals = signals
+        :meth:`signals`, and ``fit`` (:func:`dampfit.stages.fit_summary` of the same) in
+        :meth:`summary`, so neither is computed twice."""
+        self._signals, self._fit = signals, fit
 
     def to_signals(self, path: str | os.PathLike) -> Path:
         """Write :meth:`signals` to an ``.npz`` file (atomically;

@@ -20,6 +20,8 @@ import os
 from typing import Sequence
 
 from dampfit._arviz import arviz
+from dampfit._options import (DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED, AnalysisOptions,
+                              SamplerSettings)
 from dampfit.analysis import Analysis
 from dampfit.batch import analyze_many
 from dampfit.campaign import CampaignAnalysis, analyze_campaign
@@ -45,8 +47,9 @@ SINGLE_ONLY = ("model", "amplitude", "on_stage", "mode_of_mass")
 def analyze(recording: Recording | Sequence[Recording], mass: float | None = None,
             mass_sd: float | None = None, *, axis: str = "auto",
             window: tuple[float, float] | Sequence | None = None,
-            band: tuple[float, float] | Sequence | None = None, seed: int = 0,
-            progress: bool = False, max_steps: int = 20000, min_ess: float = 1000.0,
+            band: tuple[float, float] | Sequence | None = None, seed: int = DEFAULT_SEED,
+            progress: bool = False, max_steps: int = DEFAULT_MAX_STEPS,
+            min_ess: float = DEFAULT_MIN_ESS,
             model: str = "auto", amplitude: float | None = None, on_stage=None,
             added_mass: Sequence[float] | None = None,
             added_mass_sd: float | None = None, max_modes: int | None = None,
@@ -62,10 +65,16 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
     other modes, :mod:`dampfit.campaign.modes`) and ``added_mass``,
     ``added_mass_sd`` to several: giving one where it does not apply is a one-line
     :class:`~dampfit.errors.InputError`, never silently ignored. ``max_modes`` by default:
-    :data:`~dampfit.inference.modes.DEFAULT_MAX_MODES` (4) for one recording — a one-mode recording pays only a cheap
+    :data:`~dampfit._options.DEFAULT_MAX_MODES` (4) for one recording — a one-mode recording pays only a cheap
     screen, ``max_modes=1`` skips the modal analysis — and 1 for a campaign (its tests' own
-    modes are opt-in).
+    modes are opt-in). The options are checked once, as one
+    :class:`~dampfit._options.AnalysisOptions` (the defaults are its own).
     """
+    options = AnalysisOptions(
+        axis=axis, window=window, band=band, model=model, amplitude=amplitude,
+        max_modes=max_modes, mode_of_mass=mode_of_mass,
+        sampler=SamplerSettings(seed=seed, max_steps=max_steps, min_ess=min_ess,
+                                progress=progress))
     if isinstance(recording, (list, tuple)):
         given = {"model": model != "auto", "amplitude": amplitude is not None,
                  "on_stage": on_stage is not None,
@@ -76,21 +85,11 @@ def analyze(recording: Recording | Sequence[Recording], mass: float | None = Non
                              f"campaign of {len(recording)}; analyse one recording for them")
         return analyze_campaign(recording, mass, mass_sd, added_mass=added_mass,
                                 added_mass_sd=0.0 if added_mass_sd is None else added_mass_sd,
-                                axis=axis, window=window, band=band, seed=seed,
-                                progress=progress, max_steps=max_steps, min_ess=min_ess,
-                                **_given(max_modes=max_modes))
+                                options=options)
     if added_mass is not None or added_mass_sd is not None:
         raise InputError("added_mass applies to several recordings (one per added mass), got "
                          "one recording")
-    return analyze_one(recording, mass, mass_sd, axis=axis, window=window, band=band,
-                       seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
-                       model=model, amplitude=amplitude, on_stage=on_stage,
-                       mode_of_mass=mode_of_mass, **_given(max_modes=max_modes))
-
-
-def _given(**options) -> dict:
-    """The ``options`` that are not None: the rest keep the callee's own defaults."""
-    return {k: v for k, v in options.items() if v is not None}
+    return analyze_one(recording, mass, mass_sd, options=options, on_stage=on_stage)
 
 
 def load(folder: str | os.PathLike) -> Analysis | CampaignAnalysis:

@@ -27,6 +27,7 @@ operators only), so the Cramér–Rao bound differentiates it.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,6 +36,7 @@ from dampfit.errors import InputError
 __all__ = [
     "quantities",
     "to_decay",
+    "Mass",
     "check_mass",
     "MAX_MASS",
     "as_float",
@@ -176,31 +178,50 @@ def critical_damping(k, mass):
 MAX_MASS = 1e6
 
 
+@dataclass(frozen=True)
+class Mass:
+    """An oscillating mass ``value`` [kg] (None: not given) and its standard uncertainty
+    ``sd`` [kg] (None = 0), checked once, on construction, and kept as floats.
+
+    A mass must be a finite number > 0 and at most :data:`MAX_MASS`; ``sd`` a finite number
+    ≥ 0 and at most half the mass (the mass prior is a normal truncated at 0: a wider one is
+    no longer a measured mass); a non-zero ``sd`` needs a mass. Raises :class:`InputError`
+    with one line otherwise.
+    """
+
+    value: float | None = None
+    sd: float | None = 0.0
+
+    def __post_init__(self) -> None:
+        mass, mass_sd = self.value, self.sd
+        sd = 0.0 if mass_sd is None else as_float(mass_sd)
+        if mass is None:
+            if sd != 0.0:  # NaN too
+                raise InputError("mass_sd was given without mass (--mass-sd without --mass)")
+            object.__setattr__(self, "sd", 0.0)
+            return
+        m = as_float(mass)
+        if not (math.isfinite(m) and m > 0.0):
+            raise InputError("mass must be positive: the oscillating mass must be a positive "
+                             f"number of kilograms, got {mass!r}")
+        if m > MAX_MASS:
+            raise InputError(f"mass = {m:g} kg is beyond the limit of {MAX_MASS:g} kg")
+        if not (math.isfinite(sd) and sd >= 0.0):
+            raise InputError(f"mass_sd, the mass standard deviation, must be ≥ 0 kg, got "
+                             f"{mass_sd!r}")
+        if sd > 0.5 * m:
+            raise InputError(f"mass standard deviation {sd:g} kg is more than half the mass "
+                             f"{m:g} kg")
+        object.__setattr__(self, "value", m)
+        object.__setattr__(self, "sd", sd)
+
+
 def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     """The one check of an oscillating mass ``mass`` [kg] and its standard uncertainty
-    ``mass_sd`` [kg]; returns ``(mass, mass_sd)`` as floats (``(None, 0.0)`` without a mass).
-
-    A mass must be a finite number > 0 and at most :data:`MAX_MASS`; ``mass_sd`` (None = 0) a finite number ≥ 0 and at most
-    half the mass (the mass prior is a normal truncated at 0: a wider one is no longer a
-    measured mass); a non-zero ``mass_sd`` needs a mass. Raises :class:`InputError` with one
-    line otherwise.
-    """
-    sd = 0.0 if mass_sd is None else as_float(mass_sd)
-    if mass is None:
-        if sd != 0.0:  # NaN too
-            raise InputError("mass_sd was given without mass (--mass-sd without --mass)")
-        return None, 0.0
-    m = as_float(mass)
-    if not (math.isfinite(m) and m > 0.0):
-        raise InputError("mass must be positive: the oscillating mass must be a positive "
-                         f"number of kilograms, got {mass!r}")
-    if m > MAX_MASS:
-        raise InputError(f"mass = {m:g} kg is beyond the limit of {MAX_MASS:g} kg")
-    if not (math.isfinite(sd) and sd >= 0.0):
-        raise InputError(f"mass_sd, the mass standard deviation, must be ≥ 0 kg, got {mass_sd!r}")
-    if sd > 0.5 * m:
-        raise InputError(f"mass standard deviation {sd:g} kg is more than half the mass {m:g} kg")
-    return m, sd
+    ``mass_sd`` [kg] (:class:`Mass`); returns ``(mass, mass_sd)`` as floats (``(None, 0.0)``
+    without a mass)."""
+    checked = Mass(mass, mass_sd)
+    return checked.value, checked.sd
 
 
 def as_float(x) -> float:

@@ -10,40 +10,30 @@ Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (bot
 
 from __future__ import annotations
 
+import copy
 import math
 
 from threadpoolctl import threadpool_limits
 
 from dampfit import physics
 from dampfit import stages
+from dampfit._options import AnalysisOptions
 from dampfit.analysis import Analysis, Modes
 from dampfit.errors import InputError
-from dampfit.inference.modes import DEFAULT_MAX_MODES
 from dampfit.io.recording import Recording
 from dampfit.signal import prepare
 
 __all__ = ["analyze", "modes_stage"]
 
 
-def analyze(
-    recording: Recording,
-    mass: float | None = None,
-    mass_sd: float | None = None,
-    *,
-    axis: str = "auto",
-    window: tuple[float, float] | None = None,
-    band: tuple[float, float] | None = None,
-    seed: int = 0,
-    progress: bool = False,
-    max_steps: int = 20000,
-    min_ess: float = 1000.0,
-    model: str = "auto",
-    amplitude: float | None = None,
-    on_stage=None,
-    max_modes: int = DEFAULT_MAX_MODES,
-    mode_of_mass: int | None = None,
-) -> Analysis:
+def analyze(recording: Recording, mass: float | None = None, mass_sd: float | None = None, *,
+            options: AnalysisOptions | None = None, on_stage=None, **keywords) -> Analysis:
     """Estimate c [N·s/m], k [N/m], u₀ [m], ζ and f_n [Hz] from a free-decay recording.
+
+    The analysis options are one :class:`~dampfit._options.AnalysisOptions` (``options``),
+    or its fields as keywords — ``axis``, ``window``, ``band``, ``model``, ``amplitude``,
+    ``max_modes``, ``mode_of_mass`` and the sampler's ``seed`` (default 0), ``max_steps``
+    (20000), ``min_ess`` (1000), ``progress`` — checked once, before any work.
 
     ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
     the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
@@ -71,7 +61,7 @@ def analyze(
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
     looked for in the recording (:func:`modes_stage`; by default
-    :data:`~dampfit.inference.modes.DEFAULT_MAX_MODES`, 4: a one-mode recording pays only the
+    :data:`~dampfit._options.DEFAULT_MAX_MODES`, 4: a one-mode recording pays only the
     screen, one with a second mode its selection and posterior — seconds to minutes on a
     real record, paper/modes.md; 1 skips the stage) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
@@ -80,14 +70,13 @@ def analyze(
     """
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
+    opts = AnalysisOptions.of(options, **keywords).resolved()
+    m, sd = physics.check_mass(mass, mass_sd)
     # BLAS on one thread (threadpoolctl): every matrix here is thin (n × a few columns), and
     # OpenBLAS's spinning worker threads only compete with the CLI's figure process or a
     # batch's other worker for the cores (measured: 0.3 s of a 4 s CLI run on 2 cores)
-    with threadpool_limits(limits=1, user_api="blas"), _reporting(progress):
-        return _analyze(recording, mass, mass_sd, axis=axis, window=window, band=band,
-                        seed=seed, progress=progress, max_steps=max_steps, min_ess=min_ess,
-                        model=model, amplitude=amplitude, on_stage=on_stage,
-                        max_modes=max_modes, mode_of_mass=mode_of_mass)
+    with threadpool_limits(limits=1, user_api="blas"), _reporting(opts.sampler.progress):
+        return _analyze(recording, m, sd, opts, on_stage)
 
 
 def _reporting(progress: bool):
@@ -102,64 +91,62 @@ def _reporting(progress: bool):
     return contextlib.nullcontext()
 
 
-def _analyze(recording, mass, mass_sd, *, axis, window, band, seed, progress, max_steps,
-             min_ess, model, amplitude, on_stage, max_modes, mode_of_mass) -> Analysis:
-    m, sd = physics.check_mass(mass, mass_sd)
-    stages.check_damping_options(model, amplitude)
-    max_modes, mode_of_mass = _check_modes_options(max_modes, mode_of_mass)
+def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOptions,
+             on_stage) -> Analysis:
+    """The stages of :func:`analyze` (mass and options checked); every stage's warnings
+    are returned with its result and collected here, in the order of the stages."""
     warns: list[str] = []
     stages.refuse_impossible_time(recording)
-    prep = prepare.prepare(recording, axis=axis, window=window, band=band)
+    prep = prepare.prepare(recording, axis=opts.axis, window=opts.window, band=opts.band)
     warns.extend(prep.warnings)
     warns.extend(stages.unit_plausibility(recording, prep, m))
 
-    signals: list[dict] = []  # the figure signals, computed once at the fit stage if wanted
-    run = stages.viscous_stages(prep, m, sd, seed=seed, progress=progress, max_steps=max_steps,
-                                min_ess=min_ess,
-                                on_fit=_on_fit(on_stage, recording, prep, m, sd, signals))
-    base, fd, ls, nm, post = (run.baselines, run.fit_data, run.least_squares, run.noise,
-                              run.sampling)
+    fitted: list[dict] = []  # the figure signals and fit summary, once, at the fit stage
+    run = stages.viscous_stages(prep, m, sd, sampler=opts.sampler,
+                                on_fit=_on_fit(on_stage, recording, prep, m, sd, fitted))
     if on_stage is not None:
-        on_stage("posterior", {"posterior": post.idata,
-                               "summary": {"diagnostics": stages.sampling_summary(post)}})
+        on_stage("posterior", {"posterior": run.sampling.idata,
+                               "summary": {"diagnostics": stages.sampling_summary(run.sampling)}})
     warns.extend(run.warnings)
-    bound = stages.crlb_stage(prep, fd, ls, nm, m, sd, warns)
-    viscous_seconds = run.posterior_seconds
-    assessment = stages.assess_damping(prep, fd, ls, nm, m, sd, model, amplitude, seed, progress,
-                                       max_steps, min_ess, warns, post.n_steps, viscous_seconds)
-    warns.extend(_noise_warning(nm, assessment))
-    modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
-                        seed=seed, min_ess=min_ess, max_steps=max_steps,
-                        viscous_seconds=viscous_seconds,
+    bound, said = stages.crlb_stage(prep, run.fit_data, run.least_squares, run.noise, m, sd)
+    warns.extend(said)
+    assessment = stages.assess_damping(prep, run, m, sd, opts)
+    warns.extend(assessment.warnings)
+    warns.extend(_noise_warning(run.noise, assessment))
+    s = opts.sampler
+    modes = modes_stage(prep, run.least_squares, m, sd, max_modes=opts.max_modes,
+                        mode_of_mass=opts.mode_of_mass, seed=s.seed, min_ess=s.min_ess,
+                        max_steps=s.max_steps, viscous_seconds=run.posterior_seconds,
                         verdict=assessment.verdict_name)
     warns.extend(modes.warnings)
-    options = {"axis": axis, "window": list(window) if window else None,
-               "band": list(band) if band else None, "max_steps": max_steps,
-               "min_ess": min_ess, "model": model, "amplitude": amplitude,
-               "max_modes": max_modes, "mode_of_mass": mode_of_mass,
-               **recording.read_options}
     an = Analysis(
-        recording=recording, prepared=prep, fit_data=fd, least_squares=ls, noise=nm,
-        sampling=post, baselines=base, crlb=bound, damping=assessment, mass=m, mass_sd=sd,
-        seed=int(seed), options=options, warnings=warns, modes=modes,
+        recording=recording, prepared=prep, fit_data=run.fit_data,
+        least_squares=run.least_squares, noise=run.noise, sampling=run.sampling,
+        baselines=run.baselines, crlb=bound, damping=assessment, mass=m, mass_sd=sd,
+        seed=s.seed, options=opts.to_dict(reading=recording.read_options), warnings=warns,
+        modes=modes,
     )
-    if signals:
-        an.keep_signals(signals[0])
+    if fitted:
+        an.keep_fit_stage(fitted[0]["signals"], fitted[0]["summary"])
     return an
 
 
 def _on_fit(on_stage, recording: Recording, prep, m: float | None, sd: float,
-            signals: list[dict]):
-    """The fit stage's callback: with ``on_stage``, the figure signals (kept in ``signals``)
-    and the fit's summary sections are handed to ``on_stage("fit", …)``."""
-    def fitted(st: stages.FitStages) -> None:
+            fitted: list[dict]):
+    """The fit stage's callback: with ``on_stage``, the figure signals and the fit's summary
+    sections (kept in ``fitted``, for the result) are handed to ``on_stage("fit", …)``."""
+    def fitted_stage(st: stages.FitStages) -> None:
         if on_stage is not None:
-            signals.append(stages.figure_signals(prep, st.fit_data, st.least_squares,
-                                                 st.baselines))
-            on_stage("fit", {"signals": signals[0], "summary": stages.fit_summary(
-                recording, prep, st.fit_data, st.least_squares, st.noise, m, sd)})
+            fitted.append({
+                "signals": stages.figure_signals(prep, st.fit_data, st.least_squares,
+                                                 st.baselines),
+                "summary": stages.fit_summary(recording, prep, st.fit_data, st.least_squares,
+                                              st.noise, m, sd)})
+            # the caller's copy of the summary: the result keeps its own
+            on_stage("fit", {"signals": fitted[0]["signals"],
+                             "summary": copy.deepcopy(fitted[0]["summary"])})
 
-    return fitted
+    return fitted_stage
 
 
 def _noise_warning(nm, assessment) -> list[str]:
@@ -170,15 +157,6 @@ def _noise_warning(nm, assessment) -> list[str]:
                 "this path (coloured noise, amplitude-dependent damping or a second mode?); "
                 "intervals were widened to match"]
     return []
-
-
-def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
-    """``max_modes`` and ``mode_of_mass`` checked before any work (one-line InputError)."""
-    from dampfit.inference.modes import check_max_modes, check_mode_of_mass
-
-    max_modes = check_max_modes(max_modes)
-    index = check_mode_of_mass(mode_of_mass, max_modes)
-    return max_modes, None if index is None else index + 1
 
 
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,

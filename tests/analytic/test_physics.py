@@ -183,3 +183,22 @@ def test_figures_neither_compute_physics_nor_evaluate_the_model():
     src = inspect.getsource(figures)
     assert "jax" not in src and "design_matrix" not in src
     assert "np.hypot(p" not in src and "2 * an.mass" not in src
+
+
+def test_mass_is_checked_once_on_construction_and_kept_as_floats():
+    """physics.Mass (issue 37): the one mass check; check_mass is its tuple form."""
+    import dataclasses
+
+    from dampfit.errors import InputError
+    from dampfit.physics import Mass, check_mass
+
+    m = Mass(2, None)
+    assert (m.value, m.sd) == (2.0, 0.0) and isinstance(m.value, float)
+    assert Mass() == Mass(None, None) == Mass(None, 0.0)
+    assert check_mass(0.5, 0.01) == (Mass(0.5, 0.01).value, Mass(0.5, 0.01).sd) == (0.5, 0.01)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        m.value = 3.0
+    for args, match in (((0.0,), "mass must be positive"), ((1.0, 0.6), "more than half"),
+                        ((None, 0.1), "without mass"), ((1.0, float("nan")), "must be ≥ 0 kg")):
+        with pytest.raises(InputError, match=match):
+            Mass(*args)

@@ -208,8 +208,8 @@ def test_checker_finds_a_forbidden_import_through_another_module():
 #: longest prefix listed. ARCHITECTURE.md shows the same order.
 LAYERS = (
     ("dampfit.errors", 0), ("dampfit._meta", 0), ("dampfit._json", 0), ("dampfit._progress", 0),
-    ("dampfit._child", 0), ("dampfit._arviz", 0), ("dampfit._lazy", 0), ("dampfit._options", 0),
-    ("dampfit.physics", 1), ("dampfit.physics_modal", 1), ("dampfit.model", 1),
+    ("dampfit._child", 0), ("dampfit._arviz", 0), ("dampfit._lazy", 0),
+    ("dampfit._options", 1), ("dampfit.physics", 1), ("dampfit.physics_modal", 1), ("dampfit.model", 1),
     ("dampfit.io", 2), ("dampfit.files", 2), ("dampfit.cluster", 2),
     ("dampfit.signal", 3), ("dampfit.simulate", 3),
     ("dampfit.inference", 4),

@@ -110,7 +110,7 @@ def test_mode_of_mass_is_refused_for_a_campaign():
     recs = [two_mode_recording(MASS, seed=s, duration=10.0)[0] for s in (1, 2)]
     with pytest.raises(InputError, match="mode_of_mass apply to a single recording"):
         dampfit.analyze(recs, mass=MASS, max_modes=3, mode_of_mass=2)
-    with pytest.raises(InputError, match="max modes must be from 1"):
+    with pytest.raises(InputError, match="argument --max-modes: must be an integer from 1"):
         dampfit.analyze(recs, mass=MASS, max_modes=0)
 
 

@@ -28,6 +28,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Sequence, TextIO
 
+from dampfit._options import (DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED, AnalysisOptions,
+                              SamplerSettings)
 from dampfit.batch.inputs import Job, jobs as make_jobs
 from dampfit.batch.store import BatchConfig, BatchStore
 from dampfit.batch.table import frame, write_outputs
@@ -36,8 +38,8 @@ from dampfit.batch.task import run_job
 __all__ = ["ANALYSIS_OPTIONS", "analyze_many", "check_read_options", "execute", "run_batch"]
 
 #: Options of :func:`dampfit.pipeline.analyze` a batch passes to every recording.
-ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "model", "amplitude",
-                    "max_modes", "mode_of_mass")
+ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "min_ess", "model",
+                    "amplitude", "max_modes", "mode_of_mass")
 
 
 def _dead_row(job: Job, key: str, exc: BaseException) -> dict[str, Any]:
@@ -205,9 +207,10 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
                  out: str | Path | None = None, client=None, progress: bool = False,
                  figures: bool = False, report: bool = False, summaries_only: bool = False,
                  force: bool = False, read_options: dict[str, Any] | None = None,
-                 axis: str = "auto", window=None, band=None, seed: int = 0,
-                 max_steps: int = 20000, model: str = "auto", amplitude: float | None = None,
-                 max_modes: int = 4, mode_of_mass: int | None = None):
+                 axis: str = "auto", window=None, band=None, seed: int = DEFAULT_SEED,
+                 max_steps: int = DEFAULT_MAX_STEPS, min_ess: float = DEFAULT_MIN_ESS,
+                 model: str = "auto", amplitude: float | None = None,
+                 max_modes: int | None = None, mode_of_mass: int | None = None):
     """Analyse many independent recordings; return the results table (a ``pandas.DataFrame``,
     one row per recording: :mod:`dampfit.batch.table`).
 
@@ -219,17 +222,16 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
     ``out`` it is ``dampfit batch … --out OUT`` (result folders, results.csv, resumable);
     ``figures`` draws each recording's figures into its folder (by default not: ``dampfit
     report OUT/runs/NAME`` draws them later from the saved files). Every option is checked
-    as the command line checks it (:func:`dampfit._options.check_analysis`,
+    as the command line checks it (one :class:`~dampfit._options.AnalysisOptions`,
     :func:`check_read_options`): a bad one is one :class:`~dampfit.errors.InputError`
     before any work, not a failed row.
     """
-    from dampfit._options import check_analysis
-
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    options = check_analysis({"axis": axis, "window": window, "band": band, "seed": seed,
-                              "max_steps": max_steps, "model": model, "amplitude": amplitude,
-                              "max_modes": max_modes, "mode_of_mass": mode_of_mass})
+    options = AnalysisOptions(
+        axis=axis, window=window, band=band, model=model, amplitude=amplitude,
+        max_modes=max_modes, mode_of_mass=mode_of_mass,
+        sampler=SamplerSettings(seed=seed, max_steps=max_steps, min_ess=min_ess)).to_keywords()
     outputs = {"figures": figures, "report": report, "summaries_only": summaries_only}
     _check_flags({**outputs, "force": force, "progress": progress})
     jobs = make_jobs([str(p) for p in paths], mass=mass, mass_sd=mass_sd, masses=masses,

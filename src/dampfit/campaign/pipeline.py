@@ -51,8 +51,7 @@ import time
 from dataclasses import replace
 from typing import Sequence
 
-import numpy as np
-
+from dampfit._options import AnalysisOptions
 from dampfit.campaign.result import CampaignAnalysis
 from dampfit.errors import InputError
 
@@ -61,36 +60,38 @@ __all__ = ["analyze_campaign"]
 
 def analyze_campaign(recordings: Sequence, mass: float | None = None,
                      mass_sd: float | None = None, *, added_mass: Sequence[float] | None = None,
-                     added_mass_sd: float = 0.0, seed: int = 0, progress: bool = False,
-                     max_steps: int = 20000, min_ess: float = 1000.0,
-                     window: tuple[float, float] | Sequence | None = None,
-                     band: tuple[float, float] | Sequence | None = None,
-                     axis: str = "auto", max_modes: int = 1) -> CampaignAnalysis:
+                     added_mass_sd: float = 0.0, options: AnalysisOptions | None = None,
+                     **keywords) -> CampaignAnalysis:
     """Joint hierarchical analysis of several recordings of one damper.
 
     ``recordings`` (≥ 2 :class:`~dampfit.io.recording.Recording`). Either ``mass`` [kg] (sd
     ``mass_sd`` [kg]; both optional: without a mass only p, ζ, f_n are reported) — the
     "hierarchical" design — or ``added_mass`` [kg] per recording (0 for the bare system) with
     sd ``added_mass_sd`` [kg] — the "added-mass" design, which estimates m₀ and k itself.
-    ``window`` (start, end) [s] and ``band`` (low, high) [Hz] apply to every recording, or
-    give one per recording (a list of pairs or None). ``seed`` makes the run reproducible;
-    ``max_steps`` and ``min_ess`` bound the sampler. ``max_modes`` > 1 also analyses every
-    test for up to that many modes and lists them per test; the campaign pools the mode each
-    test's band isolates (:mod:`dampfit.campaign.modes`). Bad inputs raise a one-line
+    The options are one :class:`~dampfit._options.AnalysisOptions` (``options``) or its
+    fields as keywords: ``window`` (start, end) [s] and ``band`` (low, high) [Hz] apply to
+    every recording, or give one per recording (a list of pairs or None); ``axis``; ``seed``
+    makes the run reproducible; ``max_steps`` and ``min_ess`` bound the sampler;
+    ``max_modes`` > 1 (default 1) also analyses every test for up to that many modes and
+    lists them per test; the campaign pools the mode each test's band isolates
+    (:mod:`dampfit.campaign.modes`). Bad inputs raise a one-line
     :class:`~dampfit.errors.InputError` before any sampling.
     """
     from dampfit.campaign import checks, modes, sampling, tests, verdict
-    from dampfit.inference.modes import check_max_modes
 
+    opts = AnalysisOptions.of(options, **keywords).resolved(campaign=True)
+    single = [n for n, v in (("model", opts.model != "auto"), ("amplitude", opts.amplitude),
+                             ("mode_of_mass", opts.mode_of_mass)) if v is not None and v]
+    if single:
+        raise InputError(f"{', '.join(single)} apply to a single recording, not to a "
+                         f"campaign of {len(recordings)}; analyse one recording for them")
     recs, m, sd, dm, dm_sd = checks.check_design(recordings, mass, mass_sd, added_mass,
                                                  added_mass_sd)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"seed must be a non-negative integer, got {seed!r}")
-    max_modes = check_max_modes(max_modes)
-    windows = _per_test_option("window", window, len(recs))
-    bands = _per_test_option("band", band, len(recs))
-    fits = [tests.fit_test(i, r, axis, windows[i], bands[i], m, None if dm is None else dm[i])
-            for i, r in enumerate(recs)]
+    s = opts.sampler
+    windows = _per_test_option("window", opts.window, len(recs))
+    bands = _per_test_option("band", opts.band, len(recs))
+    fits = [tests.fit_test(i, r, opts.axis, windows[i], bands[i], m,
+                           None if dm is None else dm[i]) for i, r in enumerate(recs)]
     names = [t.name for t in fits]
     warns = checks.duplicate_recordings(recs)
     warns += [f"test {t.index + 1} ({t.name}): {w}" for t in fits for w in t.warnings]
@@ -98,21 +99,18 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
         checks.check_same_system([t.prepared.f0 for t in fits], names)
     data, _ = tests.campaign_data(fits, dm, dm_sd)
     started = time.monotonic()
-    sampled = sampling.sample(fits, data, dm is not None, m, sd, dm, seed, progress, max_steps,
-                              min_ess)
+    sampled = sampling.sample(fits, data, dm is not None, m, sd, dm, s.seed, s.progress,
+                              s.max_steps, s.min_ess)
     sampled = replace(sampled, seconds=float(time.monotonic() - started))
     warns.extend(sampled.warnings)
     found = verdict.assess_sampled(fits, sampled.idata.posterior, dm is not None, dm_sd)
-    if max_modes > 1:
-        warns.extend(modes.per_test_modes(fits, max_modes, seed=int(seed), min_ess=min_ess,
-                                      max_steps=max_steps, progress=progress))
-    options = {"axis": axis, "window": _jsonable_option(window), "band": _jsonable_option(band),
-               "max_steps": max_steps, "min_ess": min_ess, **_reading_options(recs)}
-    if max_modes > 1:  # absent for one mode: one-mode summaries unchanged
-        options["max_modes"] = max_modes
+    if opts.max_modes > 1:
+        warns.extend(modes.per_test_modes(fits, opts.max_modes, seed=s.seed,
+                                          min_ess=s.min_ess, max_steps=s.max_steps,
+                                          progress=s.progress))
     return CampaignAnalysis(tests=fits, sampling=sampled, checks=found, warnings=warns, mass=m,
-                            mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=int(seed),
-                            options=options)
+                            mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=s.seed,
+                            options=opts.to_dict(campaign=True, reading=_reading_options(recs)))
 
 
 def _reading_options(recs) -> dict:
@@ -122,12 +120,6 @@ def _reading_options(recs) -> dict:
     if all(o == opts[0] for o in opts):
         return opts[0]
     return {"read_options_per_test": opts}
-
-
-def _jsonable_option(x):
-    if x is None:
-        return None
-    return [list(v) if isinstance(v, (list, tuple)) else v for v in x] if _is_per_test(x) else list(x)
 
 
 def _is_per_test(x) -> bool:

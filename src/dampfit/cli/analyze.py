@@ -34,8 +34,7 @@ from pathlib import Path
 
 from dampfit.cli.options import real_arg, seed_arg
 from dampfit.physics import MAX_MASS
-from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options
-from dampfit.cli.options import modes_options
+from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
@@ -139,12 +138,12 @@ def command(args) -> int:
     import gc
 
     files = [args.file, *(getattr(args, "more_files", None) or [])]
-    check_analysis_options(args)
+    options = analysis_options(args)  # built once, before any work
     if len(files) > 1:
         import dampfit.pipeline  # noqa: F401 - the stack, then out of the collector's reach
 
         gc.freeze()
-        return campaign_command(args, files)
+        return campaign_command(args, files, options)
     for option in ("added_mass", "added_mass_sd"):
         if getattr(args, option, None) is not None:
             raise InputError(f"argument --{option.replace('_', '-')}: the added-mass method needs "
@@ -154,7 +153,7 @@ def command(args) -> int:
     with figure_process(args) as figs:  # before the scientific stack is imported
         with result_folder(out, "analyze", args.force, inputs=[path]) as folder, \
                 contextlib.closing(figs):
-            an = analyse_into(args, folder, figs, path)
+            an = analyse_into(args, folder, figs, path, options=options)
             folder.publish()
             if args.report:
                 _write_report(out)
@@ -162,10 +161,11 @@ def command(args) -> int:
     return 0
 
 
-def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
+def analyse_into(args, folder, figs, path, *, options, shown_path: Path | None = None,
                  notes: tuple[str, ...] = ()):
-    """Read ``path``, analyse it with the analysis options in ``args`` and write the outputs
-    into ``folder.stage`` (not yet published); return the analysis.
+    """Read ``path``, analyse it with the analysis ``options`` (of ``args``:
+    :func:`~dampfit.cli.options.analysis_options`) and write the outputs into
+    ``folder.stage`` (not yet published); return the analysis.
 
     The one code path of ``dampfit analyze FILE`` (one recording), shared with ``dampfit
     record`` (which analyses its own recording): ``figs`` is the figure process
@@ -187,11 +187,8 @@ def analyse_into(args, folder, figs, path, *, shown_path: Path | None = None,
         rec = dataclasses.replace(rec, path=str(shown_path) if shown_path else rec.path,
                                   notes=(*rec.notes, *notes))
     with progress_reporting(args):
-        an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                     window=tuple(args.window) if args.window else None,
-                     band=tuple(args.band) if args.band else None, seed=args.seed,
-                     progress=not args.quiet, max_steps=args.max_steps, model=args.model,
-                     amplitude=args.amplitude, on_stage=figs.send, **modes_options(args))
+        an = analyze(rec, mass=args.mass, mass_sd=args.mass_sd, options=options,
+                     on_stage=figs.send)
         gc.freeze()  # and the analysis' own objects, before figures, NetCDF and report
         save_with_progress(an, folder, figures=not args.no_figures, figure_process=figs)
     return an
@@ -275,9 +272,10 @@ def _print_campaign(an, out: Path, as_json: bool) -> None:
               "summary.json before using these numbers", file=sys.stderr)
 
 
-def campaign_command(args, files: list[str]) -> int:
+def campaign_command(args, files: list[str], options) -> int:
     """``dampfit analyze FILE FILE…``: several recordings of one damper analysed jointly
-    (:func:`dampfit.campaign.analyze_campaign`) into one result folder; exit code 0."""
+    (:func:`dampfit.campaign.analyze_campaign`) under ``options`` (the run's
+    :class:`~dampfit._options.AnalysisOptions`) into one result folder; exit code 0."""
     from dampfit.campaign import analyze_campaign
     from dampfit.io.readers import read
 
@@ -289,13 +287,8 @@ def campaign_command(args, files: list[str]) -> int:
         kw = {"added_mass": list(args.added_mass), "added_mass_sd": args.added_mass_sd or 0.0} \
             if args.added_mass is not None else {}
         with progress_reporting(args):
-            an = analyze_campaign(recs, mass=args.mass, mass_sd=args.mass_sd, axis=args.axis,
-                                  window=tuple(args.window) if args.window else None,
-                                  band=tuple(args.band) if args.band else None,
-                                  seed=args.seed, progress=not args.quiet,
-                                  max_steps=args.max_steps,
-                                  max_modes=modes_options(args, campaign=True)["max_modes"],
-                                  **kw)
+            an = analyze_campaign(recs, mass=args.mass, mass_sd=args.mass_sd,
+                                  options=options, **kw)
             save_with_progress(an, folder, figures=not args.no_figures)
         folder.publish()
         if args.report:

@@ -21,7 +21,7 @@ import argparse
 import os
 from pathlib import Path
 
-from dampfit.cli.options import add_analysis_options, add_reading_options, check_analysis_options
+from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 
 __all__ = ["add_arguments", "command"]
 
@@ -63,12 +63,8 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
 
 def _options(args) -> tuple[dict, dict, dict]:
     from dampfit.cli.analyze import read_options
-    from dampfit.cli.options import modes_options
 
-    options = {"axis": args.axis, "window": tuple(args.window) if args.window else None,
-               "band": tuple(args.band) if args.band else None, "seed": args.seed,
-               "max_steps": args.max_steps, "model": args.model, "amplitude": args.amplitude,
-               **modes_options(args)}
+    options = analysis_options(args).to_keywords()
     outputs = {"figures": args.figures and not args.summaries_only,
                "report": args.report and not args.summaries_only,
                "summaries_only": args.summaries_only}
@@ -108,7 +104,7 @@ def command(args) -> int:
     from dampfit.batch.inputs import jobs
     from dampfit.errors import InputError
 
-    check_analysis_options(args)
+    analysis_options(args)  # checked before any work (built again, as keywords, by _options)
     if args.figures and args.no_figures:
         raise InputError("give either --figures or --no-figures, not both (a batch draws no "
                          "per-recording figures unless --figures)")

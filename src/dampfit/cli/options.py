@@ -11,18 +11,18 @@ from __future__ import annotations
 import argparse
 import math
 
-from dampfit._options import (ANALYSIS_MAX_MODES, DEFAULT_MAX_MODES, MAX_MODES_LIMIT,  # noqa: F401
-                              MAX_STEPS, SEED_LIMIT, check_relations, convert)
+from dampfit._options import (ANALYSIS_MAX_MODES, CAMPAIGN_MAX_MODES, DEFAULT_MAX_MODES,  # noqa: F401
+                              DEFAULT_MAX_STEPS, DEFAULT_SEED, MAX_MODES_LIMIT, MAX_STEPS,
+                              SEED_LIMIT, convert)
 from dampfit.errors import InputError
 from dampfit.physics import MAX_MASS
 
-__all__ = ["MAX_WORKERS", "add_cluster_options", "positive_int", "MAX_STEPS", "modes_options", "SEED_LIMIT", "Parser", "add_analysis_options",
-           "check_analysis_options", "float_arg", "rule_arg", "scheduler_arg", "seed_arg"]
+__all__ = ["MAX_WORKERS", "add_cluster_options", "positive_int", "MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
+           "analysis_options", "float_arg", "rule_arg", "scheduler_arg", "seed_arg"]
 
-# The limits are those of :mod:`dampfit._options` (the rules the Python face checks too).
-#: --max-modes when not given, for a campaign: 1, its tests' own modes are opt-in (each test
-#: would pay the modal analysis; the pooling is of one mode either way).
-CAMPAIGN_MAX_MODES = 1
+# The limits and defaults are those of :mod:`dampfit._options` (the rules the Python face
+# checks too); --max-modes when not given: CAMPAIGN_MAX_MODES (1) for a campaign, its tests'
+# own modes are opt-in (each test would pay the modal analysis; the pooling is of one mode).
 
 
 class Parser(argparse.ArgumentParser):
@@ -106,9 +106,9 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
                    help="free-decay window [s] in the recording's time base, START < END")
     a.add_argument("--band", nargs=2, type=rule_arg("band"),
                    metavar=("LO", "HI"), help="pass band [Hz] around the oscillation, 0 < LO < HI")
-    a.add_argument("--seed", type=seed_arg, default=0,
+    a.add_argument("--seed", type=seed_arg, default=DEFAULT_SEED,
                    help=f"random seed of the sampler, 0 to {SEED_LIMIT - 1}")
-    a.add_argument("--max-steps", type=rule_arg("max_steps"), default=20000,
+    a.add_argument("--max-steps", type=rule_arg("max_steps"), default=DEFAULT_MAX_STEPS,
                    help=f"sampler step limit, 1 to {MAX_STEPS}")
     a.add_argument("--no-figures", action="store_true", help="skip the PNG figures")
     a.add_argument("--json", action="store_true", help="print summary.json instead of the table")
@@ -133,19 +133,19 @@ def add_analysis_options(a: argparse.ArgumentParser, quiet_help: str = "no progr
                         "c and k (default: the dominant mode)")
 
 
-def check_analysis_options(args) -> None:
-    """Relations between options, before any work (single values are checked by the parser):
-    :func:`dampfit._options.check_relations`, as the Python face checks them."""
-    check_relations(args.window, args.band, getattr(args, "max_modes", None),
-                    getattr(args, "mode_of_mass", None))
+def analysis_options(args):
+    """The analysis options of ``args`` as the one :class:`~dampfit._options.AnalysisOptions`
+    of the run, built (and so checked: the relations between options, single values being
+    checked by the parser already) before any work, as the Python face builds it."""
+    from dampfit._options import AnalysisOptions, SamplerSettings
 
-
-def modes_options(args, campaign: bool = False) -> dict:
-    """``max_modes`` and ``mode_of_mass`` of :func:`dampfit.pipeline.analyze` (of a
-    ``campaign``'s tests) from ``args``."""
-    default = CAMPAIGN_MAX_MODES if campaign else ANALYSIS_MAX_MODES
-    return {"max_modes": getattr(args, "max_modes", None) or default,
-            "mode_of_mass": getattr(args, "mode_of_mass", None)}
+    return AnalysisOptions(
+        axis=args.axis, window=tuple(args.window) if args.window else None,
+        band=tuple(args.band) if args.band else None, model=getattr(args, "model", "auto"),
+        amplitude=getattr(args, "amplitude", None), max_modes=getattr(args, "max_modes", None),
+        mode_of_mass=getattr(args, "mode_of_mass", None),
+        sampler=SamplerSettings(seed=args.seed, max_steps=args.max_steps,
+                                progress=not args.quiet))
 
 
 def add_reading_options(a: argparse.ArgumentParser) -> None:

@@ -42,7 +42,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import real_arg, add_analysis_options, check_analysis_options
+from dampfit.cli.options import real_arg, add_analysis_options, analysis_options
 from dampfit.errors import DampfitError, InputError
 
 __all__ = ["add_arguments", "command"]
@@ -96,7 +96,7 @@ def _check(args) -> str:
         raise InputError("argument --out is required: the folder for the recording and its "
                          "analysis")
     url = check_url(args.url)
-    check_analysis_options(args)
+    analysis_options(args)  # checked before recording; built again for the analysis
     return url
 
 
@@ -197,6 +197,7 @@ def _analyse(args, folder, out: Path, notes, names):
     try:
         with figure_process(args) as figs, contextlib.closing(figs):
             an = analyse_into(args, folder, figs, stage / names[0],
+                              options=analysis_options(args),
                               shown_path=folder.target / names[0], notes=tuple(notes))
             folder.publish()
     except DampfitError as exc:

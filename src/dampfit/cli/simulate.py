@@ -120,55 +120,67 @@ def command(args) -> int:
     Before any work: both names are checked (:func:`dampfit.files.folder.check_output_file`: an
     existing file or link only with --force, never a directory; a name too long or a missing
     folder is one line) and the configuration against :func:`dampfit.simulate.check_limits`.
-    Both files are written into a private staging folder beside them and renamed into place,
-    so a failed write (full disk, read-only folder) leaves nothing behind. Every file-system
-    failure is an :class:`InputError` (exit 2, one line).
+    Both files are written into a private staging folder beside them and renamed into place
+    (:func:`_write_all`), so a failed write (full disk, read-only folder) leaves nothing
+    behind. Every file-system failure is an :class:`InputError` (exit 2, one line).
     """
-    import shutil
-    import tempfile
-
     from dampfit import simulate as sim
-    from dampfit.files.atomic import check_output_file, error_text
 
     if _campaign_size(args) is not None:
         return _campaign_command(args)
-    out = Path(args.out)
-    if not out.name or out.name in (".", ".."):
-        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
-    try:
-        truth_path = out.with_suffix(".truth.json")
-    except ValueError:
-        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv") from None
-    for f in (out, truth_path):
-        check_output_file(f, args.force)
-    if not os.access(out.parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
+    out = _checked_out(args, lambda out: [out, out.with_suffix(".truth.json")])
+    truth_path = out.with_suffix(".truth.json")
     cfg = _sim_config(args)
     sim.check_limits(cfg)
     rec, truth = sim.recording(cfg)
-    try:
-        stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {error_text(exc)}; nothing was written") from None
-    existed = os.path.lexists(out)
-    try:
-        sim.write_phyphox_csv(rec, stage / out.name, dialect=args.dialect)
-        sim.write_truth(truth, stage / truth_path.name)
-        os.replace(stage / out.name, out)
-        try:
-            os.replace(stage / truth_path.name, truth_path)
-        except OSError:
-            if not existed:  # both or neither
-                out.unlink(missing_ok=True)
-            raise
-    except (OSError, InputError) as exc:
-        raise _write_failure(out, exc) from None
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
+    _write_all(out, [(lambda f: sim.write_phyphox_csv(rec, f, dialect=args.dialect), out),
+                     (lambda f: sim.write_truth(truth, f), truth_path)])
     print(f"wrote {out} ({rec.n_samples} samples, {rec.duration:.4g} s) and {truth_path}: "
           f"c = {truth['c']:.6g} N s/m, k = {truth['k']:.6g} N/m, m = {truth['mass']:.6g} kg, "
           f"f_n = {truth['f_n']:.6g} Hz, zeta = {truth['zeta']:.4g}")
     return 0
+
+
+def _checked_out(args, targets) -> Path:
+    """``--out`` as a Path, once every file ``targets(out)`` names is checked writable
+    (:func:`dampfit.files.atomic.check_output_file`) and its folder enterable and writable."""
+    from dampfit.files.atomic import check_output_file
+
+    out = Path(args.out)
+    if not out.name or out.name in (".", ".."):
+        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
+    try:
+        paths = targets(out)
+    except ValueError:
+        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv") from None
+    for f in paths:
+        check_output_file(f, args.force)
+    if not os.access(out.parent, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
+    return out
+
+
+def _write_all(out: Path, writes) -> None:
+    """Each ``(write, path)`` of ``writes``: ``write(file)`` into a private staging folder
+    beside ``out``, then every file renamed onto its ``path``, all or none (:func:`_publish`);
+    a failure is one :class:`InputError` line and nothing is written."""
+    import shutil
+    import tempfile
+
+    from dampfit.files.atomic import error_text
+
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
+    except OSError as exc:
+        raise InputError(f"cannot write {out}: {error_text(exc)}; nothing was written") from None
+    try:
+        for write, path in writes:
+            write(stage / path.name)
+        _publish(stage, [path for _, path in writes])
+    except (OSError, InputError) as exc:
+        raise _write_failure(out, exc) from None
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 # -- campaigns ------------------------------------------------------------------------------
@@ -215,42 +227,19 @@ def _campaign_command(args) -> int:
     written into a private staging folder beside them and renamed into place; if a rename
     fails, the files already renamed are removed (or, with --force, the old ones put back).
     """
-    import shutil
-    import tempfile
-
     from dampfit import simulate as sim
-    from dampfit.files.atomic import check_output_file, error_text
 
     n = _campaign_size(args)
-    out = Path(args.out)
-    if not out.name or out.name in (".", ".."):
-        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv")
-    try:
-        csvs, truth_path = campaign_paths(out, n)
-    except ValueError:
-        raise InputError(f"--out {args.out} names no file; give a file name such as rec.csv") from None
-    for f in (*csvs, truth_path):
-        check_output_file(f, args.force)
-    if not os.access(out.parent, os.W_OK | os.X_OK):
-        raise InputError(f"cannot write into {os.path.abspath(out.parent)}: permission denied")
+    out = _checked_out(args, lambda o: [*campaign_paths(o, n)[0], o.with_suffix(".truth.json")])
+    csvs, truth_path = campaign_paths(out, n)
     base = _sim_config(args)
     sim.check_limits(base)
     recs, truth = sim.campaign(base, n_tests=n, c_spread=args.c_spread or 0.0,
                                added_mass=args.added_mass, amplitudes=args.amplitudes,
                                added_mass_sd=args.added_mass_sd or 0.0, seed=args.seed)
-    try:
-        stage = Path(tempfile.mkdtemp(prefix=".dampfit-simulate-", dir=out.parent))
-    except OSError as exc:
-        raise InputError(f"cannot write {out}: {error_text(exc)}; nothing was written") from None
-    try:
-        for rec, path in zip(recs, csvs):
-            sim.write_phyphox_csv(rec, stage / path.name, dialect=args.dialect)
-        sim.write_truth(truth, stage / truth_path.name)
-        _publish(stage, [*csvs, truth_path])
-    except (OSError, InputError) as exc:
-        raise _write_failure(out, exc) from None
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
+    writes = [(lambda f, rec=rec: sim.write_phyphox_csv(rec, f, dialect=args.dialect), path)
+              for rec, path in zip(recs, csvs)]
+    _write_all(out, [*writes, (lambda f: sim.write_truth(truth, f), truth_path)])
     print(f"wrote {csvs[0]} … {csvs[-1]} ({n} tests, {recs[0].duration:.4g} s each) and "
           f"{truth_path}: c = {truth['c']:.6g} N s/m (median; spread {truth['c_spread']:g} in "
           f"ln c), k = {truth['k']:.6g} N/m, m0 = {truth['mass']:.6g} kg")

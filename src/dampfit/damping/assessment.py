@@ -33,6 +33,7 @@ from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.damping import checks, curve, quantities
 from dampfit.damping import evidence
+from dampfit._options import SamplerSettings
 from dampfit.physics import check_mass
 from dampfit.model import laws
 from dampfit.damping.summary import summary as _summary
@@ -194,8 +195,8 @@ def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_c
 
 def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float = 0.0, *,
            model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
-           window_cycles: float | None = None, seed: int = 0, progress: bool = False,
-           max_steps: int = 20000, min_ess: float = 1000.0, budget=None) -> DampingAssessment:
+           window_cycles: float | None = None, sampler: SamplerSettings | None = None,
+           budget=None) -> DampingAssessment:
     """Compare damping laws on a prepared recording (see the module docstring).
 
     ``prep`` :class:`~dampfit.signal.prepare.Prepared`, ``fd`` :class:`~dampfit.signal.prepare.FitData`,
@@ -208,9 +209,11 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
     posterior :func:`dampfit.analyze` has already), ``"emcee"`` for all, ``"laplace"`` for
     none (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
-    ζ(amplitude) windows (automatic if None).
+    ζ(amplitude) windows (automatic if None); ``sampler`` the
+    :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None).
     """
     _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
+    sampler = SamplerSettings() if sampler is None else sampler
     mass_sd = float(mass_sd or 0.0)
     data = law_fit.Data.from_fit_data(fd)
     f0 = float(prep.f0)
@@ -230,8 +233,8 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     table, verdict = evidence.compare(fits, data, f0)
     decay = law_fit.decay_test(fits["viscous"], data, 1.0 / r)
     chosen = verdict["preferred"] if model == "auto" else model
-    posts = _posteriors(fits, data, prep.band, chosen, posterior, seed=seed, min_ess=min_ess,
-                        max_steps=max_steps, budget=budget, progress=progress, warns=warns)
+    posts = _posteriors(fits, data, prep.band, chosen, posterior, sampler=sampler,
+                        budget=budget, warns=warns)
 
     # ζ(amplitude) windows on the drift-free signal of the best law
     ref = fits[verdict["preferred"]] if fits[verdict["preferred"]].converged else best
@@ -241,7 +244,7 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
                          psd_ratio=r, gain=ref.gain)
 
     amps = _amplitudes(fits[chosen], wins, fd, amplitude)
-    rng = np.random.default_rng(seed + 101)
+    rng = np.random.default_rng(sampler.seed + 101)
     qts, mds = {}, {}
     for m, post in posts.items():
         mds[m] = quantities.mass_draws(mass, mass_sd, len(post.a0), rng)
@@ -263,8 +266,8 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     out.adequacy = _adequacy(out, prep, fd, data, n_cyc, noise_of, white_r=r_white, ls=ls)
     law = out.adequacy.get("law")
     if law and law != chosen and posterior != "laplace":  # the named law's own posterior
-        _resample(out, law, data, prep.band, seed=seed + laws.names().index(law),
-                  min_ess=min_ess, max_steps=max_steps, budget=budget, progress=progress)
+        _resample(out, law, data, prep.band, seed=sampler.seed + laws.names().index(law),
+                  sampler=sampler, budget=budget)
     out.warning = checks.verdict_warning(out.adequacy, _warning(out, law) if law else None,
                                          has_mass=mass is not None)
     if out.warning:
@@ -273,16 +276,17 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     return out
 
 
-def _resample(a: DampingAssessment, law: str, data, band, *, seed: int, min_ess: float,
-              max_steps: int, budget, progress: bool) -> None:
+def _resample(a: DampingAssessment, law: str, data, band, *, seed: int,
+              sampler: SamplerSettings, budget) -> None:
     """emcee draws of ``law`` — the law the verdict names when it is not the chosen one (the
     windows carried the verdict), whose Laplace draws served the comparison — so the damper's
     coefficients come from the law's own posterior; its quantities are recomputed."""
     mf = a.fits[law]
     if not (mf.converged and mf.cov is not None and np.all(np.isfinite(mf.cov))):
         return
-    post = dsample.sample_emcee(mf, data, band, seed=seed, min_ess=min_ess,
-                                max_steps=max_steps, budget=budget, progress=progress)
+    post = dsample.sample_emcee(mf, data, band, seed=seed, min_ess=sampler.min_ess,
+                                max_steps=sampler.max_steps, budget=budget,
+                                progress=sampler.progress)
     if not len(post.a0):
         return
     a.posteriors[law] = post
@@ -309,8 +313,8 @@ def _fit_laws(fd, data, p_start: float, w_start: float, ratio):
     return fits, min(ok, key=lambda mf: mf.rss), p_start, warns
 
 
-def _posteriors(fits, data, band, chosen: str, posterior: str, *, seed: int, min_ess: float,
-                max_steps: int, budget, progress: bool, warns: list[str]):
+def _posteriors(fits, data, band, chosen: str, posterior: str, *, sampler: SamplerSettings,
+                budget, warns: list[str]):
     """Each law's posterior: emcee where ``posterior`` (:data:`POSTERIORS`) asks for it and
     the fit has a finite covariance, the Laplace approximation otherwise; their warnings are
     appended to ``warns``."""
@@ -319,11 +323,12 @@ def _posteriors(fits, data, band, chosen: str, posterior: str, *, seed: int, min
         use_emcee = posterior == "emcee" or (posterior == "chosen" and m == chosen) or (
             posterior == "chosen-nonviscous" and m == chosen and m != "viscous")
         if use_emcee and mf.converged and np.all(np.isfinite(mf.cov)):
-            posts[m] = dsample.sample_emcee(mf, data, band, seed=seed + i,
-                                            min_ess=min_ess, max_steps=max_steps, budget=budget,
-                                            progress=progress)
+            posts[m] = dsample.sample_emcee(mf, data, band, seed=sampler.seed + i,
+                                            min_ess=sampler.min_ess,
+                                            max_steps=sampler.max_steps, budget=budget,
+                                            progress=sampler.progress)
         else:
-            posts[m] = dsample.sample_laplace(mf, data, seed=seed + i)
+            posts[m] = dsample.sample_laplace(mf, data, seed=sampler.seed + i)
         warns.extend(posts[m].warnings)
     return posts
 
@@ -349,7 +354,7 @@ def _request_warnings(out: DampingAssessment, model: str, amplitude: float | Non
 
 def from_analysis(an, **kw) -> DampingAssessment:
     """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
-    kw.setdefault("seed", an.seed)
+    kw.setdefault("sampler", SamplerSettings(seed=an.seed))
     return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
 
 
@@ -373,7 +378,7 @@ def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> law_fit.ModelFit:
 
 def _initial_guess(prep) -> tuple[float, float]:
     """Decay rate [1/s] from a log-linear fit of the band-passed envelope, and 2π·f₀ [rad/s]."""
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1]) & (prep.envelope > 0)
+    sel = prep.grid_in_window & (prep.envelope > 0)
     w = 2 * np.pi * prep.f0
     if sel.sum() < 4:
         return 1e-3 * w, w

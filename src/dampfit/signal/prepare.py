@@ -125,6 +125,16 @@ class Prepared:
     #: what was decimated (:meth:`dampfit.signal.decimate.Decimation.summary`), else None
     decimation: dict | None = None
 
+    @property
+    def grid_in_window(self) -> np.ndarray:
+        """The points of ``grid`` inside the free-decay ``window`` (ends included)."""
+        return (self.grid >= self.window[0]) & (self.grid <= self.window[1])
+
+    @property
+    def time_in_window(self) -> np.ndarray:
+        """The raw samples (``time``) inside the free-decay ``window`` (ends included)."""
+        return (self.time >= self.window[0]) & (self.time <= self.window[1])
+
 
 @dataclass(frozen=True, eq=False)
 class FitData:

@@ -40,6 +40,7 @@ import numpy as np
 
 from dampfit import physics
 from dampfit._json import jsonable
+from dampfit._options import AnalysisOptions, SamplerSettings
 from dampfit.errors import InputError
 from dampfit.estimators import baselines
 from dampfit.inference import least_squares
@@ -52,7 +53,7 @@ from dampfit.signal import prepare
 __all__ = ["FitStages", "ViscousStages", "ModesStage", "modes_stage", "modes_disagreement",
            "one_mode_values", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
            "PLAUSIBLE_K_N_PER_M", "POSSIBLE_RATE_HZ", "R_WARN", "assess_damping",
-           "check_damping_options", "crlb_stage", "figure_signals", "fit_stages", "fit_summary",
+           "crlb_stage", "figure_signals", "fit_stages", "fit_summary",
            "fitted_curve", "initial_decay_rate", "ls_quantities", "ls_summary",
            "refuse_impossible_time", "sampling_summary", "unit_plausibility", "viscous_stages",
            "window_signals"]
@@ -162,7 +163,7 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
     noise-free record."""
     warns: list[str] = []
     # baselines on the uniform grid inside the window (also the initial guess)
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     base: dict[str, baselines.BaselineResult | None] = {}
     for name, fn in (("log_decrement", baselines.log_decrement),
                      ("envelope_pipeline", baselines.envelope_pipeline)):
@@ -199,20 +200,21 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
 
 
 def viscous_stages(prep: prepare.Prepared, mass: float | None, mass_sd: float, *,
-                   seed: int = 0, progress: bool = False, max_steps: int = 20000,
-                   min_ess: float = 1000.0, on_fit=None) -> ViscousStages:
+                   sampler: SamplerSettings | None = None, on_fit=None) -> ViscousStages:
     """:func:`fit_stages` and the viscous posterior of one prepared signal: the stages
     :func:`dampfit.pipeline.analyze` and the ``bayes`` estimator share (``mass`` [kg] and
-    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`). ``on_fit(stages)`` is called with the
-    :class:`FitStages` before the posterior is sampled."""
+    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`; ``sampler`` the
+    :class:`~dampfit._options.SamplerSettings`, default ones if None). ``on_fit(stages)`` is
+    called with the :class:`FitStages` before the posterior is sampled."""
+    s = SamplerSettings() if sampler is None else sampler
     st = fit_stages(prep, mass)
     if on_fit is not None:
         on_fit(st)
     started = time.monotonic()
     post = posterior.sample(
         st.fit_data, st.least_squares, band=prep.band, temper=1.0 / st.noise.psd_ratio,
-        mass=mass, mass_sd=mass_sd, seed=seed, progress=progress, max_steps=max_steps,
-        min_ess=min_ess,
+        mass=mass, mass_sd=mass_sd, seed=s.seed, progress=s.progress, max_steps=s.max_steps,
+        min_ess=s.min_ess,
     )
     return ViscousStages(baselines=st.baselines, fit_data=st.fit_data,
                          least_squares=st.least_squares, noise=st.noise,
@@ -232,22 +234,11 @@ def initial_decay_rate(base: dict) -> float:
     return float("nan")
 
 
-def check_damping_options(model: str, amplitude: float | None) -> None:
-    """Validate ``model`` and ``amplitude`` before any work is done."""
-    from dampfit.damping import choices
-
-    if model not in choices():
-        raise InputError(f"unknown damping model {model!r}; choose one of "
-                         f"{', '.join(choices())}")
-    if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
-        raise InputError("--amplitude must be a positive displacement amplitude in metres, "
-                         f"got {amplitude!r}")
-
-
-def assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, progress,
-                   max_steps, min_ess, warns: list[str], viscous_steps: int | None = None,
-                   viscous_seconds: float | None = None):
-    """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`).
+def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: float | None,
+                   mass_sd: float, options: AnalysisOptions):
+    """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`) after
+    the viscous stages ``run``, under ``options`` (its model, amplitude and sampler); the
+    warnings are the result's ``warnings``.
 
     The comparison uses each law's Laplace approximation; emcee runs for the chosen law only
     when it is not the viscous one (whose emcee posterior is ``parameters``), within a step
@@ -255,17 +246,15 @@ def assess_damping(prep, fd, ls, nm, mass, mass_sd, model, amplitude, seed, prog
     from dampfit import damping
     from dampfit.inference.law_sampler import Budget
 
-    budget = Budget.from_viscous(viscous_steps, viscous_seconds)
-    common = dict(model=model, amplitude=amplitude, seed=seed, max_steps=max_steps,
-                  min_ess=min_ess, progress=progress, budget=budget)
-    res = damping.assess(prep, fd, ls, nm, mass, mass_sd, posterior="chosen-nonviscous",
-                         **common)
-    warns.extend(res.warnings)
-    return res
+    budget = Budget.from_viscous(run.sampling.n_steps, run.posterior_seconds)
+    return damping.assess(prep, run.fit_data, run.least_squares, run.noise, mass, mass_sd,
+                          posterior="chosen-nonviscous", model=options.model,
+                          amplitude=options.amplitude, sampler=options.sampler, budget=budget)
 
 
-def crlb_stage(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, Any] | None:
-    """Cramér–Rao bound of this recording's design (:mod:`dampfit.inference.crlb`).
+def crlb_stage(prep, fd, ls, nm, mass, mass_sd) -> tuple[dict[str, Any] | None, list[str]]:
+    """Cramér–Rao bound of this recording's design (:mod:`dampfit.inference.crlb`) and the
+    stage's warnings (the bound, None and why when it cannot be computed).
 
     Design: the raw usable sample times of the window; white noise at the level the residuals
     show at f₀ — one-sided density S(f₀) = r·σ²·2/f_fit from the noise model (σ per fitted
@@ -274,7 +263,7 @@ def crlb_stage(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, A
     (amplitude with the decimation filter's gain removed); the fitted drift as nuisance."""
     from dampfit.inference import crlb
 
-    sel = (prep.time >= prep.window[0]) & (prep.time <= prep.window[1]) & prep.usable
+    sel = prep.time_in_window & prep.usable
     density = float(np.sqrt(nm.psd_ratio * nm.sigma**2 * 2.0 / nm.fs))
     sigma = crlb.from_noise_density(density, prep.fs)
     a_cos, a_sin = ls.true_quadratures()
@@ -283,12 +272,11 @@ def crlb_stage(prep, fd, ls, nm, mass, mass_sd, warns: list[str]) -> dict[str, A
                          a_cos=a_cos, a_sin=a_sin, mass=mass, mass_sd=mass_sd,
                          drift_degree=fd.drift_degree)
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
-        warns.append(f"Cramér–Rao bound not computed: {exc}")
-        return None
+        return None, [f"Cramér–Rao bound not computed: {exc}"]
     out["noise_sigma"] = sigma
     out["noise_density"] = density
     out["noise_density_unit"] = "m/s^2/sqrt(Hz)"
-    return out
+    return out, []
 
 
 def ls_summary(ls: least_squares.LeastSquaresResult, mass: float | None,
@@ -345,7 +333,7 @@ def window_signals(prep: prepare.Prepared, fd, ls, envelope=None) -> dict[str, n
     displacement is NaN); also each test of a campaign (:meth:`CampaignAnalysis.signals`)."""
     from dampfit.model import viscous
 
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     t = prep.grid[sel]
     tau = t - fd.t0
     a_cos, a_sin = ls.true_quadratures()
@@ -504,7 +492,7 @@ def displacement_arrays(prep: prepare.Prepared, base: dict) -> dict[str, np.ndar
     ``disp_zeta``; the log decrement's peaks ``logdec_peak_t`` [s], ``logdec_peak_a`` [m/s²]
     and ``logdec_p`` [1/s] when it found them. Empty when the envelope pipeline failed."""
     env = base.get("envelope_pipeline")
-    n = int(np.count_nonzero((prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])))
+    n = int(np.count_nonzero(prep.grid_in_window))
     det = env.details if env is not None else {}
     if env is None or np.size(det.get("displacement", [])) != n or n < 2:
         return {}

@@ -38,6 +38,7 @@ import numpy as np
 
 from dampfit import physics
 from dampfit._json import jsonable
+from dampfit._options import DEFAULT_MAX_MODES, DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED
 from dampfit.errors import InputError
 from dampfit.signal import prepare
 
@@ -80,10 +81,11 @@ class ModesStage:
     seen: tuple[dict, ...] = ()
 
 
-def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | None = None,
+def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
+                n_modes: int | None = None,
                 band: tuple[float, float] | None = None, mass: float | None = None,
-                mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = 0,
-                min_ess: float = 1000.0, max_steps: int = 20000,
+                mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = DEFAULT_SEED,
+                min_ess: float = DEFAULT_MIN_ESS, max_steps: int = DEFAULT_MAX_STEPS,
                 viscous_seconds: float | None = None,
                 one_mode: tuple[float, float] | None = None,
                 verdict: str | None = None) -> ModesStage:

@@ -47,6 +47,7 @@ import numpy as np
 
 from dampfit.errors import InputError
 from dampfit._json import finite
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 
 __all__ = ["CHECKS", "added_masses", "check_scenario", "empty_row", "per_test", "run",
            "score", "streams", "truth"]
@@ -193,7 +194,8 @@ def score(summary: dict[str, Any], row: dict[str, Any]) -> dict[str, Any]:
 def run(base, *, n_tests: int, c_spread: float = 0.0, added_mass: list[float] | None = None,
         amplitudes: list[float] | None = None, mass_known: bool = True, mass_sd: float = 0.0,
         added_mass_sd: float = 0.0, sim_seed: int = 0, analysis_seed: int = 0,
-        z_new: float = 0.0, max_steps: int = 20000, min_ess: float = 1000.0) -> dict[str, Any]:
+        z_new: float = 0.0, max_steps: int = DEFAULT_MAX_STEPS,
+        min_ess: float = DEFAULT_MIN_ESS) -> dict[str, Any]:
     """Simulate one campaign around ``base`` (:class:`~dampfit.simulate.SimulationConfig`, its
     mass the bare m₀ [kg]), analyse it jointly and score it: one JSON-safe row.
 

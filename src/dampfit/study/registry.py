@@ -115,7 +115,7 @@ def estimate_from(name, p, f_d, mass, *, p_int=None, zeta_int=None, ok=True, mes
 
 def _window(prep: Prepared) -> tuple[np.ndarray, np.ndarray]:
     """Grid times [s] and acceleration [m/s²] inside the free-decay window."""
-    sel = (prep.grid >= prep.window[0]) & (prep.grid <= prep.window[1])
+    sel = prep.grid_in_window
     return prep.grid[sel], prep.grid_signal[sel]
 
 
@@ -150,9 +150,10 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     (``mass_sd`` = 0). No damping-law comparison is made. ``ok`` is False when the least
     squares or the chain did not converge (the numbers are still reported).
     """
+    from dampfit._options import SamplerSettings
     from dampfit.stages import viscous_stages
 
-    st = viscous_stages(prep, mass, 0.0, seed=seed, min_ess=BAYES_MIN_ESS)
+    st = viscous_stages(prep, mass, 0.0, sampler=SamplerSettings(seed=seed, min_ess=BAYES_MIN_ESS))
     post = st.sampling.idata.posterior
 
     def q(name: str) -> tuple[float, float, float]:

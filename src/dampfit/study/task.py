@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from dampfit._json import finite
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 from dampfit.study.config import Task, sim_config
 
 __all__ = ["QUANTITIES", "crlb_design", "crlb_design_modes", "run_campaign_task", "run_task",
@@ -323,8 +324,8 @@ def run_campaign_task(task: Task) -> dict[str, Any]:
                            mass_known=task.mass_known, mass_sd=settings.get("mass_sd", 0.0),
                            added_mass_sd=settings.get("added_mass_sd", 0.0), sim_seed=task.seed,
                            analysis_seed=analysis_seed, z_new=z_new,
-                           max_steps=settings.get("max_steps", 20000),
-                           min_ess=settings.get("min_ess", 1000.0))
+                           max_steps=settings.get("max_steps", DEFAULT_MAX_STEPS),
+                           min_ess=settings.get("min_ess", DEFAULT_MIN_ESS))
     except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
         true = campaign.truth(base, task.mass_known, dm is not None)
         row = {**campaign.empty_row(n, dm is not None, true, spread, z_new),

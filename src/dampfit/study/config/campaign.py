@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 from dampfit.errors import InputError
 from dampfit.study.config.fields import number
 
@@ -17,8 +18,8 @@ CAMPAIGN_AXES: dict[str, str] = {"tests": "int", "c_spread": "float", "added_mas
 #: Per-test lists of [campaign] (scenario fields, one value per test).
 CAMPAIGN_LISTS = ("added_mass", "amplitudes")
 #: Settings of the joint analysis (not scenario fields), with their defaults.
-CAMPAIGN_SETTINGS: dict[str, Any] = {"mass_sd": 0.0, "added_mass_sd": 0.0, "max_steps": 20000,
-                                     "min_ess": 1000.0}
+CAMPAIGN_SETTINGS: dict[str, Any] = {"mass_sd": 0.0, "added_mass_sd": 0.0,
+                                     "max_steps": DEFAULT_MAX_STEPS, "min_ess": DEFAULT_MIN_ESS}
 #: Every key a [campaign] table may hold.
 CAMPAIGN_KEYS = (*CAMPAIGN_AXES, *CAMPAIGN_LISTS, *CAMPAIGN_SETTINGS)
 #: Largest added_mass_fraction [1] (added masses up to 100 × the bare mass).
