@@ -98,8 +98,8 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
         checks.check_same_system([t.prepared.f0 for t in fits], names)
     data, _ = tests.campaign_data(fits, dm, dm_sd)
     started = time.monotonic()
-    sampled = sampling.sample(fits, data, dm is not None, m, sd, dm, seed, progress, max_steps,
-                              min_ess)
+    sampled = sampling.sample(sampling.Problem(fits, data, dm, m, sd), seed, progress,
+                              max_steps, min_ess)
     sampled = replace(sampled, seconds=float(time.monotonic() - started))
     warns.extend(sampled.warnings)
     found = verdict.assess_sampled(fits, sampled.idata.posterior, dm is not None, dm_sd)
