@@ -100,32 +100,21 @@ class Budget:
 class ModelPosterior:
     """Draws of θ (N, k) and a₀ [m] (N,) of one law, with how they were made: ``method``
     "emcee" with its ``run`` (:class:`~dampfit.inference.sampler_run.SamplerRun`: steps,
-    R-hat, ESS, stop reason, budget …), or "laplace" (``run`` None; ``laplace_ok`` False when
-    the approximation failed, ``stop`` :attr:`Stop.NOT_SAMPLED` for an ill-conditioned law
-    emcee was not run on)."""
+    R-hat, ESS, budget … read through), or "laplace" (``run`` None). ``converged`` and
+    ``stop_reason`` are the draws' verdict: the run's for emcee; for Laplace draws whether the
+    approximation exists, and "ill-conditioned: not sampled with emcee"
+    (:attr:`Stop.NOT_SAMPLED`) for a law emcee was not run on."""
 
     model: str
     theta: np.ndarray
     a0: np.ndarray
     method: str  # "emcee" or "laplace"
-    laplace_ok: bool = True
+    converged: bool
     run: SamplerRun | None = None
     warnings: tuple[str, ...] = field(default_factory=tuple)
     ill_conditioned: bool = False
     ill_conditioned_reason: str = ""
-    stop: Stop | None = None  # without a run
-
-    @property
-    def converged(self) -> bool:
-        return self.run.converged if self.run is not None else (
-            self.laplace_ok and self.stop is None)
-
-    @property
-    def stop_reason(self) -> str:
-        """Why the run stopped ("converged", "step budget reached …", …; "" for Laplace)."""
-        if self.run is not None:
-            return self.run.stop_reason
-        return "" if self.stop is None else self.stop.value
+    stop_reason: str = ""  # "converged", "step budget reached …", …
 
     @property
     def n_steps(self) -> int:
@@ -258,8 +247,8 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
         lap = sample_laplace(mf, data, seed=seed)
         note = ("the Laplace approximation is reported instead (approximate intervals)"
                 if len(lap.a0) else "no draws")
-        return replace(lap, ill_conditioned=True, ill_conditioned_reason=why,
-                       stop=Stop.NOT_SAMPLED, warnings=lap.warnings + (
+        return replace(lap, converged=False, ill_conditioned=True, ill_conditioned_reason=why,
+                       stop_reason=Stop.NOT_SAMPLED.value, warnings=lap.warnings + (
                            f"{mf.model} damping law is ill-conditioned ({why}); not sampled "
                            f"with emcee, {note}",))
     rng = np.random.default_rng(seed)
@@ -290,4 +279,5 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
     th = run.draws.reshape(-1, k)
     a0 = _amplitudes(mf, th, data, rng)
     run = replace(run, max_r_hat=rhat, min_ess_bulk=ess, warnings=warns)
-    return ModelPosterior(model, th, a0, "emcee", run=run, warnings=warns)
+    return ModelPosterior(model, th, a0, "emcee", run.converged, run=run, warnings=warns,
+                          stop_reason=run.stop_reason)
