@@ -115,14 +115,14 @@ def dampfit_run(rec) -> dict:
     """The whole analyze() call, and its posterior stage alone (emcee + draws + arviz), timed.
 
     The posterior stage also computes every quantity's R-hat and bulk ESS once
-    (:func:`dampfit.inference.posterior.quantity_diagnostics`, which the summary reuses); the
+    (:func:`dampfit.inference.sampler_run.diagnostics`, which the summary reuses); the
     reference's timing holds no ESS computation, so the sampler-vs-sampler ratio takes that
     time out (``posterior_time_s``) and reports it separately (``diagnostics_time_s``)."""
     import dampfit
-    from dampfit.inference import posterior
+    from dampfit.inference import posterior, sampler_run
 
     calls, diag = [], []
-    original, original_diag = posterior.sample, posterior.quantity_diagnostics
+    original, original_diag = posterior.sample, sampler_run.diagnostics
 
     def timed(*args, **kw):
         t = time.perf_counter()
@@ -136,13 +136,13 @@ def dampfit_run(rec) -> dict:
         diag.append(time.perf_counter() - t)
         return out
 
-    posterior.sample, posterior.quantity_diagnostics = timed, timed_diag
+    posterior.sample, sampler_run.diagnostics = timed, timed_diag
     try:
         t0 = time.perf_counter()
         an = dampfit.analyze(rec, mass=MASS, model="viscous")
         dt = time.perf_counter() - t0
     finally:
-        posterior.sample, posterior.quantity_diagnostics = original, original_diag
+        posterior.sample, sampler_run.diagnostics = original, original_diag
     ess = _ess(np.asarray(an.posterior.posterior["c"]))
     diag_s = sum(diag)  # inside the posterior stage
     stage = calls[0] - diag_s

@@ -103,7 +103,7 @@ def test_the_floor_follows_the_decimation_path():
                                np.exp(-0.05 * tau) * np.sin(2 * np.pi * F0 * tau),
                                np.ones_like(tau)])
         nm = noise.estimate(_project(jac, y), fs_fit, F0, 0.25 * F0, 3, white=rw,
-                            jacobian=jac, sos=sos, fs_filter=fs_filter)
+                            jacobian=jac, lowpass=(sos, fs_filter))
         local.append(nm.local)
         sensor.append(nm.sensor)
     assert rw > 1.2

@@ -99,7 +99,7 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
         checks.check_same_system([t.prepared.f0 for t in fits], names)
     data, _ = tests.campaign_data(fits, dm, dm_sd)
     started = time.monotonic()
-    sampled = sampling.sample(fits, data, dm is not None, m, sd, dm, s.seed, s.progress,
+    sampled = sampling.sample(sampling.Problem(fits, data, dm, m, sd), s.seed, s.progress,
                               s.max_steps, s.min_ess)
     sampled = replace(sampled, seconds=float(time.monotonic() - started))
     warns.extend(sampled.warnings)

@@ -9,16 +9,15 @@ per-test likelihoods (C6), and the model-averaged draws as arviz InferenceData
 
 from __future__ import annotations
 
-import warnings as _warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from dampfit import physics
-from dampfit._arviz import arviz
 from dampfit._progress import progress_bar
 from dampfit.errors import DampfitError
+from dampfit.inference.sampler_run import ReadsRun, SamplerRun, Stop, diagnostics, to_idata
 
 __all__ = ["CampaignSampling", "sample", "ensemble", "MIN_IMPORTANCE_FRACTION", "N_WALKERS",
            "NEGLIGIBLE_MODEL"]
@@ -30,19 +29,37 @@ N_WALKERS = 64
 
 
 @dataclass(frozen=True)
-class CampaignSampling:
-    """The joint posterior (arviz InferenceData) and the sampler's facts."""
+class Problem:
+    """What a campaign's hyper-posterior is of: the fitted ``tests``
+    (:class:`dampfit.campaign.tests.TestFit`), their ``data`` (:mod:`dampfit.campaign.model`),
+    the added masses ``dm`` [kg] (None: a hierarchical campaign) and the given ``mass``,
+    ``mass_sd`` [kg]."""
 
-    idata: Any
-    converged: bool
-    n_steps: int
-    burn_in: int
-    thin: int
-    autocorr_time: np.ndarray
-    acceptance: float
+    tests: Any
+    data: Any
+    dm: Any
+    mass: float | None
+    mass_sd: float
+
+    @property
+    def added(self) -> bool:
+        """An added-mass campaign (m₀ estimated)."""
+        return self.dm is not None
+
+
+#: The quantities whose worst R-hat and bulk ESS summarise the campaign's convergence.
+REPORTED = ("c", "k", "zeta", "f_n", "p", "m0", "tau_p", "tau_omega")
+
+
+@dataclass(frozen=True)
+class CampaignSampling(ReadsRun):
+    """The joint posterior and the sampler's facts: ``run`` the
+    :class:`~dampfit.inference.sampler_run.SamplerRun` of the more probable frequency model,
+    with the model-averaged draws as its ``idata``, the steps of both models and the
+    convergence of both (read through: ``converged``, ``n_steps``, ``diagnostics`` …)."""
+
+    run: SamplerRun
     importance_ess_fraction: float
-    diagnostics: dict[str, dict[str, float]]
-    warnings: tuple[str, ...] = ()
     seconds: float = float("nan")
     #: posterior probability [1] that the tests share one frequency law (τ_ω = 0), eq. (C7)
     p_shared_frequency: float = float("nan")
@@ -136,23 +153,19 @@ def _laplace_start(target, data, candidates: np.ndarray, rng) -> np.ndarray:
 @dataclass(frozen=True)
 class _ModelRun:
     """One model's sampled, importance-resampled draws: φ (N, k) with ln τ_ω = −inf under M₀,
-    ψ (N, n, 2), the chain layout, ln of the mean importance weight (C6) and the run facts."""
+    ψ (N, n, 2), ln of the mean importance weight (C6), the importance ESS fraction and the
+    emcee run."""
 
     phi: np.ndarray
     psi: np.ndarray
-    n_draw: int
-    n_walk: int
     log_mean_weight: float
     ess_fraction: float
-    run: Any
-    burn: int
-    thin: int
-    acceptance: float
+    run: SamplerRun
     m1_draws: np.ndarray | None = None
     last: np.ndarray | None = None
 
 
-def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
+def _run_model(problem: Problem, shared: bool, rng, progress, max_steps, min_ess,
                start=None) -> _ModelRun:
     """Sample one model's hyper-posterior (M₀ ``shared``: τ_ω = 0; else M₁) from ``start``
     (walkers, k) or :func:`_start`, draw each test's ψ given φ and resample by the
@@ -162,7 +175,8 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
     from dampfit.campaign import model
     from dampfit.inference import posterior
 
-    ndim = len(model.hyper_names(added)) - (1 if shared else 0)
+    data = problem.data
+    ndim = len(model.hyper_names(problem.added)) - (1 if shared else 0)
     target = model.sampler_log_posterior(shared)  # non-centred levels (C8)
 
     def log_prob(xs: np.ndarray) -> np.ndarray:  # inside jax.enable_x64(True)
@@ -170,7 +184,7 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
 
     sampler = ensemble(ndim, log_prob, rng)
     if start is None:
-        start = _to_sampler(_start(data, added, rng, sampler.nwalkers), data, shared)
+        start = _to_sampler(_start(data, problem.added, rng, sampler.nwalkers), data, shared)
     start = start[:, :ndim]
     bar = progress_bar(max_steps, "campaign posterior (emcee steps)", enabled=progress)
     try:
@@ -178,20 +192,16 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
                                      bar=bar, x64=True)
     finally:
         bar.close()
-    burn, thin = posterior.burn_thin(run.tau)
-    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, k), coordinates (C8)
-    n_draw, n_walk, _ = chain.shape
-    phi = _to_hyper(chain.reshape(-1, ndim), data, shared)  # with ln τ_ω = −inf under M₀
+    n_draw, n_walk, _ = run.draws.shape  # coordinates (C8)
+    phi = _to_hyper(run.draws.reshape(-1, ndim), data, shared)  # ln τ_ω = −inf under M₀
     psi = model.conditional(phi, data, rng)  # (N, n, 2)
-    logw = _importance_log_weights(tests, psi, data)
+    logw = _importance_log_weights(problem.tests, psi, data)
     finite = logw[np.isfinite(logw)]
     log_mean = (float(finite.max() + np.log(np.sum(np.exp(finite - finite.max())) / logw.size))
                 if finite.size else -np.inf)
     ess_frac, idx = _resample(logw, n_draw, n_walk, rng)
-    return _ModelRun(phi=phi[idx], psi=psi[idx], n_draw=n_draw, n_walk=n_walk,
-                     log_mean_weight=log_mean, ess_fraction=ess_frac, run=run, burn=burn,
-                     thin=thin, acceptance=float(np.mean(sampler.acceptance_fraction)),
-                     m1_draws=None if shared else phi,
+    return _ModelRun(phi=phi[idx], psi=psi[idx], log_mean_weight=log_mean,
+                     ess_fraction=ess_frac, run=run, m1_draws=None if shared else phi,
                      last=_to_hyper(sampler.get_last_sample().coords, data, shared))
 
 
@@ -200,8 +210,8 @@ def _run_model(tests, data, added, shared, rng, progress, max_steps, min_ess,
 NEGLIGIBLE_MODEL = 0.01
 
 
-def sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
-            min_ess) -> CampaignSampling:
+def sample(problem: Problem, seed: int, progress: bool, max_steps: int,
+           min_ess: float) -> CampaignSampling:
     """Both frequency models (M₁: τ_ω free; M₀: τ_ω = 0, :mod:`dampfit.campaign.model`),
     their posterior probabilities by (C7) with the exact-likelihood correction, and the
     model-averaged draws: each (draw, walker) slot of the more probable model's layout holds
@@ -211,14 +221,14 @@ def sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
     from dampfit.campaign import model
 
     rng = np.random.default_rng(seed)
-    names = model.hyper_names(added)
+    data = problem.data
     with jax.enable_x64(True):
-        m1 = _run_model(tests, data, added, False, rng, progress, max_steps, min_ess)
+        m1 = _run_model(problem, False, rng, progress, max_steps, min_ess)
         # M₀ starts from its own Laplace approximation, found from M₁'s last walkers (ln τ_ω
         # dropped): M₀ can be far narrower than M₁ — with an exact bare mass, the bare test
         # pins ω₀ to its own 1e-5 — and a walker left 100 posterior sd out stays there under
         # the DE moves and spoils the importance weights (measured: importance ESS 0.006 %)
-        m0 = _run_model(tests, data, added, True, rng, progress, max_steps, min_ess,
+        m0 = _run_model(problem, True, rng, progress, max_steps, min_ess,
                         start=_laplace_start(model.sampler_log_posterior(True), data,
                                              _to_sampler(m1.last, data, True), rng))
         log_bf = model.log_bayes_factor_shared(m1.m1_draws, data, rng)
@@ -226,36 +236,41 @@ def sample(tests, data, added, mass, mass_sd, dm, seed, progress, max_steps,
     prior_odds = np.log(model.P_SHARED_FREQUENCY / (1 - model.P_SHARED_FREQUENCY))
     p_shared = (float(1.0 / (1.0 + np.exp(-(log_bf + prior_odds))))
                 if np.isfinite(log_bf) else 0.0)
-    warns: list[str] = []
-    converged = True
-    for label, r, weight in (("scatter", m1, 1 - p_shared), ("shared-frequency", m0, p_shared)):
-        if weight < NEGLIGIBLE_MODEL:
-            continue
-        if not r.run.converged:
-            converged = False
-            warns.append(f"campaign posterior ({label} model) NOT converged after "
-                         f"{r.run.steps} steps: {r.run.reason}")
-        if r.ess_fraction < MIN_IMPORTANCE_FRACTION:
-            converged = False
-            warns.append(f"the exact per-test likelihoods differ from their Laplace forms "
-                         f"({label} model): importance ESS only {100 * r.ess_fraction:.1f} % "
-                         "of the draws")
+    weighed = [(label, r) for label, r, weight in (("scatter", m1, 1 - p_shared),
+                                                   ("shared-frequency", m0, p_shared))
+               if weight >= NEGLIGIBLE_MODEL]
+    stop, warns = _convergence(weighed)
     base, other, p_other = (m0, m1, 1 - p_shared) if p_shared >= 0.5 else (m1, m0, p_shared)
     phi, psi = base.phi.copy(), base.psi.copy()
     swap = rng.random(phi.shape[0]) < p_other
     pick = rng.integers(other.phi.shape[0], size=int(swap.sum()))
     phi[swap], psi[swap] = other.phi[pick], other.psi[pick]
-    idata = _to_idata(phi, psi, names, added, mass, mass_sd, dm, base.n_draw, base.n_walk, rng)
+    idata = _to_idata(phi, psi, problem, base.run.n_walkers, rng)
     idata.posterior.attrs["p_shared_frequency"] = p_shared
-    diag = _diagnostics(idata)
-    ess_frac = min(r.ess_fraction for r, w in ((m1, 1 - p_shared), (m0, p_shared))
-                   if w >= NEGLIGIBLE_MODEL)
+    run = base.run.finish(idata, warns, names=REPORTED,
+                          diagnostics=diagnostics(idata, scalars_only=True),
+                          n_steps=m1.run.n_steps + m0.run.n_steps, stop=stop,
+                          stop_reason="; ".join(warns) or "converged", unmet="")
     return CampaignSampling(
-        idata=idata, converged=converged, n_steps=m1.run.steps + m0.run.steps,
-        burn_in=base.burn, thin=base.thin, autocorr_time=np.asarray(base.run.tau),
-        acceptance=base.acceptance, importance_ess_fraction=float(ess_frac),
-        diagnostics=diag, warnings=tuple(warns), p_shared_frequency=p_shared,
-        log_bayes_factor_shared=float(log_bf))
+        run=run, importance_ess_fraction=float(min(r.ess_fraction for _, r in weighed)),
+        p_shared_frequency=p_shared, log_bayes_factor_shared=float(log_bf))
+
+
+def _convergence(weighed) -> tuple[Stop, list[str]]:
+    """(:class:`Stop` of the whole, warnings) of the (label, :class:`_ModelRun`) of every
+    model that is not negligible: each must have converged and kept enough importance ESS."""
+    stop, warns = Stop.CONVERGED, []
+    for label, r in weighed:
+        if not r.run.converged:
+            stop = r.run.stop if stop is Stop.CONVERGED else stop
+            warns.append(f"campaign posterior ({label} model) NOT converged after "
+                         f"{r.run.n_steps} steps: {r.run.unmet}")
+        if r.ess_fraction < MIN_IMPORTANCE_FRACTION:
+            stop = Stop.WEIGHTS if stop is Stop.CONVERGED else stop
+            warns.append(f"the exact per-test likelihoods differ from their Laplace forms "
+                         f"({label} model): importance ESS only {100 * r.ess_fraction:.1f} % "
+                         "of the draws")
+    return stop, warns
 
 
 def ensemble(ndim: int, log_prob, rng):
@@ -318,12 +333,15 @@ def _resample(logw: np.ndarray, n_draw: int, n_walk: int, rng) -> tuple[float, n
     return frac, idx.ravel()
 
 
-def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
+def _to_idata(phi, psi, problem: Problem, n_walk: int, rng):
     """arviz InferenceData of the hyper-parameters, population, predictive and per-test
     quantities (walkers as chains)."""
+    from dampfit.campaign import model
     from dampfit.inference import posterior
 
+    added = problem.added
     n_total, n_tests = psi.shape[0], psi.shape[1]
+    names = model.hyper_names(added)
     post: dict[str, np.ndarray] = {name: phi[:, j] for j, name in enumerate(names)}
     tau_p, tau_w = np.exp(phi[:, -2]), np.exp(phi[:, -1])
     post["tau_p"], post["tau_omega"] = tau_p, tau_w
@@ -331,9 +349,9 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
         p, wn, m0 = np.exp(phi[:, 0]), np.exp(phi[:, 1]), np.exp(phi[:, 2])
         m = m0
         post["m0"] = m0
-        test_mass = m0[:, None] + np.asarray(dm)[None, :]
+        test_mass = m0[:, None] + np.asarray(problem.dm)[None, :]
     else:
-        m = posterior.mass_draws(mass, mass_sd, n_total, rng)
+        m = posterior.mass_draws(problem.mass, problem.mass_sd, n_total, rng)
         p, wn = np.exp(phi[:, 0]), np.exp(phi[:, 1])
         if m is not None:
             post["mass"] = m
@@ -353,37 +371,10 @@ def _to_idata(phi, psi, names, added, mass, mass_sd, dm, n_draw, n_walk, rng):
     for name in ("c", "k", "zeta", "f_n", "p"):
         if name in qi:
             post[f"{name}_test"] = qi[name]
-
-    def shape(v):  # flat (draw·walker) → arviz (chain = walker, draw, …)
-        v = np.asarray(v, dtype=float).reshape((n_draw, n_walk) + np.shape(v)[1:])
-        return np.swapaxes(v, 0, 1)
-
     import emcee
 
-    dims = {k_: ["test"] for k_ in post if k_.endswith("_test")}
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        return arviz().from_dict(
-            posterior={k_: shape(v) for k_, v in post.items()},
-            coords={"test": np.arange(1, n_tests + 1)}, dims=dims,
-            attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
-                   "model": "added-mass" if added else "hierarchical",
-                   "per_test_likelihood": "exact tempered profile (importance-resampled)"},
-        )
-
-
-
-def _diagnostics(idata) -> dict[str, dict[str, float]]:
-    """R-hat and bulk ESS of every scalar quantity (walkers as chains)."""
-
-    az = arviz()
-    out = {}
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        scalars = [v for v, x in idata.posterior.data_vars.items()
-                   if x.ndim == 2 and np.all(np.isfinite(x.values))]  # ln τ_ω = −inf under M₀
-        rhat = az.rhat(idata.posterior[scalars])
-        ess = az.ess(idata.posterior[scalars], method="bulk")
-    for v in scalars:
-        out[str(v)] = {"r_hat": float(rhat[v]), "ess_bulk": float(ess[v])}
-    return out
+    return to_idata(post, n_walk, coords={"test": np.arange(1, n_tests + 1)},
+                    dims={k_: ["test"] for k_ in post if k_.endswith("_test")},
+                    attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
+                           "model": "added-mass" if added else "hierarchical",
+                           "per_test_likelihood": "exact tempered profile (importance-resampled)"})

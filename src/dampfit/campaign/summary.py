@@ -150,14 +150,8 @@ def _added_mass(a: Campaign, params: dict[str, Any]) -> dict[str, Any] | None:
 def _diagnostics(a: Campaign) -> dict[str, Any]:
     """Convergence (worst R-hat, least bulk ESS of the reported quantities) and the
     sampler's facts."""
-    s = a.sampling
-    diag = s.diagnostics
-    reported = [diag[v] for v in ("c", "k", "zeta", "f_n", "p", "m0", "tau_p", "tau_omega")
-                if v in diag]
-    max_rhat = max((d["r_hat"] for d in reported if np.isfinite(d["r_hat"])), default=np.nan)
-    min_ess = min((d["ess_bulk"] for d in reported if np.isfinite(d["ess_bulk"])),
-                  default=np.nan)
-    return {"converged": a.converged, "max_r_hat": max_rhat, "min_ess_bulk": min_ess,
+    s = a.sampling  # max_r_hat, min_ess_bulk: of sampling.REPORTED (SamplerRun.finish)
+    return {"converged": a.converged, "max_r_hat": s.max_r_hat, "min_ess_bulk": s.min_ess_bulk,
             "n_steps": s.n_steps, "burn_in": s.burn_in, "thin": s.thin,
             "acceptance_fraction": s.acceptance,
             "importance_ess_fraction": s.importance_ess_fraction,

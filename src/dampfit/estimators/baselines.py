@@ -235,7 +235,7 @@ def log_decrement(
         "f_d_regression": float(f_reg),
         "peak_sigma": sigma_a,
     }
-    return _result("log_decrement", p, zeta, delta, f_d, phys, mass, n, details, **support)
+    return _result("log_decrement", p, zeta, delta, f_d, phys, n, details, **support)
 
 
 def _inner_peaks(y: np.ndarray, fs: float, band: tuple[float, float], t: np.ndarray):
@@ -354,7 +354,7 @@ def envelope_pipeline(
         "p_unweighted": -float(slope_u),
     }
     return _result(
-        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, mass, None,
+        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, None,
         details, **support,
     )
 
@@ -459,13 +459,14 @@ def _result(
     delta: float,
     f_d: float,
     phys: dict[str, np.ndarray],
-    mass: float | None,
     n_cycles: int | None,
     details: dict[str, Any],
     **support: Any,
 ) -> BaselineResult:
-    c = float(phys["c"]) if mass is not None else None
-    k = float(phys["k"]) if mass is not None else None
+    """The :class:`BaselineResult` of ``method``; c and k where ``phys``
+    (:func:`dampfit.physics.quantities`) has them (a mass was given)."""
+    c = float(phys["c"]) if "c" in phys else None
+    k = float(phys["k"]) if "k" in phys else None
     return BaselineResult(
         method=method,
         p=float(p),

@@ -43,12 +43,12 @@ the Laplace draws, ``ill_conditioned=True`` with the reason, ``converged=False``
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from dampfit.inference.posterior import burn_thin, diagnose, ensemble, run_adaptive
+from dampfit.inference.posterior import ensemble, run_adaptive
+from dampfit.inference.sampler_run import SamplerRun, Stop, diagnose
 from dampfit.inference import law_fit
 from dampfit.model import laws
 
@@ -98,23 +98,47 @@ class Budget:
 
 @dataclass(frozen=True)
 class ModelPosterior:
-    """Draws of θ (N, k) and a₀ [m] (N,) of one law, with how they were made."""
+    """Draws of θ (N, k) and a₀ [m] (N,) of one law, with how they were made: ``method``
+    "emcee" with its ``run`` (:class:`~dampfit.inference.sampler_run.SamplerRun`: steps,
+    R-hat, ESS, budget … read through), or "laplace" (``run`` None). ``converged`` and
+    ``stop_reason`` are the draws' verdict: the run's for emcee; for Laplace draws whether the
+    approximation exists, and "ill-conditioned: not sampled with emcee"
+    (:attr:`Stop.NOT_SAMPLED`) for a law emcee was not run on."""
 
     model: str
     theta: np.ndarray
     a0: np.ndarray
     method: str  # "emcee" or "laplace"
     converged: bool
-    n_steps: int = 0
-    max_r_hat: float = float("nan")
-    min_ess_bulk: float = float("nan")
-    acceptance: float = float("nan")
+    run: SamplerRun | None = None
     warnings: tuple[str, ...] = field(default_factory=tuple)
-    wall_time_s: float = float("nan")  # emcee only [s]
-    stop_reason: str = ""  # why the run stopped ("converged", "step budget reached …", …)
-    budget: Budget | None = None  # emcee only
     ill_conditioned: bool = False
     ill_conditioned_reason: str = ""
+    stop_reason: str = ""  # "converged", "step budget reached …", …
+
+    @property
+    def n_steps(self) -> int:
+        return 0 if self.run is None else self.run.n_steps
+
+    @property
+    def max_r_hat(self) -> float:
+        return float("nan") if self.run is None else self.run.max_r_hat
+
+    @property
+    def min_ess_bulk(self) -> float:
+        return float("nan") if self.run is None else self.run.min_ess_bulk
+
+    @property
+    def acceptance(self) -> float:
+        return float("nan") if self.run is None else self.run.acceptance
+
+    @property
+    def wall_time_s(self) -> float:  # emcee only [s]
+        return float("nan") if self.run is None else self.run.wall_time_s
+
+    @property
+    def budget(self) -> Budget | None:  # emcee only
+        return None if self.run is None else self.run.budget
 
     def diagnostics(self) -> dict:
         """JSON-safe facts about how the draws were made: method, converged, steps, wall
@@ -207,37 +231,8 @@ def sample_laplace(mf: law_fit.ModelFit, data: law_fit.Data, n_draws: int = 2000
                           ill_conditioned_reason=why or "")
 
 
-class _WallBudgetReached(Exception):
-    """Raised between emcee blocks once the wall-time budget is spent."""
-
-
-class _DeadlineBar:
-    """Progress-bar stand-in for :func:`dampfit.inference.posterior.run_adaptive` (which advances its
-    ``bar`` once per block): forwards to the real bar and stops the run between two blocks
-    once ``deadline`` (``time.monotonic()`` [s]) has passed."""
-
-    def __init__(self, bar, deadline: float | None):
-        self.bar, self.deadline = bar, deadline
-
-    @property
-    def total(self):
-        return self.bar.total
-
-    @total.setter
-    def total(self, value) -> None:  # the steps the stopping rule now needs (the ETA's basis)
-        self.bar.total = value
-
-    def refresh(self) -> None:
-        self.bar.refresh()
-
-    def update(self, n: int) -> None:
-        self.bar.update(n)
-        if self.deadline is not None and time.monotonic() > self.deadline:
-            raise _WallBudgetReached
-
-
-def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, float], *, seed: int = 0,
-                 min_ess: float = 1000.0, max_steps: int = 20000, block: int = 500,
+def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, float], *,
+                 seed: int = 0, min_ess: float = 1000.0, max_steps: int = 20000,
                  progress: bool = False, budget: Budget | None = None) -> ModelPosterior:
     """emcee posterior of one law with the tempered likelihood (module docstring).
 
@@ -253,15 +248,11 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
         note = ("the Laplace approximation is reported instead (approximate intervals)"
                 if len(lap.a0) else "no draws")
         return replace(lap, converged=False, ill_conditioned=True, ill_conditioned_reason=why,
-                       stop_reason="ill-conditioned: not sampled with emcee",
-                       warnings=lap.warnings + (
+                       stop_reason=Stop.NOT_SAMPLED.value, warnings=lap.warnings + (
                            f"{mf.model} damping law is ill-conditioned ({why}); not sampled "
                            f"with emcee, {note}",))
     rng = np.random.default_rng(seed)
     model, temper, k = mf.model, mf.temper, mf.k
-    t_start = time.monotonic()
-    deadline = None if budget.max_seconds is None else t_start + budget.max_seconds
-    steps_allowed = int(min(max_steps, budget.max_steps))
 
     def log_prob(thetas):  # the jitted profile of dampfit.model.profile, ~10⁴ evaluations
         lp = law_fit.log_prior(model, thetas, band)
@@ -277,35 +268,16 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
     sampler = ensemble(k, log_prob, rng, N_WALKERS)
     from dampfit._progress import progress_bar
 
-    with progress_bar(steps_allowed, f"damping laws: {model} posterior",
+    with progress_bar(int(min(max_steps, budget.max_steps)), f"damping laws: {model} posterior",
                       enabled=progress) as bar:
-        try:
-            run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
-                               block=block, bar=_DeadlineBar(bar, deadline))
-            steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
-            timed_out = False
-        except _WallBudgetReached:
-            steps, converged, timed_out = int(sampler.iteration), False, True
-            tau = np.asarray(sampler.get_autocorr_time(tol=0))
-            reason = ""
-    wall = time.monotonic() - t_start
-    if converged:
-        stop = "converged"
-    elif timed_out:
-        stop = (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
-                f"{budget.basis})")
-    elif steps_allowed < max_steps and steps >= steps_allowed:
-        stop = f"step budget reached ({steps} steps = {budget.basis})"
-    else:
-        stop = f"max_steps reached ({steps} steps)"
-    warns = () if converged else (
-        f"{model} posterior NOT converged after {steps} steps: {stop}"
-        + (f"; {reason}" if reason else ""),)
-    burn, thin = burn_thin(tau)
-    chain = sampler.get_chain(discard=min(burn, max(steps - 8, 0)), thin=thin)
-    rhat, ess = diagnose(chain)
-    th = chain.reshape(-1, k)
+        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, bar=bar,
+                           budget=budget)
+    warns = () if run.converged else (
+        f"{model} posterior NOT converged after {run.n_steps} steps: {run.stop_reason}"
+        + (f"; {run.unmet}" if run.unmet else ""),)
+    rhat, ess = diagnose(run.draws)
+    th = run.draws.reshape(-1, k)
     a0 = _amplitudes(mf, th, data, rng)
-    return ModelPosterior(model, th, a0, "emcee", converged, n_steps=steps, max_r_hat=rhat,
-                          min_ess_bulk=ess, acceptance=float(np.mean(sampler.acceptance_fraction)),
-                          warnings=warns, wall_time_s=wall, stop_reason=stop, budget=budget)
+    run = replace(run, max_r_hat=rhat, min_ess_bulk=ess, warnings=warns)
+    return ModelPosterior(model, th, a0, "emcee", run.converged, run=run, warnings=warns,
+                          stop_reason=run.stop_reason)

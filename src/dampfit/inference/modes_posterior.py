@@ -61,16 +61,13 @@ ESS 1335 passed, but R-hat stayed 1.05, so the run went on in 50-step blocks tow
 from __future__ import annotations
 
 import math
-import time
-import warnings as _warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from dampfit import physics
-from dampfit._arviz import arviz
 from dampfit._progress import stage_bar
 from dampfit.inference import posterior as _post
 from dampfit.inference.executables import kernel
@@ -78,6 +75,7 @@ from dampfit.inference.law_sampler import Budget
 from dampfit.inference.least_squares import amplitude_gain
 from dampfit.inference.modes import check_mode_of_mass, padded_arrays
 from dampfit.inference.modes_select import psd_ratios
+from dampfit.inference.sampler_run import ReadsRun, SamplerRun, to_idata
 from dampfit.model import modes as mm
 from dampfit.model import profile
 
@@ -94,44 +92,22 @@ _BLOB = 5
 
 
 @dataclass(frozen=True)
-class ModalPosterior:
-    """Posterior of K modes: ``idata`` (arviz; per-mode variables have a ``mode`` dimension
-    1 … K, mass-mode variables none), convergence facts as
-    :class:`~dampfit.inference.posterior.PosteriorResult`, ``mode_of_mass`` (0-based),
-    ``temper`` = 1/r, and ``diagnostics`` name → list (per mode) or dict of
-    {"r_hat", "ess_bulk"}."""
+class ModalPosterior(ReadsRun):
+    """Posterior of K modes: ``run`` the emcee run
+    (:class:`~dampfit.inference.sampler_run.SamplerRun`; its ``idata`` has per-mode variables
+    with a ``mode`` dimension 1 … K, mass-mode variables none, and its ``diagnostics`` name →
+    list (per mode) or dict of {"r_hat", "ess_bulk"}; read through: ``converged``,
+    ``n_steps``, ``warnings`` …), ``n_modes`` K, ``mode_of_mass`` (0-based) and ``temper``
+    = 1/r."""
 
-    idata: object
+    run: SamplerRun
     n_modes: int
     mode_of_mass: int
     temper: float
-    converged: bool
-    n_steps: int
-    burn_in: int
-    thin: int
-    autocorr_time: np.ndarray
-    acceptance: float
-    max_r_hat: float
-    min_ess_bulk: float
-    diagnostics: dict
-    warnings: tuple[str, ...] = field(default_factory=tuple)
-    wall_time_s: float = float("nan")  # of the emcee run [s]
-    stop_reason: str = ""  # "converged", "step budget reached …", "wall-time budget …", …
-    budget: Budget | None = None
 
     def sampling(self) -> dict:
-        """JSON-safe facts about the run: ``converged``, ``max_r_hat`` [1], ``min_ess_bulk``
-        [draws], ``n_steps``, ``burn_in``, ``thin`` [steps], ``n_walkers``,
-        ``acceptance_fraction`` [1], ``wall_time_s`` [s], ``stop_reason`` and ``budget``
-        (:meth:`~dampfit.inference.law_sampler.Budget.summary`, None without one)."""
-        return {"converged": bool(self.converged), "max_r_hat": self.max_r_hat,
-                "min_ess_bulk": self.min_ess_bulk, "n_steps": int(self.n_steps),
-                "burn_in": int(self.burn_in), "thin": int(self.thin),
-                "n_walkers": int(self.idata.posterior.sizes["chain"]),
-                "acceptance_fraction": self.acceptance,
-                "wall_time_s": self.wall_time_s if math.isfinite(self.wall_time_s) else None,
-                "stop_reason": self.stop_reason or None,
-                "budget": None if self.budget is None else self.budget.summary()}
+        """JSON-safe facts about the run (:meth:`SamplerRun.sampling`)."""
+        return self.run.sampling()
 
     def draws(self, name: str) -> np.ndarray:
         """Flattened draws of ``name``: (n, K) for a per-mode quantity, (n,) otherwise."""
@@ -166,13 +142,13 @@ def _stats(x, diag, name) -> dict:
 
 
 @kernel(static_argnums=(0,))
-def _batched_log_prob(n, thetas, tau, y, drift, mask, n_real, n_drift, temper, bounds):
-    """(tempered ln posterior, per-mode conditional moments of (A_i, B_i)) for a batch of θ."""
+def _batched_log_prob(n, thetas, samples, temper, bounds):
+    """(tempered ln posterior, per-mode conditional moments of (A_i, B_i)) for a batch of θ;
+    ``samples`` a :class:`~dampfit.model.profile.Samples`."""
     mdl = mm.model(n)
 
     def one(theta):
         inside = jnp.isfinite(mm.log_prior(theta, bounds[0], bounds[1], xp=jnp))
-        samples = profile.Samples(tau, y, drift, mask, n_real, n_drift)
         ll, ab, cov = profile.marginal_and_amplitudes(mdl, theta, samples, temper)
         blobs = jnp.stack([jnp.stack([ab[2 * i], ab[2 * i + 1], cov[2 * i, 2 * i],
                                       cov[2 * i, 2 * i + 1], cov[2 * i + 1, 2 * i + 1]])
@@ -185,13 +161,12 @@ def _batched_log_prob(n, thetas, tau, y, drift, mask, n_real, n_drift, temper, b
 def _make_log_prob(n, fd, lw, temper):
     """ln posterior of θ batches (and the amplitude blobs); ``lw`` (2, K) the basins."""
     with jax.enable_x64(True):
-        args = padded_arrays(fd) + jax.device_put((np.float64(fd.tau.size),
-                                                   np.float64(fd.drift_degree + 1),
-                                                   np.float64(temper),
-                                                   np.asarray(lw, dtype=np.float64)))
+        samples = profile.Samples(*padded_arrays(fd), *jax.device_put(
+            (np.float64(fd.tau.size), np.float64(fd.drift_degree + 1))))
+        rest = jax.device_put((np.float64(temper), np.asarray(lw, dtype=np.float64)))
 
     def log_prob(thetas):  # called inside jax.enable_x64(True)
-        lp, blobs = _batched_log_prob(n, np.asarray(thetas, dtype=np.float64), *args)
+        lp, blobs = _batched_log_prob(n, np.asarray(thetas, dtype=np.float64), samples, *rest)
         return np.column_stack([np.asarray(lp), np.asarray(blobs)])
 
     return log_prob
@@ -253,8 +228,7 @@ def budget(n_modes: int, max_seconds: float | None = None) -> Budget:
 
 def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
            mode_of_mass: int | None = None, seed: int = 0, min_ess: float = 1000.0,
-           max_steps: int = 20000, block: int = 500,
-           budget: Budget | None = None) -> ModalPosterior:
+           max_steps: int = 20000, budget: Budget | None = None) -> ModalPosterior:
     """Sample the posterior of the chosen K of ``sel`` (a
     :class:`~dampfit.inference.modes_select.ModeSelection`); see the module docstring.
 
@@ -276,60 +250,28 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
     lw = basins(res.fit.omega_d, sel.band)
     cov = res.cov / (res.psd_ratio * temper)  # the Laplace covariance (∝ r) at this r
     start = _start(res.fit.theta, cov, lw, rng, n_walkers)
-    t_start = time.monotonic()
     steps_allowed = int(max_steps if budget is None else min(max_steps, budget.max_steps))
-    deadline = None if budget is None or budget.max_seconds is None else \
-        t_start + budget.max_seconds
     sampler = _post.ensemble(2 * k, _make_log_prob(k, fd, lw, temper), rng, n_walkers)
     with stage_bar(steps_allowed, f"modes: K = {k}, posterior") as bar:
-        run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=steps_allowed,
-                                 block=block, x64=True, deadline=deadline, bar=bar)
-    wall = time.monotonic() - t_start
-    stop = _stop_reason(run, wall, budget, steps_allowed, max_steps)
+        run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
+                                 x64=True, bar=bar, budget=budget)
     warns = [] if run.converged else [
-        f"modal posterior NOT converged after {run.steps} steps ({stop}"
-        + (f"; {run.reason}" if run.reason else "") + "): the intervals of the "
+        f"modal posterior NOT converged after {run.n_steps} steps ({run.stop_reason}"
+        + (f"; {run.unmet}" if run.unmet else "") + "): the intervals of the "
         f"{k} modes are not reliable"]
-    burn, thin = _post.burn_thin(run.tau)
-    burn = min(burn, max(run.steps - 8, 0))  # a run stopped early keeps its last draws
-    chain = sampler.get_chain(discard=burn, thin=thin)
-    blobs = sampler.get_blobs(discard=burn, thin=thin)
-    idata = _to_idata(chain, blobs, sampler.get_log_prob(discard=burn, thin=thin), fd, res.fit,
-                      i_mass, mass, mass_sd, temper, rng)
-    diag = _diagnostics(idata)
-    flat = [d for v in diag.values() for d in (v if isinstance(v, list) else [v])]
-    rh = [d["r_hat"] for d in flat if math.isfinite(d["r_hat"])]
-    es = [d["ess_bulk"] for d in flat if math.isfinite(d["ess_bulk"])]
-    return ModalPosterior(
-        idata=idata, n_modes=k, mode_of_mass=i_mass, temper=temper, converged=run.converged,
-        n_steps=run.steps, burn_in=burn, thin=thin, autocorr_time=np.asarray(run.tau),
-        acceptance=float(np.mean(sampler.acceptance_fraction)),
-        max_r_hat=max(rh, default=math.nan), min_ess_bulk=min(es, default=math.nan),
-        diagnostics=diag, warnings=tuple(warns), wall_time_s=wall, stop_reason=stop,
-        budget=budget)
+    idata = _to_idata(run, fd, res.fit, i_mass, (mass, mass_sd), temper, rng)
+    return ModalPosterior(run=run.finish(idata, warns), n_modes=k, mode_of_mass=i_mass,
+                          temper=temper)
 
 
-def _stop_reason(run, wall: float, budget: Budget | None, steps_allowed: int,
-                 max_steps: int) -> str:
-    """Why the run of ``run`` (:class:`~dampfit.inference.posterior.AdaptiveRun`) stopped;
-    ``wall`` its wall time [s]."""
-    if run.converged:
-        return "converged"
-    if run.out_of_time:
-        return (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
-                f"{budget.basis}) after {run.steps} steps; max_steps {run.steps} reproduces "
-                "this stop on any machine")
-    if budget is not None and steps_allowed < max_steps and run.steps >= steps_allowed:
-        return f"step budget reached ({run.steps} steps = {budget.basis})"
-    return f"max_steps reached ({run.steps} steps)"
-
-
-def _to_idata(chain, blobs, lp, fd, fit, i_mass, mass, mass_sd, temper, rng):
-    n_draw, n_walk, dim = chain.shape
+def _to_idata(run: SamplerRun, fd, fit, i_mass: int, mass: tuple, temper: float, rng):
+    """Every mode's quantities, and the mass's mode's c, k, u₀, of each kept draw of ``run``
+    (``mass`` = (value, sd) [kg])."""
+    dim = run.draws.shape[-1]
     k = dim // 2
-    flat = chain.reshape(-1, dim)
+    flat = run.draws.reshape(-1, dim)
     p, wd = mm.rates(flat)
-    mom = np.asarray(blobs).reshape(-1, k, _BLOB)
+    mom = np.asarray(run.blobs).reshape(-1, k, _BLOB)
     gains = np.array([abs(amplitude_gain(fd, float(a), float(b)))
                       for a, b in zip(fit.p, fit.omega_d)])
     amp = np.column_stack([np.hypot(*_post.conditional_amplitudes(mom[:, i], rng).T)
@@ -338,37 +280,15 @@ def _to_idata(chain, blobs, lp, fd, fit, i_mass, mass, mass_sd, temper, rng):
     post = {name: q[name] for name in ("f_n", "f_d", "zeta", "p", "delta", "Q")}
     post["eta"] = 2.0 * q["zeta"]
     post["accel_amplitude"] = amp
-    m = _post.mass_draws(mass, mass_sd, p.shape[0], rng)
+    m = _post.mass_draws(mass[0], mass[1], p.shape[0], rng)
     qm = physics.quantities(p[:, i_mass], wd[:, i_mass], m, accel_amplitude=amp[:, i_mass])
     post["u0"] = qm["u0"]
     if m is not None:
         post.update({"mass": m, "c": qm["c"], "k": qm["k"], "c_crit": qm["c_crit"]})
-
-    def shape(v):  # (draw·walker[, K]) → (walker = chain, draw[, K])
-        v = np.asarray(v).reshape((n_draw, n_walk) + np.shape(v)[1:])
-        return np.swapaxes(v, 0, 1)
-
-    dims = {name: ["mode"] for name in PER_MODE}
-    with _warnings.catch_warnings():
-        _warnings.filterwarnings("ignore", message="More chains")
-        return arviz().from_dict(
-            posterior={name: shape(v) for name, v in post.items()},
-            sample_stats={"lp": lp.T}, dims=dims, coords={"mode": np.arange(1, k + 1)},
-            attrs={"n_walkers": n_walk, "likelihood_temper": float(temper)})
-
-
-def _diagnostics(idata) -> dict:
-    az = arviz()
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        rhat = az.rhat(idata.posterior)
-        ess = az.ess(idata.posterior, method="bulk")
-    out: dict = {}
-    for name in idata.posterior.data_vars:
-        r, e = np.atleast_1d(rhat[name].values), np.atleast_1d(ess[name].values)
-        rows = [{"r_hat": float(a), "ess_bulk": float(b)} for a, b in zip(r, e)]
-        out[str(name)] = rows if "mode" in idata.posterior[name].dims else rows[0]
-    return out
+    return to_idata(post, run.n_walkers, log_prob=run.log_prob,
+                    dims={name: ["mode"] for name in PER_MODE},
+                    coords={"mode": np.arange(1, k + 1)},
+                    attrs={"n_walkers": run.n_walkers, "likelihood_temper": float(temper)})
 
 
 def modal_summary(sel, post: ModalPosterior, *, keep: int | None = None,

@@ -401,14 +401,16 @@ def _greedy_fits(fd: FitData, band, span: float, pencil, max_modes: int) -> list
     theta, resid = None, fd.y - fd.drift @ (fd.drift.T @ fd.y)
     with stage_bar(max_modes, f"modes: K = 1 … {max_modes} by evidence", unit="K") as bar:
         for k in range(1, max_modes + 1):
-            theta, resid = _greedy_step(fd, band, span, pencil, zeta, k, theta, resid, out)
+            theta, resid = _greedy_step(fd, band, span, pencil, zeta, k, (theta, resid), out)
             bar.update(1)
     return out
 
 
-def _greedy_step(fd, band, span, pencil, zeta, k, theta, resid, out: list[Tried]):
-    """The K = ``k`` step of :func:`_greedy_fits`: its :class:`Tried` appended to ``out``;
-    returns the (θ, residuals) the next K builds on."""
+def _greedy_step(fd, band, span, pencil, zeta, k, state, out: list[Tried]):
+    """The K = ``k`` step of :func:`_greedy_fits` from ``state`` = (θ, residuals) of the step
+    before: its :class:`Tried` appended to ``out``; returns the (θ, residuals) the next K
+    builds on."""
+    theta, resid = state
     why = support(fd, k)
     if not why and k > 1 and not (out[-1].fit is not None and out[-1].fit.found):
         why = f"not tried: {k - 1} mode{'s' if k > 2 else ''} could not be fitted"

@@ -210,16 +210,17 @@ def _calibrated(resid: np.ndarray, jacobian: np.ndarray, fs: float, f0: float,
 
 def estimate(resid: np.ndarray, fs: float, f0: float, halfwidth: float, n_params: int,
              white: float = 1.0, *, jacobian: np.ndarray | None = None,
-             sos: np.ndarray | None = None, fs_filter: float | None = None) -> NoiseModel:
+             lowpass: tuple | None = None) -> NoiseModel:
     """Noise model from least-squares residuals ``resid`` [m/s²] sampled at ``fs`` [Hz].
 
     ``f0`` [Hz] oscillation frequency, ``halfwidth`` [Hz] half-width of the frequency range
     around f₀ over which S(f₀) is averaged, ``n_params`` number of fitted parameters,
     ``white`` r_white [1] of the path (:func:`white_ratio`; 1 on the raw path). With the fit's
     ``jacobian`` (n, n_params) [m/s² per unit] r is the calibrated one of the module
-    docstring (``sos`` and ``fs_filter`` [Hz]: the path's low-pass, None on the raw path);
+    docstring (``lowpass`` = (sos, fs_filter [Hz]): the path's low-pass, None on the raw path);
     without it the plain ratio floored at ``white``.
     """
+    sos, fs_filter = lowpass if lowpass is not None else (None, None)
     resid = np.asarray(resid, dtype=float)
     n = resid.size
     sigma2 = float(np.sum(resid**2) / max(n - n_params, 1))

@@ -48,9 +48,8 @@ and the reason is in ``warnings``.
 from __future__ import annotations
 
 import time
-import warnings as _warnings
 from contextlib import nullcontext as _nullcontext
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import emcee
@@ -59,12 +58,12 @@ import jax.numpy as jnp
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from dampfit._arviz import arviz
 from dampfit import physics
 from dampfit.model import profile
 from dampfit.model.viscous import M1
 from dampfit.inference.executables import kernel
 from dampfit.inference.least_squares import LeastSquaresResult
+from dampfit.inference.sampler_run import SamplerRun, Stop, diagnose, diagnostics, to_idata
 from dampfit.signal.prepare import FitData
 
 if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric import path
@@ -98,23 +97,19 @@ def default_moves():
             (emcee.moves.DESnookerMove(), 0.05)]
 
 
-@dataclass(frozen=True)
-class PosteriorResult:
-    """Posterior draws as arviz ``InferenceData`` plus convergence facts."""
+#: The viscous sampler's result: its :class:`~dampfit.inference.sampler_run.SamplerRun`, whose
+#: ``idata`` holds the draws of c, k, u₀, ζ, f_n … (the one sampler result type).
+PosteriorResult = SamplerRun
 
-    idata: "az.InferenceData"
-    converged: bool
-    n_steps: int
-    burn_in: int
-    thin: int
-    autocorr_time: np.ndarray  # integrated autocorrelation time of (ln p, ln ω_d) [steps]
-    acceptance: float
-    max_r_hat: float
-    min_ess_bulk: float
-    warnings: tuple[str, ...] = field(default_factory=tuple)
-    #: name → {"r_hat": rank-normalised R-hat [1], "ess_bulk": bulk ESS [draws]} of every
-    #: quantity in ``idata.posterior``, computed once here (arviz; walkers as chains).
-    diagnostics: dict[str, dict[str, float]] = field(default_factory=dict)
+
+@dataclass(frozen=True)
+class Target:
+    """What the viscous posterior is of: the fit data, the analysis pass ``band`` [Hz] (the
+    prior support of ω_d) and ``temper`` = 1/r (r from :func:`dampfit.inference.noise.estimate`)."""
+
+    fit_data: FitData
+    band: tuple[float, float]
+    temper: float
 
 
 # Module-level kernel on padded inputs (FitData.padded): compiled once per shape bucket, reused
@@ -123,13 +118,13 @@ class PosteriorResult:
 # each call then costs ≈ 50 µs more than through jax.jit, ≈ 0.1 s over a 60 s recording's
 # posterior, against ≈ 0.3 s of tracing and lowering saved).
 @kernel
-def _batched_log_prob(thetas, tau, y, drift, mask, n, q, temper, bounds):
+def _batched_log_prob(thetas, samples, temper, bounds):
     """(log posterior, conditional moments of (A, B)) for a batch of θ; see
-    :func:`dampfit.model.profile.marginal_and_amplitudes` (the viscous (M1) columns)."""
+    :func:`dampfit.model.profile.marginal_and_amplitudes` (the viscous (M1) columns) and
+    :class:`~dampfit.model.profile.Samples` for ``samples``."""
     def one(theta):
         # the support of the viscous law's prior (its density is constant there: left out)
         inside = jnp.isfinite(M1.log_prior_ln(theta, bounds[0], bounds[1], xp=jnp))
-        samples = profile.Samples(tau, y, drift, mask, n, q - 2)
         ll, ab, cov = profile.marginal_and_amplitudes(M1, theta, samples, temper)
         moments = jnp.stack([ab[0], ab[1], cov[0, 0], cov[0, 1], cov[1, 1]])
         return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf), moments
@@ -141,7 +136,7 @@ def _padded_args(fd: FitData):
     pad = fd.padded
     # device_put, not jnp.asarray / jnp.float64: those each compile an eager op in a new process
     arrays = tuple(np.asarray(a) for a in (pad.tau, pad.y, pad.drift, pad.mask))
-    return jax.device_put(arrays + (np.float64(pad.n), np.float64(pad.q)))
+    return profile.Samples(*jax.device_put(arrays + (np.float64(pad.n), np.float64(pad.q - 2))))
 
 
 #: Per-draw emcee blob: conditional mean and covariance of the quadratures (A, B) given θ.
@@ -160,7 +155,7 @@ def _make_log_prob(fd: FitData, band: tuple[float, float], temper: float):
                                           np.float64(temper)))
 
     def log_prob(thetas: np.ndarray) -> np.ndarray:  # called inside jax.enable_x64(True)
-        lp, moments = _batched_log_prob(np.asarray(thetas, dtype=np.float64), *args,
+        lp, moments = _batched_log_prob(np.asarray(thetas, dtype=np.float64), args,
                                         temper_, bounds)
         return np.column_stack([np.asarray(lp), np.asarray(moments)])
 
@@ -192,28 +187,16 @@ def mass_draws(mass: float | None, mass_sd: float, size, rng) -> np.ndarray | No
     return draws
 
 
-def sample(
-    fd: FitData,
-    ls: LeastSquaresResult,
-    *,
-    band: tuple[float, float],
-    temper: float,
-    mass: float | None = None,
-    mass_sd: float = 0.0,
-    seed: int = 0,
-    min_ess: float = 1000.0,
-    max_steps: int = 20000,
-    block: int = 500,
-    progress: bool = False,
-) -> PosteriorResult:
-    """Sample the posterior; see the module docstring for the model, priors and stopping rule.
-
-    ``temper`` = 1/r (r from :func:`dampfit.inference.noise.estimate`); ``mass``, ``mass_sd``
-    [kg]; ``seed`` makes the run reproducible.
-    """
+def sample(target: Target, ls: LeastSquaresResult, *, mass: float | None = None,
+           mass_sd: float = 0.0, seed: int = 0, min_ess: float = 1000.0,
+           max_steps: int = 20000, progress: bool = False) -> SamplerRun:
+    """Sample the posterior of ``target`` from the least squares ``ls``; see the module
+    docstring for the model, priors and stopping rule. ``mass``, ``mass_sd`` [kg]; ``seed``
+    makes the run reproducible. The result's ``idata`` holds the draws, its ``warnings`` say
+    why a run did not converge."""
     rng = np.random.default_rng(seed)
-    log_prob = _make_log_prob(fd, band, temper)
-    cov = np.asarray(ls.cov[:2, :2]) / temper
+    log_prob = _make_log_prob(target.fit_data, target.band, target.temper)
+    cov = np.asarray(ls.cov[:2, :2]) / target.temper
     if not np.all(np.isfinite(cov)) or np.linalg.eigvalsh(cov).min() <= 0:
         cov = np.diag((1e-3 * np.abs(ls.theta) + 1e-6) ** 2)
     # a noise-free record (an FEM output, a synthetic check) has a covariance at rounding level:
@@ -221,44 +204,21 @@ def sample(
     cov = cov + np.diag(START_SPREAD_FLOOR**2 * np.ones(2))
     start = rng.multivariate_normal(ls.theta, 0.25 * cov, size=N_WALKERS)
     sampler = ensemble(2, log_prob, rng)
-    warns: list[str] = []
     bar = _progress(max_steps, progress)
     try:
-        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, block=block,
-                           bar=bar, x64=True)
+        run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, bar=bar,
+                           x64=True)
     finally:
         bar.close()
-    steps, tau, converged, reason = run.steps, run.tau, run.converged, run.reason
-    if not converged:
-        warns.append(f"posterior NOT converged after {steps} steps: {reason}")
-    burn, thin = burn_thin(tau)
-    chain = sampler.get_chain(discard=burn, thin=thin)  # (draw, walker, 2)
-    lp = sampler.get_log_prob(discard=burn, thin=thin)
-    moments = sampler.get_blobs(discard=burn, thin=thin)  # (draw, walker, 5)
-    idata = _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng)
-    diag = quantity_diagnostics(idata)
-    reported = [diag[v] for v in PARAMETERS if v in diag]
-    max_rhat = max((d["r_hat"] for d in reported if np.isfinite(d["r_hat"])), default=np.nan)
-    min_ess = min((d["ess_bulk"] for d in reported if np.isfinite(d["ess_bulk"])),
-                  default=np.nan)
-    return PosteriorResult(
-        idata=idata, converged=converged, n_steps=steps, burn_in=burn, thin=thin,
-        autocorr_time=np.asarray(tau), acceptance=float(np.mean(sampler.acceptance_fraction)),
-        max_r_hat=max_rhat, min_ess_bulk=min_ess, warnings=tuple(warns), diagnostics=diag,
-    )
+    warns = [] if run.converged else [
+        f"posterior NOT converged after {run.n_steps} steps: {run.unmet}"]
+    idata = _to_idata(run, ls, target.temper, (mass, mass_sd), rng)
+    return run.finish(idata, warns, names=PARAMETERS)
 
 
-def quantity_diagnostics(idata: "az.InferenceData") -> dict[str, dict[str, float]]:
-    """Rank-normalised R-hat [1] and bulk ESS [draws] of every quantity in the posterior
-    (arviz, walkers as chains): ``{name: {"r_hat": …, "ess_bulk": …}}``. A constant quantity
-    (the mass without an uncertainty) has R-hat NaN."""
-    az = arviz()
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")  # constant draws: R-hat is NaN, with a warning
-        rhat = az.rhat(idata.posterior)
-        ess = az.ess(idata.posterior, method="bulk")
-    return {str(v): {"r_hat": float(rhat[v]), "ess_bulk": float(ess[v])}
-            for v in idata.posterior.data_vars}
+#: R-hat and bulk ESS of every quantity of a posterior (the one function,
+#: :func:`dampfit.inference.sampler_run.diagnostics`).
+quantity_diagnostics = diagnostics
 
 
 #: Least spread [1] of the walkers' start ball in θ = (ln p, ln ω_d): 1e-9 relative, far
@@ -292,54 +252,83 @@ def seed_sampler(sampler: "emcee.EnsembleSampler", rng: np.random.Generator) -> 
     sampler.random_state = np.random.RandomState(rng.integers(2**32)).get_state()
 
 
-@dataclass(frozen=True)
-class AdaptiveRun:
-    """Outcome of :func:`run_adaptive`: steps taken, autocorrelation times [steps] per
-    dimension, whether the stopping rule was met, and otherwise why not."""
-
-    steps: int
-    tau: np.ndarray
-    converged: bool
-    reason: str
-    #: True when the run stopped because its ``deadline`` had passed (not converged).
-    out_of_time: bool = False
-
-
 def run_adaptive(sampler: "emcee.EnsembleSampler", start: np.ndarray, *, min_ess: float,
-                 max_steps: int, block: int = 500, first: int = 100, bar=None,
-                 x64: bool = False, deadline: float | None = None) -> AdaptiveRun:
+                 max_steps: int, block: int = 500, bar=None, x64: bool = False,
+                 budget=None) -> SamplerRun:
     """Run ``sampler`` from ``start`` in blocks until the stopping rule of the module
-    docstring holds (≥ 50 τ_int, R-hat < 1.01, bulk ESS ≥ ``min_ess``) or ``max_steps``.
+    docstring holds (≥ 50 τ_int, R-hat < 1.01, bulk ESS ≥ ``min_ess``) or ``max_steps``, and
+    return the :class:`~dampfit.inference.sampler_run.SamplerRun` of the draws kept.
 
-    The first block has ``first`` steps; each later one is sized from the current τ estimate
-    to what the rule still needs — max(50 τ, 3 τ burn-in + 1.2·min_ess·τ/walkers) steps in
-    all — clipped to [``first``/2, ``block``], so a fast-mixing chain stops after a few hundred
-    steps instead of a fixed multiple of ``block``. ``bar`` (tqdm) is advanced per block;
-    ``x64`` runs each block inside ``jax.enable_x64(True)`` (a JAX log-probability called once
-    per half-ensemble). ``deadline`` (``time.monotonic()`` [s]; None: none) stops the run
-    between two blocks once passed, with ``out_of_time`` set and ``converged`` False; the
-    blocks run before it are those of a run without a deadline (same draws for a seed).
+    The first block has :data:`FIRST_BLOCK` steps; each later one is sized from the current τ
+    estimate to what the rule still needs — max(50 τ, 3 τ burn-in + 1.2·min_ess·τ/walkers)
+    steps in all — clipped to [:data:`FIRST_BLOCK`/2, ``block``], so a fast-mixing chain stops
+    after a few hundred steps instead of a fixed multiple of ``block``. ``bar`` (tqdm) is
+    advanced per block; ``x64`` runs each block inside ``jax.enable_x64(True)`` (a JAX
+    log-probability called once per half-ensemble). ``budget``
+    (:class:`~dampfit.inference.law_sampler.Budget`; None: none) lowers the step limit to its
+    ``max_steps`` and, with ``max_seconds`` [s], stops the run between two blocks once that
+    wall time has passed; the blocks run before are those of a run without it (same draws for
+    a seed). Kept: the draws after a burn-in of 3 τ (at most all but the last 8 steps, so a
+    run stopped early keeps its last draws) thinned by τ/4 (:func:`burn_thin`).
 
     BLAS is held to one thread meanwhile (threadpoolctl): the moves make thousands of tiny
     LAPACK calls (the KDE proposal's triangular solves), and with several processes sharing
     the cores — a study's Dask workers — OpenBLAS's spinning worker threads made each of them
     cost milliseconds instead of microseconds (measured: 7.4 s of a 10 s posterior).
     """
+    t_start = time.monotonic()
+    limit = int(max_steps if budget is None else min(max_steps, budget.max_steps))
+    deadline = (None if budget is None or budget.max_seconds is None
+                else t_start + budget.max_seconds)
     with threadpool_limits(limits=1, user_api="blas"):
-        return _run_blocks(sampler, start, min_ess, max_steps, block, first, bar, x64,
-                           deadline)
+        steps, tau, unmet, stop = _run_blocks(sampler, start, (min_ess, limit, block), bar,
+                                              x64, deadline)
+    wall = time.monotonic() - t_start
+    if stop is None:
+        stop = (Stop.STEP_BUDGET if budget is not None and limit < max_steps and steps >= limit
+                else Stop.MAX_STEPS)
+    burn, thin = burn_thin(tau)
+    burn = min(burn, max(steps - 8, 0))
+    return SamplerRun(
+        draws=sampler.get_chain(discard=burn, thin=thin),
+        log_prob=sampler.get_log_prob(discard=burn, thin=thin),
+        blobs=sampler.get_blobs(discard=burn, thin=thin), n_steps=steps,
+        n_walkers=sampler.nwalkers, burn_in=burn, thin=thin, autocorr_time=np.asarray(tau),
+        acceptance=float(np.mean(sampler.acceptance_fraction)), stop=stop,
+        stop_reason=_stop_sentence(stop, steps, wall, budget), unmet=unmet, wall_time_s=wall,
+        budget=budget)
 
 
-def _run_blocks(sampler, start, min_ess, max_steps, block, first, bar, x64,
-                deadline=None) -> AdaptiveRun:
+#: Steps of the first block of :func:`run_adaptive` (the first estimate of τ).
+FIRST_BLOCK = 100
+
+
+def _stop_sentence(stop: Stop, steps: int, wall: float, budget) -> str:
+    """The ``stop_reason`` of a :class:`~dampfit.inference.sampler_run.SamplerRun`."""
+    if stop is Stop.CONVERGED:
+        return "converged"
+    if stop is Stop.WALL_TIME:
+        return (f"wall-time budget reached ({wall:.3g} s > {budget.max_seconds:.3g} s = "
+                f"{budget.basis}) after {steps} steps; max_steps {steps} reproduces "
+                "this stop on any machine")
+    if stop is Stop.STEP_BUDGET:
+        return f"step budget reached ({steps} steps = {budget.basis})"
+    return f"max_steps reached ({steps} steps)"
+
+
+def _run_blocks(sampler, start, rule, bar, x64, deadline):
+    """(steps, τ, the criterion unmet at the last check, :class:`Stop` or None for a run that
+    reached its step limit) of the blocks of :func:`run_adaptive`; ``rule`` = (min_ess,
+    step limit, largest block)."""
+    min_ess, max_steps, block = rule
+    first = FIRST_BLOCK
     state, steps = start, 0
     tau = np.full(sampler.ndim, np.nan)
-    converged, reason = False, ""
+    reason = ""
     n = first
     while steps < max_steps:
         if steps and deadline is not None and time.monotonic() > deadline:
-            return AdaptiveRun(steps=steps, tau=np.asarray(tau), converged=False,
-                               reason=reason, out_of_time=True)
+            return steps, np.asarray(tau), reason, Stop.WALL_TIME
         n = int(min(max(n, 1), max_steps - steps))
         with jax.enable_x64(True) if x64 else _nullcontext():
             state = sampler.run_mcmc(state, n, progress=False)
@@ -360,10 +349,9 @@ def _run_blocks(sampler, start, min_ess, max_steps, block, first, bar, x64,
         burn, thin = burn_thin(tau)
         rhat, ess = diagnose(sampler.get_chain(discard=burn, thin=thin))
         if rhat < 1.01 and ess >= min_ess:
-            converged = True
-            break
+            return steps, np.asarray(tau), "", Stop.CONVERGED
         reason = f"R-hat {rhat:.3f} (needs < 1.01), bulk ESS {ess:.0f} (needs ≥ {min_ess:.0f})"
-    return AdaptiveRun(steps=steps, tau=np.asarray(tau), converged=converged, reason=reason)
+    return steps, np.asarray(tau), reason, None
 
 
 def _revise_total(bar, total: int) -> None:
@@ -381,26 +369,12 @@ def burn_thin(tau: np.ndarray) -> tuple[int, int]:
     return int(np.ceil(3 * t)), max(1, int(t / 4))
 
 
-def diagnose(chain: np.ndarray) -> tuple[float, float]:
-    """Worst rank-normalised R-hat and bulk ESS over the dimensions of a (draw, walker, k)
-    chain, walkers taken as chains."""
-    if chain.shape[0] < 8:
-        return np.inf, 0.0
-    x = np.transpose(chain, (1, 0, 2))  # (chain, draw, dim)
-    az = arviz()
-    with _warnings.catch_warnings():
-        _warnings.simplefilter("ignore")
-        rh = [float(az.rhat(x[..., i])) for i in range(x.shape[-1])]
-        es = [float(az.ess(x[..., i], method="bulk")) for i in range(x.shape[-1])]
-    return max(rh), min(es)
-
-
-def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.InferenceData":
-    n_draw, n_walk, _ = chain.shape
-    flat = chain.reshape(-1, 2)
+def _to_idata(run: SamplerRun, ls, temper: float, mass: tuple, rng) -> "az.InferenceData":
+    """The physical quantities of every kept draw of ``run`` (``mass`` = (value, sd) [kg])."""
+    flat = run.draws.reshape(-1, 2)
     p, wd = np.exp(flat[:, 0]), np.exp(flat[:, 1])
-    ab = conditional_amplitudes(np.asarray(moments).reshape(-1, len(BLOB_FIELDS)), rng)
-    m = mass_draws(mass, mass_sd, p.size, rng)
+    ab = conditional_amplitudes(np.asarray(run.blobs).reshape(-1, len(BLOB_FIELDS)), rng)
+    m = mass_draws(mass[0], mass[1], p.size, rng)
     # physical quantities of every draw (dampfit.physics); u₀ from the acceleration amplitude
     # with the decimation filter's gain removed (eq. M2)
     q = physics.quantities(p, wd, m, accel_amplitude=np.hypot(ab[:, 0], ab[:, 1]) / abs(ls.gain))
@@ -408,18 +382,9 @@ def _to_idata(ls, chain, lp, moments, temper, mass, mass_sd, rng) -> "az.Inferen
     post = {name: q[name] for name in names}
     if m is not None:
         post.update({"mass": m, "c": q["c"], "k": q["k"], "c_crit": q["c_crit"]})
-
-    def shape(v):  # emcee: (draw, walker) → arviz: (chain, draw)
-        return v.reshape(n_draw, n_walk).T
-
-    with _warnings.catch_warnings():  # short chains: (chain, draw) is right by construction
-        _warnings.filterwarnings("ignore", message="More chains")
-        return arviz().from_dict(
-            posterior={k: shape(v) for k, v in post.items()},
-            sample_stats={"lp": lp.T},
-            attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": n_walk,
-                   "likelihood_temper": float(temper)},
-        )
+    return to_idata(post, run.n_walkers, log_prob=run.log_prob,
+                    attrs={"sampler": f"emcee {emcee.__version__}", "n_walkers": run.n_walkers,
+                           "likelihood_temper": float(temper)})
 
 
 def _progress(total: int, enabled: bool):

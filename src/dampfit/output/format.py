@@ -11,6 +11,10 @@ printed with the same digits wherever it appears:
 * :func:`point` — another estimate of the same quantity (least squares) with the digits of
   that interval;
 * :func:`own_spread` — a value with the digits of its own expected 90 % spread (a baseline);
+* :func:`with_interval` — ``median [q05, q95]`` of a summary's quantile dict;
+* :func:`estimate` — a least-squares value of a summary with the digits of its posterior
+  interval; :func:`baseline` — a baseline's value with the digits of its own spread;
+* :func:`formatted` — a plain number in a given format (R-hat, ESS, a frequency), ``—`` when missing;
 * :func:`decimals` and :func:`fixed` — the two steps every one of them takes.
 
 Standard library only.
@@ -21,7 +25,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["decimals", "fixed", "interval", "lookup", "own_spread", "point", "quantiles"]
+__all__ = ["baseline", "decimals", "estimate", "fixed", "interval", "lookup", "own_spread", "point",
+           "quantiles", "real", "formatted", "with_interval"]
 
 #: z-value of the two-sided 90 % interval of a normal distribution: a spread ± 1.645·sd.
 Z90 = 1.645
@@ -31,8 +36,21 @@ def _significant(x: float, digits: int) -> str:
     return f"{x:.{digits}g}"
 
 
-def _real(x: Any) -> bool:
+def real(x: Any) -> bool:
+    """A finite number (not a bool)."""
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
+_real = real
+
+
+def formatted(x: Any, spec: str, *, finite_only: bool = False) -> str:
+    """``x`` in the format ``spec`` (``.4f``: R-hat 1.0099 must not print as "1.01" next to a
+    "< 1.01" rule; ``.5g``), or ``—`` for None — and, with ``finite_only``, for anything
+    that is not a finite number."""
+    if x is None or (finite_only and not real(x)):
+        return "—"
+    return format(x, spec)
 
 
 def decimals(lo: Any, hi: Any) -> int | None:
@@ -86,6 +104,27 @@ def point(x: Any, q05: Any, q95: Any) -> str:
     squares beside its posterior), with the digits that interval gives its median: exactly
     the median's text of :func:`interval` when ``x`` is the median."""
     return interval(x, q05, q95)[0]
+
+
+def with_interval(q: dict) -> str:
+    """``median [q05, q95]`` of a summary's quantile dict ``q`` with the digits of
+    :func:`interval` (a missing value as ``—``)."""
+    m, lo, hi = interval(q.get("q50"), q.get("q05"), q.get("q95"))
+    return f"{m} [{lo}, {hi}]"
+
+
+def estimate(s: dict, name: str, x: Any) -> str:
+    """A point estimate ``x`` of ``name`` (its least squares) with the digits of the 90 %
+    interval of ``name`` in the summary ``s``'s ``parameters`` (:func:`point`; six significant
+    digits without one)."""
+    q = lookup(s, "parameters", name) or {}
+    return point(x, q.get("q05"), q.get("q95"))
+
+
+def baseline(b: dict, name: str) -> str:
+    """A baseline's value ``b[name]`` with the digits of its own expected 90 % spread
+    (:func:`own_spread` of its ``expected_rel_sd``)."""
+    return own_spread(b.get(name), b.get("expected_rel_sd"))
 
 
 def own_spread(x: Any, rel_sd: Any) -> str:

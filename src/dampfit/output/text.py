@@ -21,7 +21,7 @@ import html
 from typing import Any
 
 from dampfit.output import damper as damper_rows
-from dampfit.output.format import interval, own_spread, point
+from dampfit.output.format import baseline, estimate, formatted, interval, with_interval
 from dampfit.physics import UNITS
 
 __all__ = ["headline", "html_table", "text"]
@@ -29,33 +29,6 @@ __all__ = ["headline", "html_table", "text"]
 #: Row label of each posterior quantity: name and unit (:data:`dampfit.physics.UNITS`).
 _LABELS = {name: f"{name:6s} [{UNITS[name]}]"
            for name in ("c", "k", "u0", "zeta", "f_n", "p", "delta")}
-
-
-def _g(x: Any, digits: int = 5) -> str:
-    return "—" if x is None else f"{x:.{digits}g}"
-
-
-def _f(x: Any, fmt: str) -> str:
-    """Fixed-point: R-hat 1.0099 must not print as "1.01" next to a "< 1.01" rule."""
-    return "—" if x is None else format(x, fmt)
-
-
-def _with_interval(q: dict[str, Any]) -> str:
-    """``median [q05, q95]`` of a summary dict with honest digits."""
-    m, lo, hi = interval(q.get("q50"), q.get("q05"), q.get("q95"))
-    return f"{m} [{lo}, {hi}]"
-
-
-def _like_posterior(s: dict[str, Any], name: str, x: Any) -> str:
-    """A point estimate of ``name`` with the digits of its posterior interval (else 6 sig.)."""
-    q = (s.get("parameters") or {}).get(name) or {}
-    return point(x, q.get("q05"), q.get("q95"))
-
-
-def _own_spread(b: dict[str, Any], name: str) -> str:
-    """A baseline's value with the digits of its own expected 90 % spread
-    (:func:`dampfit.output.format.own_spread`)."""
-    return own_spread(b.get(name), b.get("expected_rel_sd"))
 
 
 def _baseline_mark(b: dict[str, Any]) -> str:
@@ -120,7 +93,7 @@ def _backbone_lines(s: dict) -> list[str]:
            f"{100 * (rel + 1.645 * sd):+.2f}] from the smallest to the largest amplitude ({kind})"]
     visc = (((s.get("damping_models") or {}).get("models") or {}).get("viscous") or {})
     params = visc.get("parameters") or {}
-    parts = [f"{name} = {_with_interval(params[name])}{unit}"
+    parts = [f"{name} = {with_interval(params[name])}{unit}"
              for name, unit in (("zeta", ""), ("c", " " + UNITS["c"])) if isinstance(params.get(name), dict)
              and params[name].get("q50") is not None]
     if parts:
@@ -158,8 +131,8 @@ def text(s: dict[str, Any]) -> str:
     d = s["diagnostics"]
     state = "yes" if d["converged"] else "NO"
     lines.append(
-        f"  converged       {state} (max R-hat {_f(d['max_r_hat'], '.4f')}, min bulk ESS "
-        f"{_f(d['min_ess_bulk'], '.0f')}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
+        f"  converged       {state} (max R-hat {formatted(d['max_r_hat'], '.4f')}, min bulk ESS "
+        f"{formatted(d['min_ess_bulk'], '.0f')}, {d['n_steps']} steps x {d['n_walkers']} walkers)"
     )
     if d["warnings"]:
         lines.append("")
@@ -199,12 +172,12 @@ def _modes_lines(s: dict[str, Any]) -> list[str]:
             med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
             label, _, what = label.partition(" (")
             lines.append(f"    {label:13s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
-                         f"   R-hat {_f(q.get('r_hat'), '.4f')}"
+                         f"   R-hat {formatted(q.get('r_hat'), '.4f')}"
                          + (f"   ({what}" if what else ""))
     ray = s.get("rayleigh")
     if isinstance(ray, dict) and isinstance(ray.get("statement"), str):
-        lines.append(f"  Rayleigh        alpha = {_with_interval(ray.get('alpha') or {})} 1/s, "
-                     f"beta = {_with_interval(ray.get('beta') or {})} s; {ray['statement']}")
+        lines.append(f"  Rayleigh        alpha = {with_interval(ray.get('alpha') or {})} 1/s, "
+                     f"beta = {with_interval(ray.get('beta') or {})} s; {ray['statement']}")
     return lines + _seen_lines(s)
 
 
@@ -273,7 +246,8 @@ def _posterior_lines(s: dict[str, Any]) -> list[str]:
         med, lo, hi = interval(q["q50"], q["q05"], q["q95"])
         lines.append(
             f"  {_LABELS[name]:15s} {med:>12s}   [{lo:>11s}, {hi:>11s}]"
-            f" {_g(q['sd'], 3):>10s} {_f(q['r_hat'], '.4f'):>7s} {_f(q['ess_bulk'], '.0f'):>6s}"
+            f" {formatted(q['sd'], '.3g'):>10s} {formatted(q['r_hat'], '.4f'):>7s}"
+            f" {formatted(q['ess_bulk'], '.0f'):>6s}"
             + ("   reaches 0: no decay measured" if q.get("reaches_zero") is True else "")
         )
     return lines
@@ -283,7 +257,7 @@ def _estimate_lines(s: dict[str, Any]) -> list[str]:
     """Least squares (with the posterior's digits) and the baselines (with their own)."""
     ls = s["least_squares"]
     lines = ["  least squares (viscous)  " + ", ".join(
-        f"{k} = {_like_posterior(s, k, ls.get(k))}" for k in ("c", "k", "u0", "zeta", "f_n")
+        f"{k} = {estimate(s, k, ls.get(k))}" for k in ("c", "k", "u0", "zeta", "f_n")
         if ls.get(k) is not None
     ) + ("" if ls["converged"] else "   (NOT converged)")]
     for key, label in (("log_decrement", "log decrement (seed paper baseline)"),
@@ -293,8 +267,8 @@ def _estimate_lines(s: dict[str, Any]) -> list[str]:
             lines.append(f"  {label:15s} not computed")
             continue
         extra = f" over {b['n_cycles']} cycles" if b.get("n_cycles") else ""
-        c = f"c = {_own_spread(b, 'c')}, " if b.get("c") is not None else ""  # no mass: no c
-        lines.append(f"  {label:15s} {c}zeta = {_own_spread(b, 'zeta')}"
+        c = f"c = {baseline(b, 'c')}, " if b.get("c") is not None else ""  # no mass: no c
+        lines.append(f"  {label:15s} {c}zeta = {baseline(b, 'zeta')}"
                      f"{extra}{_baseline_mark(b)}")
     return lines
 
@@ -304,7 +278,7 @@ def _damping_law_line(s: dict[str, Any]) -> str:
     mc = s["model_checks"]
     amp = mc.get("amplitude_dependence") or {}
     verdict = mc.get("verdict") or ("amplitude-dependent" if amp.get("detected") else "adequate")
-    pv = f"P(one viscous c) = {_g(amp.get('p_viscous'), 2)}"
+    pv = f"P(one viscous c) = {formatted(amp.get('p_viscous'), '.2g')}"
     law = mc.get("verdict_law") or (mc.get("preferred_model") if "verdict_law" not in mc
                                     else None)
     reasons = mc.get("verdict_reasons")
@@ -334,15 +308,16 @@ def _damping_law_line(s: dict[str, Any]) -> str:
             rng = ceq.get("recorded_amplitude_range_m")
             ok = isinstance(rng, list) and len(rng) == 2 and all(
                 isinstance(x, (int, float)) and not isinstance(x, bool) for x in rng)
-            extra = (f", EXTRAPOLATED beyond the recorded {_g(rng[0], 3)}–{_g(rng[1], 3)} m"
+            extra = (f", EXTRAPOLATED beyond the recorded {formatted(rng[0], '.3g')}–"
+                     f"{formatted(rng[1], '.3g')} m"
                      if ok else ", EXTRAPOLATED beyond the recorded amplitudes")
-        where = (f"({ceq['model']} law at {_g(ceq['amplitude_m'], 3)} m displacement "
+        where = (f"({ceq['model']} law at {formatted(ceq['amplitude_m'], '.3g')} m displacement "
                  f"amplitude{extra}){_law_state(s, ceq['model'])}")
         if isinstance(ceq.get("c"), dict) and ceq["c"].get("q50") is not None:
-            line += f"\n  c_equivalent    {_with_interval(ceq['c'])} {UNITS['c']} {where}"
+            line += f"\n  c_equivalent    {with_interval(ceq['c'])} {UNITS['c']} {where}"
             where = ""
         if isinstance(ceq.get("zeta"), dict) and ceq["zeta"].get("q50") is not None:
-            line += f"\n  zeta_eq         {_with_interval(ceq['zeta'])} {where}".rstrip()
+            line += f"\n  zeta_eq         {with_interval(ceq['zeta'])} {where}".rstrip()
     return line
 
 

@@ -16,11 +16,10 @@ report and figures show the same tests under the same names: :func:`labels` (the
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
-from dampfit.output.format import interval, lookup, quantiles
+from dampfit.output.format import formatted, lookup, quantiles, real, with_interval
 from dampfit.physics import UNITS
 from dampfit.result.schema import unique_warnings
 
@@ -32,21 +31,9 @@ _UNITS = {**UNITS, "m0": "kg"}
 
 
 # ----------------------------------------------------------------------------- helpers
-def _real(x: Any) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-
-
 def _iv(q: Any) -> str:
-    """``median [q05, q95]`` with honest digits, or ``—``."""
-    v = quantiles(q)
-    if v is None:
-        return "—"
-    m, lo, hi = interval(*v)
-    return f"{m} [{lo}, {hi}]"
-
-
-def _g(x: Any, digits: int = 4) -> str:
-    return f"{x:.{digits}g}" if _real(x) else "—"
+    """``median [q05, q95]`` with honest digits, or ``—`` without all three."""
+    return "—" if quantiles(q) is None else with_interval(q)
 
 
 def labels(tests: list[dict]) -> list[str]:
@@ -113,8 +100,8 @@ def text(s: dict[str, Any]) -> str:
         state = "yes" if d.get("converged") is True else "NO"
         r_hat, ess = d.get("max_r_hat"), d.get("min_ess_bulk")
         lines.append(f"  converged       {state} (max R-hat "
-                     f"{f'{r_hat:.4f}' if _real(r_hat) else '—'}, min bulk ESS "
-                     f"{f'{ess:.0f}' if _real(ess) else '—'}, {d.get('n_steps', '?')} steps)")
+                     f"{formatted(r_hat, '.4f', finite_only=True)}, min bulk ESS "
+                     f"{formatted(ess, '.0f', finite_only=True)}, {d.get('n_steps', '?')} steps)")
     warns, more = unique_warnings(d.get("warnings"), s.get("warnings"),
                                   text=lambda w: w if isinstance(w, str) else "")
     if warns:
@@ -130,12 +117,13 @@ def _mass_line(s: dict, design: dict) -> str:
     m = s.get("mass") if isinstance(s.get("mass"), dict) else {}
     am = design.get("added_mass") if isinstance(design.get("added_mass"), dict) else None
     if am is not None:
-        vals = ", ".join(_g(v, 4) for v in (am.get("values") or []))
-        sd = f" ± {_g(am.get('sd'), 3)}" if _real(am.get("sd")) and am["sd"] > 0 else ""
+        vals = ", ".join(formatted(v, '.4g', finite_only=True) for v in (am.get("values") or []))
+        sd = (f" ± {formatted(am.get('sd'), '.3g', finite_only=True)}"
+              if real(am.get("sd")) and am["sd"] > 0 else "")
         return (f"  added masses {vals} kg{sd}; effective mass m0 estimated "
-                f"(c and k use m0 = {_g(m.get('value'), 6)} kg)")
-    if _real(m.get("value")):
-        sd = f" ± {m['sd']:.3g} kg" if _real(m.get("sd")) and m["sd"] > 0 else " kg (sd not given)"
+                f"(c and k use m0 = {formatted(m.get('value'), '.6g', finite_only=True)} kg)")
+    if real(m.get("value")):
+        sd = f" ± {m['sd']:.3g} kg" if real(m.get("sd")) and m["sd"] > 0 else " kg (sd not given)"
         return f"  mass {m['value']:.6g}{sd}"
     return ("  mass not given: c and k cannot be identified (give --mass KG or "
             "--added-mass KG KG…)")
@@ -161,7 +149,7 @@ def _population_lines(s: dict) -> list[str]:
             lines.append(f"  {words[key]:17s} {_iv(spread[key]):>34s}   (between-test sd of ln "
                          f"{'p' if key == 'p' else 'ω_n'}, relative)")
     shared = spread.get("omega", {}).get("p_zero") if isinstance(spread.get("omega"), dict) else None
-    if _real(shared):
+    if real(shared):
         lines.append(f"  {'one frequency law':17s} {'P = ' + format(shared, '.3g'):>34s}   "
                      "(τ_ω = 0 against scatter, Bayes factor)")
     if zero is not None:
@@ -183,8 +171,9 @@ def _test_lines(s: dict) -> list[str]:
     rows = []
     for i, (t, name) in enumerate(zip(entries, labels(entries))):
         dm = t.get("added_mass_kg")
-        rows.append([f"{i + 1:>2d} {name}", _g(dm, 4) if _real(dm) else "—",
-                     _g(t.get("amplitude_m"), 3), _iv(lookup(t, "own", what)),
+        rows.append([f"{i + 1:>2d} {name}", formatted(dm, '.4g', finite_only=True),
+                     formatted(t.get("amplitude_m"), '.3g', finite_only=True),
+                     _iv(lookup(t, "own", what)),
                      _iv(lookup(t, "pooled", what)),
                      "OUTLIER" if t.get("outlier") is True else "no"])
     widths = [max(len(r[j]) for r in [head, *rows]) for j in range(len(head))]

@@ -195,7 +195,7 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
     # the residual above f0/2 (dampfit.inference.noise)
     nm = noise.estimate(ls.residuals, fd.fs, prep.f0, 0.25 * prep.f0, ls.n_params,
                         white=noise.white_ratio(fd.lowpass_sos, fd.fs_filter, fd.fs, prep.f0),
-                        jacobian=ls.jacobian, sos=fd.lowpass_sos, fs_filter=fd.fs_filter)
+                        jacobian=ls.jacobian, lowpass=(fd.lowpass_sos, fd.fs_filter))
     return FitStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, warnings=warns)
 
 
@@ -212,7 +212,7 @@ def viscous_stages(prep: prepare.Prepared, mass: float | None, mass_sd: float, *
         on_fit(st)
     started = time.monotonic()
     post = posterior.sample(
-        st.fit_data, st.least_squares, band=prep.band, temper=1.0 / st.noise.psd_ratio,
+        posterior.Target(st.fit_data, prep.band, 1.0 / st.noise.psd_ratio), st.least_squares,
         mass=mass, mass_sd=mass_sd, seed=s.seed, progress=s.progress, max_steps=s.max_steps,
         min_ess=s.min_ess,
     )

@@ -18,7 +18,10 @@ from typing import Any
 from dampfit import physics
 from dampfit.output.campaign import FIGURES as CAMPAIGN_FIGURES
 from dampfit.output.document import Block
-from dampfit.output.format import interval, own_spread, point
+from dampfit.output.format import (baseline, formatted, interval, lookup, point, quantiles,
+                                   real)
+from dampfit.output.format import estimate as estimate_text
+from dampfit.output.format import with_interval as interval_text
 
 __all__ = ["DERIVED", "FIGURES", "LABELS", "MAIN", "NAMES", "UNITS", "baseline_value",
            "bracket", "estimate", "figure", "finite", "generic", "get", "isnum", "label_of",
@@ -106,15 +109,14 @@ def number(x: Any, digits: int = 6) -> str:
     return str(x)
 
 
-def finite(x: Any) -> bool:
-    """A finite number (not a bool)."""
-    return isnum(x) and math.isfinite(x)
+#: A finite number (not a bool): :func:`dampfit.output.format.real`.
+finite = real
 
 
 def spec(x: Any, fmt: str) -> str:
-    """``x`` in the format ``fmt`` (``.4f``: R-hat 1.0099 must not print as "1.01" next to a
-    "< 1.01" rule), or — when it is not a finite number."""
-    return format(x, fmt) if finite(x) else "—"
+    """``x`` in the format ``fmt`` (:func:`dampfit.output.format.formatted`), or — when it is
+    not a finite number."""
+    return formatted(x, fmt, finite_only=True)
 
 
 def bracket(q: dict) -> str:
@@ -141,17 +143,16 @@ def estimate(s: dict, name: str, x: Any) -> str:
     q = get(s, "parameters", name)
     if not (finite(x) and isinstance(q, dict) and finite(q.get("q05")) and finite(q.get("q95"))):
         return number(x)
-    return point(x, q["q05"], q["q95"])
+    return estimate_text(s, name, x)
 
 
 def baseline_value(b: dict, name: str) -> str:
     """A baseline's value with the digits of its own expected 90 % spread
     (:func:`dampfit.output.format.own_spread`, as the text table prints it), else six
     significant digits."""
-    x, rel = b.get(name), b.get("expected_rel_sd")
-    if not (finite(x) and finite(rel)):
-        return number(x)
-    return own_spread(float(x), float(rel))
+    if not (finite(b.get(name)) and finite(b.get("expected_rel_sd"))):
+        return number(b.get(name))
+    return baseline(b, name)
 
 
 def with_interval(q: Any, unit: str = "") -> str:
@@ -159,16 +160,14 @@ def with_interval(q: Any, unit: str = "") -> str:
     if not isinstance(q, dict) or not finite(q.get("q50")):
         return "—"
     unit = "" if unit in ("", "1") else f" {unit}"
+    if quantiles(q) is not None:
+        return f"{interval_text(q)}{unit}"
     return f"{median(q)} {bracket(q)}{unit}"
 
 
-def get(d: Any, *keys: str) -> Any:
-    """``d[k1][k2]…`` or None where anything along the way is missing or not a dict."""
-    for k in keys:
-        if not isinstance(d, dict):
-            return None
-        d = d.get(k)
-    return d
+#: ``d[k1][k2]…`` or None where anything along the way is missing or not a dict
+#: (:func:`dampfit.output.format.lookup`).
+get = lookup
 
 
 def label_of(key: Any) -> str:
