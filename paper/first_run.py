@@ -23,10 +23,12 @@ them in would only flatter the ratio.
 
 Usage (from the checkout root; ≈ 15–25 min of CPU on two cores)::
 
-    PYTHONPATH=src nice -n 10 python paper/first_run.py            # writes paper/results/first_run.{md,json}
+    PYTHONPATH=src nice -n 10 python paper/first_run.py --max-samples 4096   # writes paper/results/first_run.{md,json}
     PYTHONPATH=src python paper/first_run.py --only sim-10s-30Hz   # one recording (a check)
 
-No timed unit test: this is a benchmark script, its numbers depend on the machine.
+The children run a copy of ``src/dampfit`` taken at the start (the store is keyed by the
+package's source digest: an edit of the checkout during the run would otherwise make the warm
+store cold). No timed unit test: this is a benchmark script, its numbers depend on the machine.
 """
 
 from __future__ import annotations
@@ -34,9 +36,11 @@ from __future__ import annotations
 import argparse
 import collections
 import json
+import math
 import os
 import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -61,7 +65,7 @@ REAL_FILES = {
 }
 #: Simulated recordings: (duration [s], sample rate [Hz], seed) of the paper preset.
 SIMULATED = {"sim-10s-30Hz": (10.0, 30.0, 1), "sim-23s-50Hz": (23.0, 50.0, 2),
-             "sim-120s-1kHz": (120.0, 1000.0, 3), "sim-600s-100Hz": (600.0, 100.0, 4)}
+             "sim-120s-1kHz": (120.0, 1000.0, 3)}
 _PAPER_MASS = 5.3  # [kg] the paper preset's mass
 
 
@@ -75,7 +79,7 @@ def _run(cmd: list[str], env: dict) -> dict:
     """Run one dampfit command in a child process: CPU [s], wall [s], XLA compilations."""
     cpu0, t0 = _cpu_children(), time.perf_counter()
     proc = subprocess.run([sys.executable, "-m", "dampfit", *cmd], env=env,
-                          capture_output=True, text=True)
+                          capture_output=True, text=True, check=False)
     wall, cpu = time.perf_counter() - t0, _cpu_children() - cpu0
     if proc.returncode != 0:
         raise SystemExit(f"dampfit {' '.join(cmd)} failed ({proc.returncode}):\n{proc.stderr[-3000:]}")
@@ -116,7 +120,8 @@ def _differ(a, b, where: str = "") -> list[str]:
     if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
         return [d for i, (u, v) in enumerate(zip(a, b))
                 for d in _differ(u, v, f"{where}[{i}]")][:20]
-    return [] if a == b or (a != a and b != b) else [where or "/"]
+    nan = isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b)
+    return [] if a == b or nan else [where or "/"]
 
 
 def _analyze(name: str, path: Path, mass, tmp: Path, env: dict) -> dict:
@@ -136,25 +141,25 @@ def _analyze(name: str, path: Path, mass, tmp: Path, env: dict) -> dict:
     return row
 
 
-def _markdown(prep: dict, rows: list[dict], ratios: list[float]) -> str:
+def _markdown(prep: dict, rows: list[dict], ratios: list[float], warm_args: str) -> str:
     lines = ["# A new user's first analysis: CPU seconds, empty kernel store", "",
              "<!-- written by paper/first_run.py -->", "",
-             "Child processes, an empty compiled-kernel store of their own; CPU seconds of "
-             "each command and its descendants (`getrusage(RUSAGE_CHILDREN)` deltas); "
-             "`--no-figures`; XLA compilations counted from `JAX_LOG_COMPILES=1`.", "",
+             ("Child processes, an empty compiled-kernel store of their own; CPU seconds of "
+              "each command and its descendants (`getrusage(RUSAGE_CHILDREN)` deltas); "
+              "`--no-figures`; XLA compilations counted from `JAX_LOG_COMPILES=1`."), "",
              "| preparation | CPU [s] | wall [s] | XLA compilations |", "|---|---:|---:|---:|"]
     for label, r in prep.items():
-        lines.append(f"| `dampfit {label}` | {r['cpu_s']} | {r['wall_s']} | {r['xla_compiles']} |")
-    lines += ["", "| recording | first CPU [s] | warm CPU [s] | first / warm | XLA compilations "
-              "(first) | compiled kernels (first) | same numbers |",
+        lines.append(f"| `dampfit {label}{warm_args if label == 'warm-up' else ''}` | {r['cpu_s']} | {r['wall_s']} | {r['xla_compiles']} |")
+    lines += ["", ("| recording | first CPU [s] | warm CPU [s] | first / warm | XLA compilations "
+                   "(first) | compiled kernels (first) | same numbers |"),
               "|---|---:|---:|---:|---:|---|---|"]
     for r in rows:
         kernels = ", ".join(f"`{k}`×{v}" for k, v in sorted(r["first"]["compiled"].items()))
         lines.append(f"| {r['recording']} | {r['first']['cpu_s']} | {r['warm']['cpu_s']} | "
                      f"{r['ratio']} | {r['first']['xla_compiles']} | {kernels or '–'} | "
                      f"{'yes' if r['identical'] else 'NO'} |")
-    lines += ["", f"Median first/warm {statistics.median(ratios):.2f}, max {max(ratios):.2f} "
-              f"(goal: median ≤ 1.5, none above 2) over {len(ratios)} recordings.", ""]
+    lines += ["", (f"Median first/warm {statistics.median(ratios):.2f}, max {max(ratios):.2f} "
+                   f"(goal: median ≤ 1.5, none above 2) over {len(ratios)} recordings."), ""]
     return "\n".join(lines)
 
 
@@ -162,6 +167,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=OUT, help="Markdown to write (and .json beside it)")
     ap.add_argument("--only", nargs="+", metavar="NAME", help="only these recordings")
+    ap.add_argument("--max-samples", type=int, default=None, metavar="N",
+                    help="pass --max-samples N to `dampfit warm-up` (default: its own default)")
     ap.add_argument("--no-warm-up", action="store_true",
                     help="prepare with `dampfit demo` alone (no `dampfit warm-up`)")
     args = ap.parse_args(argv)
@@ -175,18 +182,24 @@ def main(argv=None) -> int:
         cache.mkdir(mode=0o700)
         env = {k: v for k, v in os.environ.items()
                if k != "JAX_COMPILATION_CACHE_DIR" and not k.startswith("DAMPFIT_")}
+        # a snapshot of the source: the store is keyed by the package's source digest, so an
+        # edit of the checkout during the run must not invalidate what the warm-up compiled
+        shutil.copytree(ROOT / "src" / "dampfit", tmp / "src" / "dampfit",
+                        ignore=shutil.ignore_patterns("__pycache__"))
         env.update(DAMPFIT_JAX_CACHE=str(cache), JAX_LOG_COMPILES="1", MPLBACKEND="Agg",
-                   PYTHONPATH=os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")]))
+                   PYTHONPATH=os.pathsep.join([str(tmp / "src"), env.get("PYTHONPATH", "")]))
         files = {k: (REAL / p, m) for k, (p, m) in real.items()} | _simulate(tmp, sims)
         prep = {"demo": _run(["demo", "--out", str(tmp / "demo"), "--no-figures"], env)}
         if not args.no_warm_up:
-            prep["warm-up"] = _run(["warm-up"], env)
+            prep["warm-up"] = _run(["warm-up"] + ([] if args.max_samples is None else
+                                                  ["--max-samples", str(args.max_samples)]), env)
         for label, r in prep.items():
             print(f"dampfit {label}: {r['cpu_s']} s CPU, {r['xla_compiles']} XLA compilations",
                   flush=True)
         rows = [_analyze(name, p, m, tmp, env) for name, (p, m) in files.items()]
     ratios = [r["ratio"] for r in rows]
-    args.out.write_text(_markdown(prep, rows, ratios))
+    warm_args = "" if args.max_samples is None else f" --max-samples {args.max_samples}"
+    args.out.write_text(_markdown(prep, rows, ratios, warm_args))
     args.out.with_suffix(".json").write_text(json.dumps({"preparation": prep, "runs": rows},
                                                         indent=1, ensure_ascii=False) + "\n")
     print(args.out.read_text())
