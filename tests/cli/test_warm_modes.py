@@ -25,8 +25,7 @@ def _modal_shape(rec) -> tuple[int, int]:
     prep = prepare.prepare(rec)
     band = modes.modal_band(prep)
     fd = modes.modal_fit_data(modes.modal_prepared(prep, band)[0], band)
-    drift = next(b for b in modes._DRIFT_BUCKETS if b >= fd.drift_degree + 1)
-    return prepare.padded_length(fd.tau.size), drift
+    return prepare.padded_length(fd.tau.size), modes.drift_columns(fd.drift_degree)
 
 
 def test_every_sample_bucket_has_a_drift_bucket_and_the_pairs_are_distinct():

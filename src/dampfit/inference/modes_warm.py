@@ -9,7 +9,7 @@ K ≥ 2 that is sampled, the posterior's batched log-probability (``_batched_log
 executable per batch size: the whole ensemble of max(64, 32 K) walkers at the start, a half
 ensemble per move). Their shapes are set by K, the modal fit's sample bucket
 (:func:`dampfit.signal.prepare.padded_length`) and its drift-column bucket
-(:data:`dampfit.inference.modes._DRIFT_BUCKETS`), not by the recording's values. A one-mode
+(:func:`dampfit.inference.modes.drift_columns`), not by the recording's values. A one-mode
 simulated recording (``dampfit warm-up``'s) compiles only K = 1 and only its own buckets, so a
 real recording in which a second mode is found compiled ≈ 11 kernels on its first run
 (``paper/results/first_run.md``: 50 cm cantilever, 42 s CPU first against 20 s warm).
@@ -18,8 +18,8 @@ How
 ---
 Each kernel is called once with arguments of exactly the shapes, dtypes and static arguments the
 analysis passes (float64 device arrays from :func:`dampfit.inference.modes.padded_arrays` of a
-synthetic :class:`~dampfit.signal.prepare.FitData`; the LM step limit of
-:func:`dampfit.inference.modes.fit_modes`' default; the ensemble sizes of
+synthetic :class:`~dampfit.signal.prepare.FitData`; the LM step limit
+:data:`dampfit.inference.modes.LM_STEPS`; the ensemble sizes of
 :func:`dampfit.inference.modes_posterior.sample`), so the executables land in the compiled-kernel
 store (:mod:`dampfit.inference.executables`) under the keys a real analysis looks up. The values
 are a K-mode decay with modes spread over a factor 4 in frequency; they only need to be finite
@@ -30,31 +30,27 @@ from __future__ import annotations
 
 import math
 
-import jax
 import numpy as np
 
 from dampfit.inference import modes as _modes
 from dampfit.inference import modes_posterior as _mp
-from dampfit.inference import posterior as _post
 from dampfit.signal.prepare import FitData
 
-__all__ = ["FIT_STEPS", "drift_buckets", "modal_pairs", "warm_modal"]
+__all__ = ["drift_buckets", "modal_pairs", "warm_modal"]
 
-#: The Levenberg–Marquardt step limit the modal selection uses (``fit_modes``' default).
-FIT_STEPS = 100
 _F0, _FS = 1.0, 10.0  # [Hz] the synthetic lowest mode and sample rate
 #: Modal fit samples per drift degree on the decimated path [samples] (:func:`modal_pairs`).
 _SAMPLES_PER_DEGREE = (640, 1280)
 
 
 def drift_buckets(bucket: int) -> tuple[int, ...]:
-    """The drift-column buckets (:data:`dampfit.inference.modes._DRIFT_BUCKETS`) a modal fit of
+    """The drift-column buckets (:func:`dampfit.inference.modes.drift_columns`) a modal fit of
     ``bucket`` padded samples falls in on the usual, decimated path (module docstring of
     :func:`modal_pairs`)."""
     prev = max((b for b in _sample_buckets_below(bucket)), default=0)
     lo = max(1, math.floor(prev / _SAMPLES_PER_DEGREE[1]))
     hi = max(1, min(math.ceil(bucket / _SAMPLES_PER_DEGREE[0]), _modes.MAX_DRIFT_DEGREE))
-    cols = {next(b for b in _modes._DRIFT_BUCKETS if b >= d + 1) for d in range(lo, hi + 1)}
+    cols = {_modes.drift_columns(d) for d in range(lo, hi + 1)}
     return tuple(sorted(cols))
 
 
@@ -98,7 +94,7 @@ def _fit_data(bucket: int, drift_columns: int) -> FitData:
     tau = np.arange(n) / _FS
     y = sum(math.exp(-0.02 * i) * np.exp(-0.05 * tau) * np.cos(2 * math.pi * _F0 * (1 + i) * tau)
             for i in range(4))
-    below = [b for b in _modes._DRIFT_BUCKETS if b < drift_columns]
+    below = [b for b in _modes.drift_column_buckets() if b < drift_columns]
     degree = max(below[-1] if below else 1, 1)  # the smallest degree of that bucket
     return FitData(t0=0.0, tau=tau, y=np.asarray(y, float), drift_degree=degree, path="raw",
                    fs=_FS, lowpass_sos=None, fs_filter=_FS, n_excluded=0)
@@ -115,17 +111,9 @@ def warm_modal(bucket: int, drift_columns: int, ks) -> None:
     padded samples and ``drift_columns`` drift columns (module docstring)."""
     fd = _fit_data(bucket, drift_columns)
     band = (_F0 / _modes.BAND_RATIO, min(_modes.BAND_RATIO * _F0, 0.45 * _FS))
-    with jax.enable_x64(True):
-        args = _modes.padded_arrays(fd)
-        for k in ks:
-            if _modes.support(fd, k):
-                continue
-            th = _theta(k)
-            _modes._rss_batch(k, np.tile(th, (_modes.GRID_BATCH, 1)), *args)
-            _modes._fit_batch(k, FIT_STEPS, np.tile(th, (_modes.N_LM, 1)), *args)
-            _modes._details(k, th, *args)
-            if k >= 2:
-                log_prob = _mp._make_log_prob(k, fd, _mp.basins(np.exp(th[1::2]), band), 1.0)
-                n_walkers = max(_post.N_WALKERS, 32 * k)
-                for size in (n_walkers, n_walkers // 2):
-                    log_prob(np.tile(th, (size, 1)))
+    for k in ks:
+        if _modes.support(fd, k):
+            continue
+        _modes.warm_kernels(fd, _theta(k))
+        if k >= 2:
+            _mp.warm_log_prob(fd, _theta(k), band)
