@@ -189,14 +189,15 @@ def walkers(k: int) -> int:
 
 def warm_log_prob(fd, theta, band) -> None:
     """Compile (or load from the store) the batched log-probability :func:`sample` runs for
-    K = len(θ)/2 modes on ``fd``'s padded shapes, at both batch sizes it evaluates (the whole
-    ensemble at the start, a half ensemble per move); ``theta`` (2K,) and ``band`` [Hz] need
-    only be finite (:mod:`dampfit.inference.modes_warm`)."""
+    K = len(θ)/2 modes on ``fd``'s padded shapes, at every batch size it evaluates (the whole
+    ensemble at the start; a half ensemble per KDE or DE move, a quarter per DE-snooker move:
+    emcee's ``nsplits``); ``theta`` (2K,) and ``band`` [Hz] need only be finite
+    (:mod:`dampfit.inference.modes_warm`)."""
     theta = np.asarray(theta, dtype=np.float64)
     k = mm.n_modes(theta)
     with jax.enable_x64(True):
         log_prob = _make_log_prob(k, fd, basins(np.exp(theta[1::2]), band), 1.0)
-        for size in (walkers(k), walkers(k) // 2):
+        for size in (walkers(k), walkers(k) // 2, walkers(k) // 4):
             log_prob(np.tile(theta, (size, 1)))
 
 

@@ -6,8 +6,8 @@ The modal stage (:mod:`dampfit.inference.modes_select`, :mod:`dampfit.inference.
 runs four compiled kernels per number of modes K: the start-grid RSS (``_rss_batch``), the
 vmapped Levenberg–Marquardt (``_fit_batch``), the optimum's details (``_details``) and, for the
 K ≥ 2 that is sampled, the posterior's batched log-probability (``_batched_log_prob``, one
-executable per batch size: the whole ensemble of max(64, 32 K) walkers at the start, a half
-ensemble per move). Their shapes are set by K, the modal fit's sample bucket
+executable per batch size: the whole ensemble of max(64, 32 K) walkers at the start, a half or
+a quarter of it per move). Their shapes are set by K, the modal fit's sample bucket
 (:func:`dampfit.signal.prepare.padded_length`) and its drift-column bucket
 (:func:`dampfit.inference.modes.drift_columns`), not by the recording's values. A one-mode
 simulated recording (``dampfit warm-up``'s) compiles only K = 1 and only its own buckets, so a
