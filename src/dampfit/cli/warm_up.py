@@ -1,8 +1,9 @@
 """``dampfit warm-up``: compile the analysis kernels once per machine (:mod:`dampfit.warmup`).
 
-Analyses one simulated recording per sample bucket up to ``--max-samples`` fitted samples, so
-that a first real analysis of a recording in those buckets loads its compiled kernels from the
-store instead of compiling them. Progress on stderr (a bar on a terminal, lines elsewhere,
+Analyses one simulated recording per sample bucket up to ``--max-samples`` fitted samples, then
+compiles the several-mode kernels (K = 1 … 4) of every modal shape up to the same size, so that
+a first real analysis of a recording in those buckets — one in which a second mode is found
+included — loads its compiled kernels from the store instead of compiling them. Progress on stderr (a bar on a terminal, lines elsewhere,
 none with ``--quiet``); at the end one line says how many buckets were warmed and how many
 kernels had to be compiled (0: the store was already warm). Run it again after upgrading
 dampfit (the store is keyed by the package's source). Exit 0; a store that is switched off or
@@ -28,7 +29,7 @@ def add_arguments(w: argparse.ArgumentParser) -> None:
 
     w.add_argument("--max-samples", type=integer_arg(256, MAX_SAMPLES), metavar="N",
                    default=DEFAULT_MAX_SAMPLES,
-                   help=f"warm every sample bucket up to N fitted samples (default "
+                   help=f"warm every sample bucket (one and several modes) up to N fitted samples (default "
                         f"{DEFAULT_MAX_SAMPLES}; larger buckets compile on first use)")
     w.add_argument("--seed", type=seed_arg, default=0, help="seed of the simulated recordings")
     w.add_argument("--quiet", action="store_true", help="no progress bar or lines")

@@ -64,7 +64,8 @@ __all__ = ["ModeFit", "check_max_modes", "check_mode_of_mass", "modal_band", "mo
            "modal_prepared", "modal_fit_data",
            "support", "fit_modes", "start_grid", "padded_arrays", "vp_residual", "DEFAULT_MAX_MODES",
            "MAX_MODES_LIMIT", "BAND_RATIO", "MIN_SAMPLES_PER_CYCLE", "GRID_PER_START",
-           "GRID_RATE_FACTORS", "GRID_CELL_SHIFTS", "N_LM", "RESTARTS", "NO_OPTIMUM"]
+           "GRID_RATE_FACTORS", "GRID_CELL_SHIFTS", "N_LM", "RESTARTS", "NO_OPTIMUM", "LM_STEPS",
+           "drift_columns", "drift_column_buckets", "warm_kernels"]
 
 #: Modes tried by default, and the most the options accept.
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
@@ -80,6 +81,8 @@ MIN_SAMPLES_PER_PARAMETER = 4
 #: Levenberg–Marquardt runs per K (one vmapped batch), rows per grid evaluation, and restarts
 #: of an optimum that has not converged within ``max_steps``.
 N_LM, GRID_BATCH, RESTARTS = 3, 64, 2
+#: Levenberg–Marquardt steps per run (a static argument of the compiled fit).
+LM_STEPS = 100
 #: The start grid around each start's last mode (:func:`start_grid`): rate factors and
 #: frequency shifts in resolution cells 1/T.
 GRID_RATE_FACTORS, GRID_CELL_SHIFTS = (1 / 3, 1.0, 3.0), (-0.25, 0.0, 0.25)
@@ -315,10 +318,34 @@ def padded_arrays(fd: FitData) -> tuple:
     """(τ [s], y [m/s²], drift, mask) of ``fd`` padded to its sample bucket and the next drift
     bucket (:data:`_DRIFT_BUCKETS`), as float64 device arrays (call inside x64)."""
     pad = fd.padded
-    d = next(b for b in _DRIFT_BUCKETS if b >= fd.drift_degree + 1)
+    d = drift_columns(fd.drift_degree)
     return jax.device_put((np.asarray(pad.tau, np.float64), np.asarray(pad.y, np.float64),
                            np.asarray(pad.drift[:, :d], np.float64),
                            np.asarray(pad.mask, np.float64)))
+
+
+def drift_columns(degree: int) -> int:
+    """Drift columns of the padded arrays of a fit whose drift has ``degree``: the smallest
+    of :data:`_DRIFT_BUCKETS` that holds its ``degree + 1`` terms."""
+    return next(b for b in _DRIFT_BUCKETS if b >= degree + 1)
+
+
+def drift_column_buckets() -> tuple[int, ...]:
+    """Every drift-column bucket (:func:`drift_columns`), smallest first."""
+    return _DRIFT_BUCKETS
+
+
+def warm_kernels(fd: FitData, theta) -> None:
+    """Compile (or load from the store) the kernels :func:`fit_modes` runs for K = len(θ)/2
+    modes on ``fd``'s padded shapes, each called once with rows of ``theta`` (2K,), which only
+    needs finite values (:mod:`dampfit.inference.modes_warm`)."""
+    theta = np.asarray(theta, dtype=np.float64)
+    n = mm.n_modes(theta)
+    with jax.enable_x64(True):
+        args = padded_arrays(fd)
+        _rss_batch(n, np.tile(theta, (GRID_BATCH, 1)), *args)
+        _fit_batch(n, LM_STEPS, np.tile(theta, (N_LM, 1)), *args)
+        _details(n, theta, *args)
 
 
 # ----------------------------------------------------------------------------- fits
@@ -448,7 +475,7 @@ def _pad_rows(rows: np.ndarray, size: int) -> np.ndarray:
 
 
 def fit_modes(fd: FitData, starts, *, band: tuple[float, float] | None = None,
-              max_steps: int = 100) -> ModeFit:
+              max_steps: int = LM_STEPS) -> ModeFit:
     """K-mode least squares of ``fd`` from the start rows ``starts`` (b, 2K) of θ (MK2), the
     last mode of each row being the one to search around (module docstring); with ``band``
     [Hz] only optima inside the prior support (MK3) with no two modes within one resolution

@@ -80,7 +80,7 @@ from dampfit.model import modes as mm
 from dampfit.model import profile
 
 __all__ = ["ModalPosterior", "sample", "budget", "basins", "modal_summary", "mode_of_mass_default",
-           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE"]
+           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE", "walkers", "warm_log_prob"]
 
 #: Step budget of the modal posterior per mode [steps] (K modes: K × this).
 STEPS_PER_MODE = 4000
@@ -156,6 +156,25 @@ def _batched_log_prob(n, thetas, samples, temper, bounds):
         return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf), blobs
 
     return jax.vmap(one)(thetas)
+
+
+def walkers(k: int) -> int:
+    """Walkers of the K = ``k`` posterior's ensemble: 64, or 32 per mode if more."""
+    return max(_post.N_WALKERS, 32 * k)
+
+
+def warm_log_prob(fd, theta, band) -> None:
+    """Compile (or load from the store) the batched log-probability :func:`sample` runs for
+    K = len(θ)/2 modes on ``fd``'s padded shapes, at every batch size it evaluates (the whole
+    ensemble at the start; a half ensemble per KDE or DE move, a quarter per DE-snooker move:
+    emcee's ``nsplits``); ``theta`` (2K,) and ``band`` [Hz] need only be finite
+    (:mod:`dampfit.inference.modes_warm`)."""
+    theta = np.asarray(theta, dtype=np.float64)
+    k = mm.n_modes(theta)
+    with jax.enable_x64(True):
+        log_prob = _make_log_prob(k, fd, basins(np.exp(theta[1::2]), band), 1.0)
+        for size in (walkers(k), walkers(k) // 2, walkers(k) // 4):
+            log_prob(np.tile(theta, (size, 1)))
 
 
 def _make_log_prob(n, fd, lw, temper):
@@ -246,7 +265,7 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
         i_mass = mode_of_mass_default(res.fit, fd)
     temper = 1.0 / float(np.max(psd_ratios(res.fit, fd)))
     rng = np.random.default_rng(seed)
-    n_walkers = max(_post.N_WALKERS, 32 * k)
+    n_walkers = walkers(k)
     lw = basins(res.fit.omega_d, sel.band)
     cov = res.cov / (res.psd_ratio * temper)  # the Laplace covariance (∝ r) at this r
     start = _start(res.fit.theta, cov, lw, rng, n_walkers)
