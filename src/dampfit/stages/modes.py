@@ -42,7 +42,7 @@ from dampfit.errors import InputError
 from dampfit.signal import prepare
 
 __all__ = ["ModesStage", "modes_stage", "modes_disagreement", "one_mode_values", "fundamental",
-           "split_partners"]
+           "split_partners", "drift_partners"]
 
 #: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
 #: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
@@ -171,19 +171,44 @@ def fundamental(sel, f1: float) -> int:
 
 
 def split_partners(sel, d: int, verdict: str | None) -> list[int]:
-    """0-based components closer than
+    """0-based components that are the fundamental ``d`` split in pieces: closer than
     :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths (C1, the
-    least squares' pairs) to the fundamental ``d`` when the one-mode ``verdict`` says its
-    damping changes with amplitude (or misfit); [] otherwise."""
+    least squares' pairs) to it when the one-mode ``verdict`` says its damping changes with
+    amplitude (or misfit); under any verdict, those within that or
+    :data:`~dampfit.inference.modes_checks.DRIFT_CELLS` resolution cells that one mode with a
+    drifting frequency fits as well (:func:`drift_partners`)."""
     from dampfit.inference import modes_close
 
     if verdict not in SPLIT_VERDICTS:
-        return []
+        return sorted(drift_partners(sel, d))
     out = []
     for row in modes_close.selection_pairs(sel)[0]:
         i, j = (m - 1 for m in row["modes"])
         if d in (i, j) and row["separation_half_power"] < modes_close.SPLIT_HALF_POWER:
             out.append(j if i == d else i)
+    return out
+
+
+def drift_partners(sel, d: int) -> dict[int, dict]:
+    """{0-based partner: chirp} of the components near the fundamental ``d`` (within
+    :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths or
+    :data:`~dampfit.inference.modes_checks.DRIFT_CELLS` resolution cells) that, with it,
+    fit no better than one mode whose frequency drifts linearly
+    (:func:`dampfit.inference.modes_checks.drift_split`): a drifting fundamental split in
+    two, or two modes closer than the record resolves; neither is a mode of its own."""
+    from dampfit.inference import modes_checks, modes_close
+
+    fit, fd = sel.chosen.fit, sel.fit_data
+    out = {}
+    for row in modes_close.selection_pairs(sel)[0]:
+        i, j = (m - 1 for m in row["modes"])
+        near = row["separation_half_power"] < modes_close.SPLIT_HALF_POWER or \
+            row["separation_resolution"] < modes_checks.DRIFT_CELLS
+        if d not in (i, j) or not near:
+            continue
+        chirp = modes_checks.drift_split(fd.tau, fd.y, fd.drift, fit.p, fit.omega_d, i, j)
+        if chirp is not None:
+            out[j if i == d else i] = chirp
     return out
 
 
@@ -225,7 +250,10 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
                                  "multiple": h["multiple"],
                                  "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in harm]
     if split:
-        parts.append(f"the one mode split by its amplitude-dependent damping ({verdict}): "
+        why = (f"amplitude-dependent damping ({verdict})" if verdict in SPLIT_VERDICTS else
+               "drifting frequency (one mode with a linear frequency drift fits as well) or "
+               "an unresolved pair")
+        parts.append(f"the one mode split by its {why}: "
                      + ", ".join(f"{f[j]:.5g} Hz" for j in split) + f" beside {f1:.5g} Hz, "
                      f"closer than {modes_close.SPLIT_HALF_POWER:g} half-power bandwidths")
         entries["split"] = [{"index": j + 1, "f_d_hz": float(f[j])} for j in split]
