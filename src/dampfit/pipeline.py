@@ -131,7 +131,8 @@ def _analyze(recording, mass, mass_sd, *, axis, window, band, seed, progress, ma
     modes = modes_stage(prep, ls, m, sd, max_modes=max_modes, mode_of_mass=mode_of_mass,
                         seed=seed, min_ess=min_ess, max_steps=max_steps,
                         viscous_seconds=viscous_seconds,
-                        verdict=assessment.verdict_name)
+                        verdict=assessment.verdict_name,
+                        law=(fd, assessment.fits[assessment.verdict["preferred"]]))
     warns.extend(modes.warnings)
     options = {"axis": axis, "window": list(window) if window else None,
                "band": list(band) if band else None, "max_steps": max_steps,
@@ -184,18 +185,19 @@ def _check_modes_options(max_modes, mode_of_mass) -> tuple[int, int | None]:
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                 mode_of_mass: int | None, seed: int, min_ess: float,
                 max_steps: int, viscous_seconds: float | None = None,
-                verdict: str | None = None) -> Modes:
+                verdict: str | None = None, law=None) -> Modes:
     """Several modes in the recording (issue 21), after the one-mode analysis: the stage
     :func:`dampfit.stages.modes_stage` with the one-mode least squares ``ls`` (its screen
     first; K = 1 is the one-mode posterior of ``parameters``, so no second sampler runs) and
-    the damping-law ``verdict`` (a close pair at the one-mode frequency explained), as the
+    the damping-law ``verdict`` (a close pair at the one-mode frequency explained; ``law``
+    its preferred law's fit, an unresolved pair flagged), as the
     result's :class:`~dampfit.analysis.Modes`. A recording the modal analysis cannot handle
     gives one mode with the reason as a warning; ``mode_of_mass`` beyond the modes found is
     a one-line :class:`~dampfit.errors.InputError`."""
     st = stages.modes_stage(prep, max_modes=max_modes, mass=mass, mass_sd=mass_sd,
                             mode_of_mass=mode_of_mass, seed=seed, min_ess=min_ess,
                             max_steps=max_steps, viscous_seconds=viscous_seconds,
-                            one_mode=(ls.p, ls.omega_d), verdict=verdict)
+                            one_mode=(ls.p, ls.omega_d), verdict=verdict, law=law)
     evidence = dict(st.evidence)
     seen = list(st.seen)
     if st.n_modes is None or st.n_modes == 1 or st.posterior is None:

@@ -204,3 +204,53 @@ def test_a_beating_pair_of_real_modes_is_not_a_drift():
     envelope, so the pair stays two components."""
     tau, y, drift, p, w = _decay("pair")
     assert MC.drift_split(tau, y, drift, p, w, 0, 1) is None
+
+
+def _one_mode_rss(tau, y, drift, w, p):
+    """RSS [(m/s²)²] of the best single viscous decay (scipy, from ω [rad/s], p [1/s])."""
+    from scipy.optimize import least_squares
+
+    def resid(th):
+        e = np.exp(-math.exp(min(th[0], 5.0)) * tau)
+        x = np.column_stack([e * np.cos(th[1] * tau), e * np.sin(th[1] * tau)] + list(drift.T))
+        return y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+
+    sol = least_squares(resid, [math.log(p), w], method="lm")
+    return float(sol.fun @ sol.fun), math.exp(sol.x[0]), float(sol.x[1])
+
+
+def _close(kind, seed=2):
+    """16 s at 100 Hz of a 20 Hz decay (ζ 0.002, SNR ≈ 200): two modes 0.1 % apart at
+    amplitude ratio 0.8 (0.32 resolution cells), or one mode whose envelope is the sum of a
+    fast and a slow exponential at one frequency (what amplitude-dependent damping looks
+    like), each with its noise RSS (what an exact damping law leaves)."""
+    from dampfit.model.viscous import drift_basis
+
+    tau = np.arange(0.0, 16.0, 0.01)
+    w, p = 2 * math.pi * 20.0, 0.002 * 2 * math.pi * 20.0
+    if kind == "pair":
+        clean = np.exp(-p * tau) * (np.cos(w * tau) + 0.8 * np.cos(1.001 * w * tau + 0.4))
+    else:
+        clean = (np.exp(-3 * p * tau) + 0.8 * np.exp(-p * tau)) * np.cos(w * tau)
+    noise = 0.005 * np.random.default_rng(seed).standard_normal(tau.size)
+    return tau, clean + noise, drift_basis(tau, 2), float(noise @ noise), w, p
+
+
+def test_a_pair_the_record_does_not_resolve_is_flagged_not_called_amplitude_dependent():
+    """Two modes 0.1 % apart beat over a third of a resolution cell: two viscous modes fit
+    better than a damping law that does no better than one viscous decay (+1 parameter),
+    and the pair found is the one put in (20.000 and 20.020 Hz)."""
+    tau, y, drift, _, w, p = _close("pair")
+    rss, p1, w1 = _one_mode_rss(tau, y, drift, w, p)
+    got = MC.unresolved_pair(tau, y, drift, p1, w1, rss, 3)
+    assert got is not None and got["delta_bic"] < 0
+    assert got["f_hz"] == pytest.approx([20.0, 20.02], abs=0.004)
+    assert got["separation_cells"] >= MC.PAIR_MIN_CELLS
+
+
+def test_an_amplitude_dependent_envelope_that_a_law_fits_is_not_a_pair():
+    """A non-exponential envelope at one frequency that the damping law fits to the noise:
+    the law stays, no pair is flagged."""
+    tau, y, drift, noise_rss, w, p = _close("envelope")
+    _, p1, w1 = _one_mode_rss(tau, y, drift, w, p)
+    assert MC.unresolved_pair(tau, y, drift, p1, w1, noise_rss, 3) is None

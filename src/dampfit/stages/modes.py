@@ -42,7 +42,7 @@ from dampfit.errors import InputError
 from dampfit.signal import prepare
 
 __all__ = ["ModesStage", "modes_stage", "modes_disagreement", "one_mode_values", "fundamental",
-           "split_partners", "drift_partners"]
+           "split_partners", "drift_partners", "unresolved_pair_note"]
 
 #: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
 #: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
@@ -86,7 +86,7 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
                 min_ess: float = 1000.0, max_steps: int = 20000,
                 viscous_seconds: float | None = None,
                 one_mode: tuple[float, float] | None = None,
-                verdict: str | None = None) -> ModesStage:
+                verdict: str | None = None, law=None) -> ModesStage:
     """Several modes in the window of ``prep`` (see the module docstring).
 
     ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
@@ -98,7 +98,10 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     not depend on the machine's load); ``one_mode`` the
     one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
     that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
-    verdict (amplitude-dependent or misfit: any close pair there is explained).
+    verdict (amplitude-dependent or misfit: any close pair there is explained); ``law`` the
+    one-mode fit samples and that verdict's preferred law fit, ``(FitData, LawFit)``: when
+    the stage ends with one mode under such a verdict, a pair inside the fundamental's
+    resolution cell that fits better (:func:`unresolved_pair_note`) is flagged.
     """
     from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
     from dampfit.inference.modes import check_max_modes, check_mode_of_mass
@@ -111,6 +114,11 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     def done(k: int | None, evidence: dict, warnings=(), **kw) -> ModesStage:
         # against the components found (not analysed: one mode, as reported)
         check_mode_of_mass(mode_of_mass, evidence.get("n_components") or k or 1)
+        if k == 1 and one_mode is not None and verdict in SPLIT_VERDICTS and law is not None:
+            pair, note = unresolved_pair_note(law, one_mode, verdict)
+            if pair is not None:
+                evidence["unresolved_pair"] = pair
+                warnings = (*warnings, note)
         evidence.update(max_modes=limit, seconds=time.perf_counter() - start)
         return ModesStage(n_modes=k, evidence=jsonable(evidence), warnings=tuple(warnings),
                           seconds=time.perf_counter() - start, **kw)
@@ -160,6 +168,28 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = 4, n_modes: int | No
     return done(out["n_modes"], evidence, warns + split, summary=jsonable(out), selection=sel,
                 posterior=post, dominant=dominant, split=tuple(split),
                 seen=tuple(jsonable(out["modes_seen"])))
+
+
+def unresolved_pair_note(law, one_mode: tuple[float, float], verdict: str):
+    """(summary.json's ``modes_evidence.unresolved_pair``, its warning) when two viscous
+    modes inside the fundamental's resolution cell fit the one-mode samples better than the
+    preferred damping law ``law`` = (FitData, LawFit)
+    (:func:`dampfit.inference.modes_checks.unresolved_pair`), else (None, None)."""
+    from dampfit.inference import modes_checks
+
+    fd, fit = law
+    res = np.asarray(fit.residuals, dtype=float)
+    got = modes_checks.unresolved_pair(fd.tau, fd.y, fd.drift, float(one_mode[0]),
+                                       float(one_mode[1]), float(res @ res), fit.k)
+    if got is None:
+        return None, None
+    f1, f2 = got["f_hz"]
+    return {**got, "law": fit.model}, (
+        f"the {verdict} verdict may be two modes the record does not resolve: two viscous "
+        f"modes at {f1:.5g} and {f2:.5g} Hz ({got['separation_cells']:.2g} resolution cells "
+        f"apart) fit better than the {fit.model} law (BIC {got['delta_bic']:.3g}); an "
+        "unresolved pair, not a single amplitude-dependent mode, until a longer or "
+        "less damped record separates them")
 
 
 def fundamental(sel, f1: float) -> int:
