@@ -117,7 +117,8 @@ def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOpt
     modes = modes_stage(prep, run.least_squares, m, sd, max_modes=opts.max_modes,
                         mode_of_mass=opts.mode_of_mass, seed=s.seed, min_ess=s.min_ess,
                         max_steps=s.max_steps, viscous_seconds=run.posterior_seconds,
-                        verdict=assessment.verdict_name)
+                        verdict=assessment.verdict_name,
+                        law=(run.fit_data, assessment.fits[assessment.verdict["preferred"]]))
     warns.extend(modes.warnings)
     an = Analysis(
         recording=recording, prepared=prep, fit_data=run.fit_data,
@@ -162,18 +163,19 @@ def _noise_warning(nm, assessment) -> list[str]:
 def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
                 mode_of_mass: int | None, seed: int, min_ess: float,
                 max_steps: int, viscous_seconds: float | None = None,
-                verdict: str | None = None) -> Modes:
+                verdict: str | None = None, law=None) -> Modes:
     """Several modes in the recording (issue 21), after the one-mode analysis: the stage
     :func:`dampfit.stages.modes_stage` with the one-mode least squares ``ls`` (its screen
     first; K = 1 is the one-mode posterior of ``parameters``, so no second sampler runs) and
-    the damping-law ``verdict`` (a close pair at the one-mode frequency explained), as the
+    the damping-law ``verdict`` (a close pair at the one-mode frequency explained; ``law``
+    its preferred law's fit, an unresolved pair flagged), as the
     result's :class:`~dampfit.analysis.Modes`. A recording the modal analysis cannot handle
     gives one mode with the reason as a warning; ``mode_of_mass`` beyond the modes found is
     a one-line :class:`~dampfit.errors.InputError`."""
     st = stages.modes_stage(prep, max_modes=max_modes, mass=mass, mass_sd=mass_sd,
                             mode_of_mass=mode_of_mass, seed=seed, min_ess=min_ess,
                             max_steps=max_steps, viscous_seconds=viscous_seconds,
-                            one_mode=(ls.p, ls.omega_d), verdict=verdict)
+                            one_mode=(ls.p, ls.omega_d), verdict=verdict, law=law)
     evidence = dict(st.evidence)
     seen = list(st.seen)
     if st.n_modes is None or st.n_modes == 1 or st.posterior is None:

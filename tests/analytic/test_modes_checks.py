@@ -151,3 +151,106 @@ def test_a_disagreement_on_the_fundamental_is_stated_and_the_mass_row_is_the_hea
     assert out["k"] == {"q50": 570.0} and out["mass_values"].startswith("one-mode")
     other = dict(row, fundamental=False)
     assert stages.one_mode_values([other], params)[0]["c"] == {"q50": 1.39}
+
+
+def _pair_fit(tau, y, drift, w1, w2, p0):
+    """The two-component least squares (scipy, variable projection) from ω₁, ω₂ [rad/s]."""
+    from scipy.optimize import least_squares
+
+    def resid(th):
+        cols = []
+        for k in range(2):
+            e = np.exp(-math.exp(min(th[2 * k], 5.0)) * tau)
+            cols += [e * np.cos(th[2 * k + 1] * tau), e * np.sin(th[2 * k + 1] * tau)]
+        x = np.column_stack(cols + list(drift.T))
+        return y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+
+    th = least_squares(resid, [math.log(p0), w1, math.log(p0), w2], method="lm").x
+    return np.exp(th[[0, 2]]), th[[1, 3]]
+
+
+def _decay(kind, seed=1):
+    """20 s at 50 Hz of a 3 Hz decay (ζ 0.004): drifting −2 % over the record, or a real
+    pair 1 % apart (3.3 resolution cells, beating) at amplitude ratio 0.8; SNR ≈ 100."""
+    from dampfit.model.viscous import drift_basis
+
+    T, w = 20.0, 2 * math.pi * 3.0
+    tau = np.arange(0.0, T, 1 / 50.0)
+    p = 0.004 * w
+    if kind == "drift":
+        y, w1, w2 = np.exp(-p * tau) * np.cos(w * (tau - 0.02 * tau**2 / (2 * T))), \
+            0.995 * w, 0.985 * w
+    else:
+        y, w1, w2 = np.exp(-p * tau) * (np.cos(w * tau) + 0.8 * np.cos(1.01 * w * tau + 0.4)), \
+            w, 1.01 * w
+    y = y + 0.01 * np.random.default_rng(seed).standard_normal(tau.size)
+    drift = drift_basis(tau, 2)
+    return tau, y, drift, *_pair_fit(tau, y, drift, w1, w2, p)
+
+
+def test_a_drifting_fundamental_split_in_two_is_one_mode_with_its_drift():
+    """A 3 Hz mode drifting −2 % over 20 s is fitted by two viscous components 0.03 Hz apart;
+    one mode with a linear chirp fits as well (BIC), and the chirp found is the drift put in:
+    −0.06 Hz over the record, from 3.00 Hz."""
+    tau, y, drift, p, w = _decay("drift")
+    got = MC.drift_split(tau, y, drift, p, w, 0, 1)
+    assert got is not None and got["delta_bic"] < 0
+    assert got["chirp_hz_per_s"] * 20.0 == pytest.approx(-0.06, rel=0.05)
+    assert got["f_start_hz"] == pytest.approx(3.0, abs=0.003)
+
+
+def test_a_beating_pair_of_real_modes_is_not_a_drift():
+    """Two real modes 1 % apart beat: no single decay with a drifting frequency follows that
+    envelope, so the pair stays two components."""
+    tau, y, drift, p, w = _decay("pair")
+    assert MC.drift_split(tau, y, drift, p, w, 0, 1) is None
+
+
+def _one_mode_rss(tau, y, drift, w, p):
+    """RSS [(m/s²)²] of the best single viscous decay (scipy, from ω [rad/s], p [1/s])."""
+    from scipy.optimize import least_squares
+
+    def resid(th):
+        e = np.exp(-math.exp(min(th[0], 5.0)) * tau)
+        x = np.column_stack([e * np.cos(th[1] * tau), e * np.sin(th[1] * tau)] + list(drift.T))
+        return y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+
+    sol = least_squares(resid, [math.log(p), w], method="lm")
+    return float(sol.fun @ sol.fun), math.exp(sol.x[0]), float(sol.x[1])
+
+
+def _close(kind, seed=2):
+    """16 s at 100 Hz of a 20 Hz decay (ζ 0.002, SNR ≈ 200): two modes 0.1 % apart at
+    amplitude ratio 0.8 (0.32 resolution cells), or one mode whose envelope is the sum of a
+    fast and a slow exponential at one frequency (what amplitude-dependent damping looks
+    like), each with its noise RSS (what an exact damping law leaves)."""
+    from dampfit.model.viscous import drift_basis
+
+    tau = np.arange(0.0, 16.0, 0.01)
+    w, p = 2 * math.pi * 20.0, 0.002 * 2 * math.pi * 20.0
+    if kind == "pair":
+        clean = np.exp(-p * tau) * (np.cos(w * tau) + 0.8 * np.cos(1.001 * w * tau + 0.4))
+    else:
+        clean = (np.exp(-3 * p * tau) + 0.8 * np.exp(-p * tau)) * np.cos(w * tau)
+    noise = 0.005 * np.random.default_rng(seed).standard_normal(tau.size)
+    return tau, clean + noise, drift_basis(tau, 2), float(noise @ noise), w, p
+
+
+def test_a_pair_the_record_does_not_resolve_is_flagged_not_called_amplitude_dependent():
+    """Two modes 0.1 % apart beat over a third of a resolution cell: two viscous modes fit
+    better than a damping law that does no better than one viscous decay (+1 parameter),
+    and the pair found is the one put in (20.000 and 20.020 Hz)."""
+    tau, y, drift, _, w, p = _close("pair")
+    rss, p1, w1 = _one_mode_rss(tau, y, drift, w, p)
+    got = MC.unresolved_pair(tau, y, drift, p1, w1, rss, 3)
+    assert got is not None and got["delta_bic"] < 0
+    assert got["f_hz"] == pytest.approx([20.0, 20.02], abs=0.004)
+    assert got["separation_cells"] >= MC.PAIR_MIN_CELLS
+
+
+def test_an_amplitude_dependent_envelope_that_a_law_fits_is_not_a_pair():
+    """A non-exponential envelope at one frequency that the damping law fits to the noise:
+    the law stays, no pair is flagged."""
+    tau, y, drift, noise_rss, w, p = _close("envelope")
+    _, p1, w1 = _one_mode_rss(tau, y, drift, w, p)
+    assert MC.unresolved_pair(tau, y, drift, p1, w1, noise_rss, 3) is None

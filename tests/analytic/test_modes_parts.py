@@ -290,15 +290,24 @@ class _Fit:
 
 
 class _Sel:
-    """A ModeSelection's chosen fit on ``span`` [s] of 100 Hz samples."""
+    """A ModeSelection's chosen fit on ``span`` [s] of 100 Hz samples: the samples are the
+    sum of its components (cosines of the given amplitudes [m/s²]) and white noise of
+    0.001 m/s², with a constant drift column."""
 
     def __init__(self, fit, span):
         import types
 
         import numpy as np
 
+        from dampfit.model.viscous import drift_basis
+
         self.chosen, self.n_modes, self.span = types.SimpleNamespace(fit=fit), fit.n_modes, span
-        self.fit_data = types.SimpleNamespace(tau=np.arange(0.0, span, 0.01), drift_degree=0)
+        tau = np.arange(0.0, span, 0.01)
+        y = sum(a * np.exp(-p * tau) * np.cos(w * tau)
+                for a, p, w in zip(fit.amplitudes, fit.p, fit.omega_d))
+        y = y + 0.001 * np.random.default_rng(0).standard_normal(tau.size)
+        self.fit_data = types.SimpleNamespace(tau=tau, drift_degree=0, y=y,
+                                              drift=drift_basis(tau, 0))
 
 
 @pytest.mark.parametrize("verdict, expect", [("amplitude-dependent", 1), ("misfit", 1),
@@ -308,7 +317,8 @@ def test_a_split_one_mode_is_one_mode_only_when_its_damping_changes_with_amplitu
     """The real 30 cm cantilever run 21-08-55 (ζ falls over the record): the evidence's three
     components at 16.356 / 16.388 / 16.394 Hz (ζ 0.0038 / 0.0015 / 0.011) are one mode split
     by the sum of viscous modes — when the one-mode verdict says the damping is amplitude-
-    dependent. With a viscous-adequate verdict the same numbers stay three modes."""
+    dependent. With a viscous-adequate verdict the same numbers stay three modes (three
+    viscous components are not one mode with a drifting frequency)."""
     from dampfit.stages.modes import one_mode_after_all
 
     sel = _Sel(_Fit([16.3555, 16.3880, 16.3937], [0.00379, 0.00148, 0.01068], [1, 3, 0.5]), 60.0)

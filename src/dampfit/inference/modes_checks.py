@@ -49,7 +49,7 @@ import numpy as np
 from dampfit.inference.modes_select import HARMONIC_CELLS, HARMONIC_DECAY
 from dampfit.model.modes import P_MAX
 
-__all__ = ["check_components", "BASIN_SHARE", "ZETA_SPAN", "ZETA_EDGE_SHARE", "R_HAT_MAX",
+__all__ = ["check_components", "drift_split", "DRIFT_CELLS", "unresolved_pair", "PAIR_MIN_CELLS", "BASIN_SHARE", "ZETA_SPAN", "ZETA_EDGE_SHARE", "R_HAT_MAX",
            "ZETA_PRIOR_MAX"]
 
 #: An f_n 90 % interval wider than this share of the component's basin [1] fills it.
@@ -152,3 +152,134 @@ def _identified(row: dict, basin) -> tuple | None:
 
 def _num(x) -> float:
     return float(x) if isinstance(x, (int, float)) and not isinstance(x, bool) else math.nan
+
+
+#: Resolution cells 1/T [1] within which a partner of the fundamental is tested as a drift
+#: split whatever the damping verdict (a drift of Δf over the record splits the mode into
+#: components ≈ Δf apart, which may be many half-power bandwidths at a small ζ).
+DRIFT_CELLS = 3.0
+
+
+def drift_split(tau, y, drift, p, omega_d, i: int, j: int) -> dict | None:
+    r"""Do components ``i`` and ``j`` (0-based) fit as well as one mode whose frequency drifts?
+
+    The pair's four columns e^{−p_kτ}(cos, sin)(ω_kτ) are replaced by the two of one viscous
+    decay with a linear chirp, phase φ(τ) = ω τ + ½ κ τ² (κ [rad/s²]: a frequency drifting
+    by κ/2π Hz/s, a clamp settling or the temperature changing), the other components and
+    the drift basis kept at their least-squares (p, ω) with their amplitudes re-solved
+    (variable projection). (ln p, ω, κ) are fitted by scipy's least squares from κ = 0 and
+    ±1, ±2 × 2π|f_i − f_j|/T. The pair has 3 more free parameters (2 nonlinear, 2 linear
+    against κ); by the Bayesian information criterion (Schwarz 1978) the chirp explains it
+    when n ln(RSS_chirp/RSS_pair) ≤ 3 ln n. A beating pair of real modes has an envelope no
+    single exponential follows, so its RSS_chirp is far larger.
+
+    ``tau`` [s], ``y`` [m/s²] the modal fit samples, ``drift`` their drift basis (n, d),
+    ``p`` [1/s] and ``omega_d`` [rad/s] every component's least-squares values. Returns
+    {"chirp_hz_per_s", "f_start_hz", "f_end_hz", "delta_bic"} when the chirp explains the
+    pair, else None.
+    """
+    from scipy.optimize import least_squares
+
+    tau, y = np.asarray(tau, float), np.asarray(y, float)
+    p, w = np.asarray(p, float), np.asarray(omega_d, float)
+    others = [k for k in range(p.size) if k not in (i, j)]
+
+    def cols(rate, omega, phase=None):
+        ph = omega * tau if phase is None else phase
+        e = np.exp(-rate * tau)
+        return [e * np.cos(ph), e * np.sin(ph)]
+
+    fixed = [c for k in others for c in cols(p[k], w[k])] + list(np.asarray(drift).T)
+
+    def rss(columns) -> float:
+        x = np.column_stack(columns)
+        coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+        return float(np.sum((y - x @ coef) ** 2))
+
+    def resid(th):
+        x = np.column_stack(cols(math.exp(min(max(th[0], -30.0), 5.0)), 0.0,
+                                 th[1] * tau + 0.5 * th[2] * tau**2)
+                            + fixed)
+        coef, *_ = np.linalg.lstsq(x, y, rcond=None)
+        return y - x @ coef
+
+    pair = rss(cols(p[i], w[i]) + cols(p[j], w[j]) + fixed)
+    span = float(tau[-1] - tau[0])
+    k0 = abs(w[i] - w[j]) / span
+    best = None
+    for kappa in (0.0, k0, -k0, 2 * k0, -2 * k0):  # the mean frequency at mid-window
+        th0 = [math.log(max(min(p[i], p[j]), 1e-6)), 0.5 * (w[i] + w[j] - kappa * span), kappa]
+        sol = least_squares(resid, th0, method="lm", max_nfev=200)
+        val = float(np.sum(sol.fun**2))
+        if best is None or val < best[0]:
+            best = (val, sol.x)
+    n = tau.size
+    delta = n * math.log(best[0] / pair) - 3 * math.log(n)
+    if not delta <= 0:
+        return None
+    omega, kappa = float(best[1][1]), float(best[1][2])
+    return {"chirp_hz_per_s": kappa / (2 * math.pi), "f_start_hz": omega / (2 * math.pi),
+            "f_end_hz": (omega + kappa * span) / (2 * math.pi), "delta_bic": delta}
+
+
+#: The least separation Δf·T [resolution cells] of an unresolved pair: below it the two
+#: components' relative phase turns by less than 0.4π over the window, so they do not beat —
+#: they are two exponentials at one frequency, i.e. a non-exponential envelope, which is
+#: what an amplitude-dependent damping law describes (a Coulomb decay is fitted so, 0.05
+#: cells apart; the 0.1 % pair of the false-mode study, 0.4 cells).
+PAIR_MIN_CELLS = 0.2
+
+
+def unresolved_pair(tau, y, drift, p: float, omega_d: float, law_rss: float,
+                    law_k: int) -> dict | None:
+    r"""Does a pair of viscous modes inside the fundamental's resolution cell fit better than
+    the amplitude-dependent damping law the one-mode analysis preferred?
+
+    Two modes Δf apart beat: the envelope e^{−pt}|a₁ + a₂e^{i2πΔf t}| is not exponential,
+    and over less than a beat period (Δf·T ≲ 1, a pair the record does not resolve) a
+    damping law whose ζ changes with amplitude fits it too — the verdict would then be
+    "amplitude-dependent" for what is two modes. Two viscous components are fitted (scipy's
+    least squares, variable projection, the same drift basis) from ω_d ∓ δ with
+    δ = ½π/T and π/T and the one-mode p; the pair has 6 nonlinear parameters against the
+    law's ``law_k`` (its p, ω and law parameters) and 2 more amplitudes, so by the Bayesian
+    information criterion it is preferred when
+    n ln(RSS_pair/RSS_law) + (6 − k_law) ln n < 0, and it is a pair only when the two are
+    at least :data:`PAIR_MIN_CELLS` resolution cells apart (they beat). A law that is the
+    truth (drag, friction) fits its envelope exactly with fewer parameters; a beat, only
+    approximately.
+
+    ``tau`` [s], ``y`` [m/s²], ``drift`` (n, d) the one-mode fit samples; ``p`` [1/s],
+    ``omega_d`` [rad/s] the one-mode least squares; ``law_rss`` [(m/s²)²] and ``law_k`` the
+    preferred law's fit on the same samples. Returns {"f_hz": [f₁, f₂], "separation_hz",
+    "separation_cells", "delta_bic"} when the pair is preferred, else None."""
+    from scipy.optimize import least_squares
+
+    tau, y = np.asarray(tau, float), np.asarray(y, float)
+    fixed = list(np.asarray(drift).T)
+
+    def resid(th):
+        cols = []
+        for k in range(2):
+            e = np.exp(-math.exp(min(max(th[2 * k], -30.0), 5.0)) * tau)
+            cols += [e * np.cos(th[2 * k + 1] * tau), e * np.sin(th[2 * k + 1] * tau)]
+        x = np.column_stack(cols + fixed)
+        return y - x @ np.linalg.lstsq(x, y, rcond=None)[0]
+
+    span = float(tau[-1] - tau[0])
+    best = None
+    for delta in (0.5 * math.pi / span, math.pi / span):
+        lp = math.log(max(p, 1e-6))
+        sol = least_squares(resid, [lp, omega_d - delta, lp, omega_d + delta], method="lm",
+                            max_nfev=400)
+        val = float(np.sum(sol.fun**2))
+        if best is None or val < best[0]:
+            best = (val, sol.x)
+    n = tau.size
+    if not (best and best[0] > 0 and law_rss > 0):
+        return None
+    score = n * math.log(best[0] / law_rss) + (6 - int(law_k)) * math.log(n)
+    f = sorted(float(best[1][k]) / (2 * math.pi) for k in (1, 3))
+    if not (score < 0 and (f[1] - f[0]) * span >= PAIR_MIN_CELLS):
+        return None
+    return {"f_hz": f, "separation_hz": f[1] - f[0], "separation_cells": (f[1] - f[0]) * span,
+            "delta_bic": score}

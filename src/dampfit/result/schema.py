@@ -144,7 +144,10 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
                    "threshold_z2", "reason"},  # the cheap one-mode screen
              "harmonics": [{"index", "f_d_hz", "multiple", "of_hz", "cells"}],  # only when
              "split": [{"index", "f_d_hz"}],  # the evidence's other components are harmonics of the one
-                   # mode or (amplitude-dependent verdict) its split: K = 1, reason says so
+                   # mode or its split (amplitude-dependent verdict; a drift, any): K = 1
+             "unresolved_pair": {"f_hz", "separation_hz", "separation_cells",
+                   "delta_bic", "law"},  # only when K = 1 under an amplitude-dependent or
+                   # misfit verdict and two modes in one resolution cell fit better (BIC)
              "evidence": [{"n_modes", "ln_evidence", "probability", "admissible",
                    "reason", "f_d_hz", "amplitude_z"}],   # every K tried, P(K)
              "band_hz", "window_s", "psd_ratio", "pairs": [{…, "flagged"}],

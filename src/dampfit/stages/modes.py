@@ -43,7 +43,7 @@ from dampfit.errors import InputError
 from dampfit.signal import prepare
 
 __all__ = ["ModesStage", "modes_stage", "modes_disagreement", "one_mode_values", "fundamental",
-           "split_partners"]
+           "split_partners", "drift_partners", "unresolved_pair_note"]
 
 #: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
 #: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
@@ -88,7 +88,7 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
                 min_ess: float = DEFAULT_MIN_ESS, max_steps: int = DEFAULT_MAX_STEPS,
                 viscous_seconds: float | None = None,
                 one_mode: tuple[float, float] | None = None,
-                verdict: str | None = None) -> ModesStage:
+                verdict: str | None = None, law=None) -> ModesStage:
     """Several modes in the window of ``prep`` (see the module docstring).
 
     ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
@@ -100,7 +100,10 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
     not depend on the machine's load); ``one_mode`` the
     one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
     that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
-    verdict (amplitude-dependent or misfit: any close pair there is explained).
+    verdict (amplitude-dependent or misfit: any close pair there is explained); ``law`` the
+    one-mode fit samples and that verdict's preferred law fit, ``(FitData, LawFit)``: when
+    the stage ends with one mode under such a verdict, a pair inside the fundamental's
+    resolution cell that fits better (:func:`unresolved_pair_note`) is flagged.
     """
     from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
     from dampfit.inference.modes import check_max_modes, check_mode_of_mass
@@ -113,6 +116,11 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
     def done(k: int | None, evidence: dict, warnings=(), **kw) -> ModesStage:
         # against the components found (not analysed: one mode, as reported)
         check_mode_of_mass(mode_of_mass, evidence.get("n_components") or k or 1)
+        if k == 1 and one_mode is not None and verdict in SPLIT_VERDICTS and law is not None:
+            pair, note = unresolved_pair_note(law, one_mode, verdict)
+            if pair is not None:
+                evidence["unresolved_pair"] = pair
+                warnings = (*warnings, note)
         evidence.update(max_modes=limit, seconds=time.perf_counter() - start)
         return ModesStage(n_modes=k, evidence=jsonable(evidence), warnings=tuple(warnings),
                           seconds=time.perf_counter() - start, **kw)
@@ -164,6 +172,28 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
                 seen=tuple(jsonable(out["modes_seen"])))
 
 
+def unresolved_pair_note(law, one_mode: tuple[float, float], verdict: str):
+    """(summary.json's ``modes_evidence.unresolved_pair``, its warning) when two viscous
+    modes inside the fundamental's resolution cell fit the one-mode samples better than the
+    preferred damping law ``law`` = (FitData, LawFit)
+    (:func:`dampfit.inference.modes_checks.unresolved_pair`), else (None, None)."""
+    from dampfit.inference import modes_checks
+
+    fd, fit = law
+    res = np.asarray(fit.residuals, dtype=float)
+    got = modes_checks.unresolved_pair(fd.tau, fd.y, fd.drift, float(one_mode[0]),
+                                       float(one_mode[1]), float(res @ res), fit.k)
+    if got is None:
+        return None, None
+    f1, f2 = got["f_hz"]
+    return {**got, "law": fit.model}, (
+        f"the {verdict} verdict may be two modes the record does not resolve: two viscous "
+        f"modes at {f1:.5g} and {f2:.5g} Hz ({got['separation_cells']:.2g} resolution cells "
+        f"apart) fit better than the {fit.model} law (BIC {got['delta_bic']:.3g}); an "
+        "unresolved pair, not a single amplitude-dependent mode, until a longer or "
+        "less damped record separates them")
+
+
 def fundamental(sel, f1: float) -> int:
     """0-based component of the selection nearest (in its least-squares damped frequency)
     to the one-mode analysis's frequency ``f1`` [Hz]: the fundamental the recording was
@@ -173,19 +203,44 @@ def fundamental(sel, f1: float) -> int:
 
 
 def split_partners(sel, d: int, verdict: str | None) -> list[int]:
-    """0-based components closer than
+    """0-based components that are the fundamental ``d`` split in pieces: closer than
     :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths (C1, the
-    least squares' pairs) to the fundamental ``d`` when the one-mode ``verdict`` says its
-    damping changes with amplitude (or misfit); [] otherwise."""
+    least squares' pairs) to it when the one-mode ``verdict`` says its damping changes with
+    amplitude (or misfit); under any verdict, those within that or
+    :data:`~dampfit.inference.modes_checks.DRIFT_CELLS` resolution cells that one mode with a
+    drifting frequency fits as well (:func:`drift_partners`)."""
     from dampfit.inference import modes_close
 
     if verdict not in SPLIT_VERDICTS:
-        return []
+        return sorted(drift_partners(sel, d))
     out = []
     for row in modes_close.selection_pairs(sel)[0]:
         i, j = (m - 1 for m in row["modes"])
         if d in (i, j) and row["separation_half_power"] < modes_close.SPLIT_HALF_POWER:
             out.append(j if i == d else i)
+    return out
+
+
+def drift_partners(sel, d: int) -> dict[int, dict]:
+    """{0-based partner: chirp} of the components near the fundamental ``d`` (within
+    :data:`~dampfit.inference.modes_close.SPLIT_HALF_POWER` half-power bandwidths or
+    :data:`~dampfit.inference.modes_checks.DRIFT_CELLS` resolution cells) that, with it,
+    fit no better than one mode whose frequency drifts linearly
+    (:func:`dampfit.inference.modes_checks.drift_split`): a drifting fundamental split in
+    two, or two modes closer than the record resolves; neither is a mode of its own."""
+    from dampfit.inference import modes_checks, modes_close
+
+    fit, fd = sel.chosen.fit, sel.fit_data
+    out = {}
+    for row in modes_close.selection_pairs(sel)[0]:
+        i, j = (m - 1 for m in row["modes"])
+        near = row["separation_half_power"] < modes_close.SPLIT_HALF_POWER or \
+            row["separation_resolution"] < modes_checks.DRIFT_CELLS
+        if d not in (i, j) or not near:
+            continue
+        chirp = modes_checks.drift_split(fd.tau, fd.y, fd.drift, fit.p, fit.omega_d, i, j)
+        if chirp is not None:
+            out[j if i == d else i] = chirp
     return out
 
 
@@ -227,7 +282,10 @@ def one_mode_after_all(sel, f1: float, verdict: str | None) -> tuple[str, dict] 
                                  "multiple": h["multiple"],
                                  "of_hz": float(f[h["of"]]), "cells": h["cells"]} for h in harm]
     if split:
-        parts.append(f"the one mode split by its amplitude-dependent damping ({verdict}): "
+        why = (f"amplitude-dependent damping ({verdict})" if verdict in SPLIT_VERDICTS else
+               "drifting frequency (one mode with a linear frequency drift fits as well) or "
+               "an unresolved pair")
+        parts.append(f"the one mode split by its {why}: "
                      + ", ".join(f"{f[j]:.5g} Hz" for j in split) + f" beside {f1:.5g} Hz, "
                      f"closer than {modes_close.SPLIT_HALF_POWER:g} half-power bandwidths")
         entries["split"] = [{"index": j + 1, "f_d_hz": float(f[j])} for j in split]
