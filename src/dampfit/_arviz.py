@@ -8,8 +8,6 @@ import os
 import sys
 import warnings
 
-__all__ = ["arviz", "dask_absent", "write_netcdf"]
-
 
 def arviz():
     """The arviz module (imported on first use: it pulls in xarray and takes a moment)."""

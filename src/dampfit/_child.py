@@ -31,8 +31,6 @@ from __future__ import annotations
 import os
 import sys
 
-__all__ = ["command", "import_path"]
-
 
 def _same(a: str, b: str | None) -> bool:
     if b is None:

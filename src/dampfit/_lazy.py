@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import importlib
 
-__all__ = ["LazyModule"]
-
 
 class LazyModule:
     """Stands for the module ``name``: ``obj.attr`` imports it on first use and caches each

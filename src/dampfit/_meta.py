@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from importlib import metadata
 
-__all__ = ["__version__", "version", "versions"]
-
 #: Libraries whose versions every summary records (``provenance.versions``).
 NUMERIC_LIBRARIES = ("numpy", "scipy", "jax", "optimistix", "emcee", "arviz")
 

@@ -27,11 +27,6 @@ from typing import Any, Callable, NamedTuple
 
 from dampfit.errors import InputError
 
-__all__ = ["ANALYSIS_MAX_MODES", "AnalysisOptions", "CAMPAIGN_MAX_MODES", "DEFAULT_MAX_MODES",
-           "DEFAULT_MAX_STEPS", "DEFAULT_MIN_ESS", "DEFAULT_SEED", "MAX_MODES_LIMIT", "MAX_STEPS",
-           "MODELS", "RULES", "Rule", "SAMPLER_KEYS", "SEED_LIMIT", "SamplerSettings",
-           "check_relations", "convert"]
-
 #: Largest seed + 1 (numpy and the sampler take 32-bit seeds).
 SEED_LIMIT = 2**32
 #: Largest max_steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).

@@ -29,9 +29,6 @@ import time
 from dataclasses import dataclass
 from typing import Any, Iterator, TextIO
 
-__all__ = ["LineProgress", "Reporter", "active", "announce", "eta_text", "progress_bar",
-           "reporting", "silenced", "stage_bar"]
-
 
 @dataclass(frozen=True)
 class Reporter:

@@ -38,8 +38,6 @@ from dampfit.result.views import ResultViews
 from dampfit.signal import prepare
 from dampfit._arviz import write_netcdf
 
-__all__ = ["Analysis", "Modes", "PARAMETER_UNITS", "modes_of_summary"]
-
 #: Unit of every reported parameter.
 PARAMETER_UNITS = {name: physics.UNITS[name] for name in (
     "c", "k", "u0", "zeta", "f_n", "p", "f_d", "delta", "Q", "c_crit")}

@@ -31,9 +31,6 @@ from typing import Any, TextIO
 from dampfit._child import command
 from dampfit.errors import InputError
 
-__all__ = ["ONE_THREAD_XLA", "SCHEDULER_WAIT_S", "WORKER_WAIT_S", "check_scheduler", "check_workers",
-           "client", "local_cluster", "nanny_main", "worker_env", "worker_info"]
-
 #: Longest wait [s] for the local workers to connect to the scheduler.
 START_TIMEOUT_S = 120.0
 

@@ -33,21 +33,6 @@ import numpy as np
 
 from dampfit.errors import InputError
 
-__all__ = [
-    "quantities",
-    "to_decay",
-    "Mass",
-    "check_mass",
-    "MAX_MASS",
-    "as_float",
-    "UNITS",
-    "zeta_from_log_decrement",
-    "log_decrement_from_zeta",
-    "critical_damping",
-    "damping_coefficient",
-    "stiffness",
-]
-
 #: Unit of every quantity dampfit reports (ASCII, as written to ``summary.json``).
 UNITS = {
     "p": "1/s", "omega_d": "rad/s", "omega_n": "rad/s", "f_n": "Hz", "f_d": "Hz",

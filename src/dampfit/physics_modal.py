@@ -31,8 +31,6 @@ from scipy import stats
 
 from dampfit.errors import InputError
 
-__all__ = ["rayleigh_zeta", "rayleigh", "rayleigh_draws", "rayleigh_summary"]
-
 
 def rayleigh_zeta(alpha, beta, omega):
     """ζ(ω) of (R1) [1] for α [1/s], β [s] at ω [rad/s] (broadcasts)."""

@@ -23,8 +23,6 @@ from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 from dampfit.signal import prepare
 
-__all__ = ["analyze", "modes_stage"]
-
 
 def analyze(recording: Recording, mass: float | None = None, mass_sd: float | None = None, *,
             options: AnalysisOptions | None = None, on_stage=None, **keywords) -> Analysis:

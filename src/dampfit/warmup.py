@@ -40,8 +40,6 @@ from dataclasses import dataclass
 from dampfit import _progress
 from dampfit.errors import InputError
 
-__all__ = ["DEFAULT_MAX_SAMPLES", "WarmUp", "sample_buckets", "warm_up"]
-
 #: Default most fitted samples warmed: 12 288 (a raw record of 20 min at 10 Hz, or the
 #: decimated fit of ≈ 30 min of a 2.5 Hz mode); larger buckets are compiled on first use.
 DEFAULT_MAX_SAMPLES = 12288

@@ -14,4 +14,3 @@
 
 from dampfit.batch.runner import analyze_many, run_batch
 
-__all__ = ["analyze_many", "run_batch"]

@@ -35,9 +35,6 @@ from dampfit.io.bounded import read_regular
 from dampfit.io.readers import READ_OPTIONS
 from dampfit.physics import check_mass
 
-__all__ = ["Job", "MAX_LIST_BYTES", "SUFFIXES", "expand", "jobs", "labels", "read_masses",
-           "run_name"]
-
 #: File suffixes a folder is searched for (the formats :func:`dampfit.io.readers.read` knows).
 SUFFIXES = (".csv", ".txt", ".tsv", ".dat", ".zip", ".xlsx", ".xlsm", ".xls", ".npy", ".npz",
             ".mat")

@@ -35,8 +35,6 @@ from dampfit.batch.store import BatchConfig, BatchStore
 from dampfit.batch.table import frame, write_outputs
 from dampfit.batch.task import run_job
 
-__all__ = ["ANALYSIS_OPTIONS", "analyze_many", "check_read_options", "execute", "run_batch"]
-
 #: Options of :func:`dampfit.pipeline.analyze` a batch passes to every recording.
 ANALYSIS_OPTIONS = ("axis", "window", "band", "seed", "max_steps", "min_ess", "model",
                     "amplitude", "max_modes", "mode_of_mass")

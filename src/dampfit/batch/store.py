@@ -16,8 +16,6 @@ from dampfit.batch.task import DAMPER_COLUMNS, QUANTITIES, STATUSES
 from dampfit.errors import shown
 from dampfit.files.runlog import RunStore
 
-__all__ = ["BatchConfig", "BatchStore", "OUTPUTS", "check_row"]
-
 #: Files the batch writes (and ``--force`` removes); the run folders in ``runs/`` are each
 #: replaced only when their recording is analysed again.
 OUTPUTS = ("batch.json", "rows.jsonl", "results.csv", "results.parquet", "summary.md",

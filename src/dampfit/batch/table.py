@@ -31,9 +31,6 @@ from typing import Any, Sequence
 from dampfit.batch.task import DAMPER_COLUMNS, QUANTITIES
 from dampfit.files.atomic import atomic_write, atomic_write_text
 
-__all__ = ["ANALYSED", "COLUMNS", "FORMULA_START", "log_scale", "comparison_figure", "frame", "neutralised",
-           "spreadsheet_safe", "summary_md", "write_outputs"]
-
 COLUMNS = ("file", "name", "sha256", "status", "message", "mass_kg",
            *(f"{q}_{lv}" for q in QUANTITIES for lv in ("q05", "q50", "q95")),
            "verdict", "converged", "n_modes", "modes_f_n_hz", *DAMPER_COLUMNS, "seconds", "folder")

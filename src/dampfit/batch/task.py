@@ -24,9 +24,6 @@ from typing import Any
 
 from dampfit.errors import DampfitError, shown
 
-__all__ = ["DAMPER_COEFFICIENTS", "DAMPER_COLUMNS", "QUANTITIES", "STATUSES", "damper_of",
-           "row_of", "run_job", "status_of"]
-
 #: Quantities of a row, each with q05, q50 and q95 (c and k only with a mass).
 QUANTITIES = ("f_n", "zeta", "c", "k")
 #: A row's status: a damper recommended (``ok``), the recording analysed but no damper

@@ -17,4 +17,3 @@
 from dampfit.campaign.pipeline import analyze_campaign
 from dampfit.campaign.result import CampaignAnalysis
 
-__all__ = ["CampaignAnalysis", "analyze_campaign"]

@@ -59,11 +59,6 @@ from dampfit import physics
 from dampfit.errors import InputError
 from dampfit.errors import shown
 
-__all__ = ["MAX_FREQUENCY_RATIO", "MIN_FREQUENCY_CHANGE_SD", "ALPHA", "check_design",
-           "duplicate_recordings",
-           "check_same_system", "check_added_mass_design", "heterogeneity", "loo_outliers",
-           "amplitude_regression", "verdict", "INADEQUATE"]
-
 #: Largest ratio of the tests' dominant frequencies [1] of one system without added masses.
 MAX_FREQUENCY_RATIO = 1.3
 #: Predicted change of ln ω_n across the added masses must exceed this many sds of a test's

@@ -112,10 +112,6 @@ import numpy as np
 from dampfit.model import profile
 from dampfit.model.laws import ViscousM1
 
-__all__ = ["TAU_P_SCALE", "TAU_OMEGA_SCALE", "P_SHARED_FREQUENCY", "LOCATION_SD", "CampaignData", "hyper_names",
-           "log_posterior", "log_posterior_shared", "log_bayes_factor_shared", "means_and_scatter", "conditional", "exact_log_likelihood",
-           "laplace", "M1", "sampler_log_posterior", "to_hyper", "from_hyper"]
-
 #: Half-normal scale of τ_p, the between-test sd of ln p [1].
 TAU_P_SCALE = 0.5
 #: Half-normal scale of τ_ω, the between-test sd of ln ω_n [1].

@@ -22,8 +22,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["per_test_modes", "pooled_index"]
-
 #: Fields of a mode row kept per test (no c, k, u₀: no modal mass for a campaign's modes).
 MODE_FIELDS = ("index", "f_n", "f_d", "zeta", "eta", "delta", "Q", "p", "crlb_sd",
                "least_squares")

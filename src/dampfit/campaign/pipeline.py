@@ -55,8 +55,6 @@ from dampfit._options import AnalysisOptions
 from dampfit.campaign.result import CampaignAnalysis
 from dampfit.errors import InputError
 
-__all__ = ["analyze_campaign"]
-
 
 def analyze_campaign(recordings: Sequence, mass: float | None = None,
                      mass_sd: float | None = None, *, added_mass: Sequence[float] | None = None,

@@ -22,8 +22,6 @@ from dampfit.files.atomic import atomic_write, atomic_write_text
 from dampfit.result.views import ResultViews
 from dampfit._arviz import write_netcdf
 
-__all__ = ["CampaignAnalysis", "SUMMARY_KEYS"]
-
 #: Top-level keys of :meth:`CampaignAnalysis.summary` (schema_version 1, kind "campaign").
 SUMMARY_KEYS = ("schema_version", "kind", "dampfit_version", "design", "parameters", "mass",
                 "population", "tests", "checks", "added_mass", "diagnostics", "warnings")

@@ -19,9 +19,6 @@ from dampfit._progress import progress_bar
 from dampfit.errors import DampfitError
 from dampfit.inference.sampler_run import ReadsRun, SamplerRun, Stop, diagnostics, to_idata
 
-__all__ = ["CampaignSampling", "sample", "ensemble", "MIN_IMPORTANCE_FRACTION", "N_WALKERS",
-           "NEGLIGIBLE_MODEL"]
-
 #: Least importance ESS of (C6) as a fraction of the draws [1] for a converged result.
 MIN_IMPORTANCE_FRACTION = 0.1
 #: emcee walkers over the 4–5 hyper-parameters.

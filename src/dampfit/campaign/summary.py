@@ -19,8 +19,6 @@ from dampfit._meta import __version__
 #: not even for type checkers: result.py imports this module, and the two stay one-way.
 Campaign = Any
 
-__all__ = ["summarise", "quantiles", "OWN_DRAWS", "POPULATION_UNITS"]
-
 #: Draws [1] of each test's own (Laplace) estimate.
 OWN_DRAWS = 4000
 #: Population quantities reported under "parameters" and their units.

@@ -16,8 +16,6 @@ import numpy as np
 from dampfit.campaign.checks import INADEQUATE
 from dampfit.errors import InputError
 
-__all__ = ["TestFit", "fit_test", "campaign_data"]
-
 
 @dataclass(eq=False)
 class TestFit:

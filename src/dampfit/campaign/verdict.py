@@ -17,8 +17,6 @@ import numpy as np
 
 from dampfit.campaign import checks
 
-__all__ = ["CampaignChecks", "assess", "assess_sampled", "own_estimates"]
-
 
 @dataclass(frozen=True)
 class CampaignChecks:

@@ -59,8 +59,6 @@ from dampfit.cli import messages
 from dampfit.cli.options import Parser as _Parser
 from dampfit.errors import DampfitError, InputError
 
-__all__ = ["get_parser", "interrupt_line", "main", "run"]
-
 #: (command, help, add_arguments, command) of every sub-command, in the order of ``--help``.
 COMMANDS = (
     ("analyze", "analyse a recording: summary.json, posterior.nc, figures",

@@ -38,9 +38,6 @@ from dampfit.cli.options import add_analysis_options, add_reading_options, analy
 from dampfit.cli.staging import old_demo_folder, result_folder
 from dampfit.errors import InputError
 
-__all__ = ["DEMO_MASS_SD", "add_arguments", "add_demo_arguments", "analyse_into", "campaign_command",
-           "command", "demo", "read_options"]
-
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
 #: The demo's last line: the next command, on the user's own recording.
 NEXT_STEP = 'next: dampfit analyze YOUR.csv --mass KG --report   (README: "Your own recording")'

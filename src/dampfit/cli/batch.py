@@ -23,8 +23,6 @@ from pathlib import Path
 
 from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 
-__all__ = ["add_arguments", "command"]
-
 #: Rows printed on the terminal; the rest are in results.csv.
 SHOWN_ROWS = 25
 

@@ -10,8 +10,6 @@ from dampfit.cli.options import float_arg
 from dampfit.fem import units as units_mod
 from dampfit.fem.export import FORMATS
 
-__all__ = ["add_arguments", "command"]
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit export``."""

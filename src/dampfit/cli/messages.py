@@ -9,8 +9,6 @@ from __future__ import annotations
 import sys
 from typing import TextIO
 
-__all__ = ["clear", "defer", "flush", "pending"]
-
 _LINES: list[str] = []
 
 

@@ -17,9 +17,6 @@ from dampfit._options import (ANALYSIS_MAX_MODES, CAMPAIGN_MAX_MODES, DEFAULT_MA
 from dampfit.errors import InputError
 from dampfit.physics import MAX_MASS
 
-__all__ = ["MAX_WORKERS", "add_cluster_options", "positive_int", "MAX_STEPS", "SEED_LIMIT", "Parser", "add_analysis_options",
-           "analysis_options", "float_arg", "rule_arg", "scheduler_arg", "seed_arg"]
-
 # The limits and defaults are those of :mod:`dampfit._options` (the rules the Python face
 # checks too); --max-modes when not given: CAMPAIGN_MAX_MODES (1) for a campaign, its tests'
 # own modes are opt-in (each test would pay the modal analysis; the pooling is of one mode).

@@ -45,8 +45,6 @@ from pathlib import Path
 from dampfit.cli.options import real_arg, add_analysis_options, analysis_options
 from dampfit.errors import DampfitError, InputError
 
-__all__ = ["add_arguments", "command"]
-
 _DURATION_MAX = 1800.0  # = dampfit.record.session.MAX_DURATION (not imported: keeps --help light)
 
 

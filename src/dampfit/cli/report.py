@@ -13,8 +13,6 @@ from __future__ import annotations
 import argparse
 import sys
 
-__all__ = ["add_arguments", "command"]
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``dampfit report``."""

@@ -18,8 +18,6 @@ from dampfit.cli.options import (integer_arg, mass_arg, non_negative_arg,
                                  positive_arg, real_arg, seed_arg)
 from dampfit.errors import InputError
 
-__all__ = ["add_arguments", "command"]
-
 #: Most tests of one campaign and largest --c-spread (the library's limits).
 MAX_TESTS = 100
 MAX_C_SPREAD = 2.0

@@ -15,8 +15,6 @@ from pathlib import Path
 from dampfit.files.folder import DEMO_MARKER, ResultFolder
 from dampfit.files.folder import result_folder as files_result_folder
 
-__all__ = ["old_demo_folder", "result_folder"]
-
 #: Every file an old demo folder (written before the .dampfit-result marker) can hold.
 _DEMO_FILES = frozenset({
     DEMO_MARKER, "paper-preset.csv", "summary.json", "posterior.nc", "signals.npz",

@@ -7,8 +7,6 @@ import argparse
 import os
 from pathlib import Path
 
-__all__ = ["add_arguments", "command"]
-
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit study``."""
     from dampfit.cli.options import add_cluster_options

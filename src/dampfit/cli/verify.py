@@ -7,8 +7,6 @@ import argparse
 
 from dampfit.cli.options import float_arg
 
-__all__ = ["add_arguments", "command"]
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``dampfit verify``."""

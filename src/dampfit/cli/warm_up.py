@@ -17,8 +17,6 @@ import sys
 
 from dampfit.cli.options import integer_arg, seed_arg
 
-__all__ = ["add_arguments", "command"]
-
 #: The largest --max-samples accepted (the bucket of a 5e7-sample raw fit).
 MAX_SAMPLES = 50_331_648
 

@@ -31,5 +31,3 @@ from dampfit.damping.assessment import from_analysis as from_analysis
 from dampfit.model.laws import names as names
 from dampfit.model.laws import c_equivalent as c_equivalent
 
-__all__ = ["POSTERIORS", "DampingAssessment", "assess", "c_equivalent", "choices",
-           "from_analysis", "names"]

@@ -40,8 +40,6 @@ from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit
 from dampfit.inference import law_sampler as dsample
 
-__all__ = ["assess", "from_analysis", "DampingAssessment", "choices", "POSTERIORS"]
-
 
 def choices() -> tuple[str, ...]:
     """Accepted values of ``model``: ``auto`` and the registered laws' names."""

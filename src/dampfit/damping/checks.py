@@ -101,9 +101,6 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-__all__ = ["ljung_box", "envelope_whiteness", "warning_text", "adequacy", "verdict_warning",
-           "fem_hint", "VERDICTS"]
-
 #: The four verdicts of :func:`adequacy`.
 VERDICTS = ("adequate", "amplitude-dependent", "misfit", "inconclusive")
 #: Fewest oscillation cycles for a verdict other than "inconclusive" (Ljung–Box needs 10).

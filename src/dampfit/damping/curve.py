@@ -29,9 +29,6 @@ from scipy import optimize, stats
 
 from dampfit.errors import InputError
 
-__all__ = ["Window", "windows", "slope", "frequency_trend", "auto_cycles",
-           "MIN_WINDOW_SAMPLES"]
-
 #: Fewest samples a window needs (6 parameters are fitted in it).
 MIN_WINDOW_SAMPLES = 16
 #: Windows aimed for along the decay when the length is automatic.

@@ -46,9 +46,6 @@ from dampfit.damping.checks import ZETA_RATIO_MATTERS
 from dampfit.damping.quantities import summarise
 from dampfit.model import laws
 
-__all__ = ["LawDraws", "Damper", "recommend", "from_assessment", "mean_omega", "MAX_DRAWS",
-           "WITHIN", "SEARCH_FACTOR"]
-
 #: Most draws kept for posterior.nc's ``damper`` group.
 MAX_DRAWS = 4000
 #: Relative band of c_eq(A) around c_lin that "holds" [1].

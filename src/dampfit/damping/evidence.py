@@ -37,8 +37,6 @@ import numpy as np
 from dampfit.inference import law_fit
 from dampfit.model import laws, registry
 
-__all__ = ["compare", "model_prior", "P_VISCOUS_MAX"]
-
 
 def model_prior() -> dict[str, float]:
     """Prior model probabilities of the registered laws (1 : 1 between viscous and

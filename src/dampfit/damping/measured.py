@@ -54,8 +54,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BLOCK", "EXPONENTS", "N_BOOT", "MeasuredCurve", "envelope", "fit", "term_rates"]
-
 #: Exponents α_j of the terms (0.5: strongly softening … 3: stiffening).
 EXPONENTS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 #: Bootstrap refits and block length [peaks] (the verify trend's span).

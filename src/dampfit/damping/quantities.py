@@ -22,8 +22,6 @@ import numpy as np
 from dampfit import physics
 from dampfit.model import laws as models
 
-__all__ = ["UNITS", "draws", "summarise", "mass_draws", "unit_of"]
-
 #: Unit of every reported quantity.
 UNITS = {
     **{name: physics.UNITS[name] for name in ("p", "zeta", "f_n", "u0", "k", "c")},

@@ -27,8 +27,6 @@ from dampfit.model import laws as models
 #: imported, not even for type checkers: assessment.py imports this module, one way only.
 Assessment = Any
 
-__all__ = ["summary"]
-
 #: Points of the amplitude grid of the model curves.
 N_GRID = 60
 #: Posterior draws used for the band of the chosen law.

@@ -68,8 +68,6 @@ from dampfit.estimators.features import FILTER_ORDER
 from dampfit.signal.filters import bandpass
 from dampfit.physics import check_mass, quantities, zeta_from_log_decrement
 
-__all__ = ["BaselineResult", "log_decrement", "envelope_pipeline", "agreement"]
-
 #: Relative tolerance on the time grid's uniformity and on its agreement with 1/fs.
 UNIFORM_TOLERANCE = 1e-3
 #: Fewest samples a window may have.

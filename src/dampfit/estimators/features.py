@@ -15,9 +15,6 @@ from scipy import signal
 from dampfit.errors import InputError
 from dampfit.signal.filters import bandpass_sos
 
-__all__ = ["settle_time", "edge_guard", "parabolic", "positive_peaks", "rough_frequency",
-           "envelope_fit_region", "zero_crossing_frequency", "FILTER_ORDER", "ENVELOPE_FLOOR"]
-
 #: Butterworth order of every band-pass used here (zero-phase, so the effective order doubles).
 FILTER_ORDER = 4
 #: Minimum peak distance as a fraction of the oscillation period (one positive peak per cycle).

@@ -25,8 +25,6 @@ from dampfit.errors import InputError
 from dampfit.signal import subspace
 from dampfit.signal.prepare import Prepared
 
-__all__ = ["ModeEstimate", "subspace_modes"]
-
 
 @dataclass(frozen=True)
 class ModeEstimate:

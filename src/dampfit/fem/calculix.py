@@ -32,8 +32,6 @@ from dampfit.fem.sdof import Sdof
 from dampfit.fem.timestep import newmark_period_error
 from dampfit.fem.units import UnitSystem, factor
 
-__all__ = ["deck", "read_deck", "real"]
-
 
 def real(x: float) -> str:
     """Shortest exact text of ``x`` that contains a decimal point (``1e-05`` → ``1.0e-05``)."""

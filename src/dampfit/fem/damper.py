@@ -46,9 +46,6 @@ import numpy as np
 from dampfit.errors import InputError, shown
 from dampfit.result.schema import brief, number
 
-__all__ = ["COEFFICIENTS", "FORCE_TEXT", "MEASURED", "Damper", "choose", "describe", "force",
-           "terms", "theta", "unit", "zero_slope_velocity"]
-
 #: Coefficients of each law the decks write, with their SI units.
 COEFFICIENTS: dict[str, dict[str, str]] = {
     "viscous": {"c": "N s/m"},

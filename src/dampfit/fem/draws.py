@@ -39,8 +39,6 @@ import numpy as np
 from dampfit.errors import InputError, shown
 from dampfit.fem import damper as damper_mod
 
-__all__ = ["MAX_DRAWS", "check_count", "sample", "verify_band", "write"]
-
 #: Most draws one export or verify writes or runs.
 MAX_DRAWS = 1000
 

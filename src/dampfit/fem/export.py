@@ -64,8 +64,6 @@ from dampfit.fem import units as units_mod
 from dampfit.errors import shown
 from dampfit.result.schema import folder_of
 
-__all__ = ["FORMATS", "build", "canonical_command", "export", "output_interval", "run_duration"]
-
 #: format → (description, default file name)
 FORMATS: dict[str, tuple[str, str]] = {
     "lsdyna": ("LS-DYNA keyword deck", "sdof_lsdyna.k"),

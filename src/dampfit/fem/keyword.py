@@ -15,17 +15,6 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-__all__ = [
-    "card",
-    "format_int",
-    "format_real",
-    "header",
-    "parse_deck",
-    "read_int",
-    "read_real",
-    "split_fields",
-]
-
 
 def _compact_exponent(text: str) -> str:
     """``1.25E-05`` → ``1.25E-5``, ``2E+02`` → ``2.E2`` (valid Fortran reals, with a point)."""

@@ -40,8 +40,6 @@ from dampfit.fem.sdof import Sdof
 from dampfit.fem.timestep import central_difference_period_error
 from dampfit.fem.units import UnitSystem
 
-__all__ = ["deck", "read_deck", "reference_length"]
-
 _NODE_W = [8, 16, 16, 16, 8, 8]
 _EMASS_W = [8, 8, 16, 8]
 _EDISC_W = [8, 8, 8, 8, 8, 16, 8, 16]

@@ -27,8 +27,6 @@ from dampfit.errors import InputError, shown
 from dampfit.fem import damper as damper_mod
 from dampfit.fem.response import EDGE_PERIODS
 
-__all__ = ["MIN_SHARE", "measured_damper"]
-
 #: A term is written when it carries at least this part of c_eq at an end of the range [1]
 #: (the bounded least squares leaves vanishing ones, ~1e-12 of the others, inside its bounds).
 MIN_SHARE = 1e-4

@@ -42,9 +42,6 @@ from dampfit.fem.sanitize import ascii_line
 from dampfit.fem.units import UnitSystem, factor
 from dampfit.result.schema import brief, number
 
-__all__ = ["CALCULIX_PREFIX", "LSDYNA_PREFIX", "calculix_lines", "decay_rates",
-           "lsdyna_lines", "modal_damping", "read_calculix", "read_lsdyna", "zeta_of"]
-
 #: Start of an LS-DYNA comment line that holds a card to paste (remove the prefix).
 LSDYNA_PREFIX = "$> "
 #: Start of a CalculiX comment line that holds a card to paste (remove the prefix).

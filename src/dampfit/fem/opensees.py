@@ -50,11 +50,6 @@ from dampfit.fem.timestep import newmark_period_error
 from dampfit.fem.units import UnitSystem, factor
 from dampfit.fem.units import get as get_units
 
-__all__ = ["BLAS_REASON", "CSV_HEADER", "MAX_ROW_BYTES", "NOT_INSTALLED_REASON", "SCRIPT_NAME",
-           "engine_version", "free_decay", "modal_step", "run_modal", "run_script", "run_steps",
-           "script", "step_options",
-           "unavailable"]
-
 #: Why OpenSeesPy cannot run when its binary misses the system BLAS/LAPACK (Debian packages).
 BLAS_REASON = ("OpenSeesPy needs the system BLAS/LAPACK libraries: "
                "sudo apt-get install libblas3 liblapack3")

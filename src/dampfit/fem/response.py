@@ -24,8 +24,6 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["errors", "initial_state", "peak_decay_rate"]
-
 
 def initial_state(tau: np.ndarray, accel_model: np.ndarray, p: float, omega_d: float,
                   tau0: float = 0.0) -> dict[str, float]:

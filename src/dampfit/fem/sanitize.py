@@ -29,9 +29,6 @@ from __future__ import annotations
 import textwrap
 import unicodedata
 
-__all__ = ["ascii_line", "calculix_comment", "lsdyna_comment", "lsdyna_title", "python_comment",
-           "python_literal"]
-
 #: Longest text kept from one value in a comment [characters].
 COMMENT_LIMIT = 500
 

@@ -38,8 +38,6 @@ from dampfit.result.schema import brief as _brief
 from dampfit.result.schema import number
 from dampfit.result.schema import read_summary as read_checked
 
-__all__ = ["Sdof", "campaign_note", "campaign_u0", "load", "read_summary", "summary_quantile"]
-
 #: Quantiles the summary stores, by key.
 _SUMMARY_QUANTILES = {0.05: "q05", 0.5: "q50", 0.95: "q95"}
 

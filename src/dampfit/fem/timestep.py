@@ -21,14 +21,6 @@ from __future__ import annotations
 
 import math
 
-__all__ = [
-    "MIN_STEPS_PER_PERIOD",
-    "PHASE_BUDGET",
-    "central_difference_period_error",
-    "choose",
-    "newmark_period_error",
-]
-
 #: Largest phase error [rad] a run may accumulate by its end.
 PHASE_BUDGET = 1e-3
 #: Fewest steps per natural period.

@@ -34,8 +34,6 @@ from dataclasses import dataclass
 
 from dampfit.errors import InputError
 
-__all__ = ["DIMENSIONS", "STANDARD_GRAVITY", "UNIT_SYSTEMS", "UnitSystem", "factor", "get", "to_system"]
-
 #: Standard acceleration of gravity [m/s²] (CGPM 1901).
 STANDARD_GRAVITY = 9.80665
 

@@ -91,8 +91,6 @@ from dampfit.result.schema import is_campaign
 from dampfit.result.folder import load_signals
 from dampfit.result.schema import folder_of
 
-__all__ = ["exported_script", "figure_format", "modal_run", "plot", "run", "table", "verify"]
-
 #: Periods left out at each end for the "interior" error measures (filter settling).
 EDGE_PERIODS = response.EDGE_PERIODS
 #: Largest allowed Newmark period error [1].

@@ -15,9 +15,6 @@ import numpy as np
 from dampfit.errors import InputError
 from dampfit.fem import response
 
-__all__ = ["START_PERIODS", "damper_check", "damper_lines", "damper_runs", "envelope_words",
-           "linear_script", "start_state"]
-
 
 def damper_runs(folder, summary, script, start, steps, measured, exported, omega_n, interior,
                 draws, report, arrays) -> None:

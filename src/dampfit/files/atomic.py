@@ -15,9 +15,6 @@ from pathlib import Path
 
 from dampfit.errors import InputError
 
-__all__ = ["WriteError", "atomic_write", "atomic_write_text", "check_output_file", "error_text",
-           "os_error_in", "publish"]
-
 
 def _umask() -> int:
     mask = os.umask(0)

@@ -24,8 +24,6 @@ from dampfit.files import swap
 from dampfit.files.atomic import WriteError, atomic_write_text, error_text, os_error_in, publish
 from dampfit.files.lock import FileLock, pid_alive
 
-__all__ = ["DEMO_MARKER", "MARKER", "MIN_FREE", "ResultFolder", "read_marker", "result_folder"]
-
 
 #: File in every result folder dampfit writes (analyze, demo): JSON ``{"kind", "dampfit"}``.
 #: ``--force`` replaces only a real directory holding it.

@@ -11,8 +11,6 @@ from pathlib import Path
 from dampfit.errors import InputError
 from dampfit.files.atomic import error_text
 
-__all__ = ["FileLock", "check_lock_file", "pid_alive"]
-
 
 def check_lock_file(fd: int, path: Path) -> None:
     """Refuse (and close ``fd``) a lock file that is not a regular file: a FIFO, device or

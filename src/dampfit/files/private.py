@@ -39,8 +39,6 @@ import secrets
 import stat
 from pathlib import Path
 
-__all__ = ["KEY_NAME", "MAX_ENTRY", "PrivateStore", "UnsafeFolder", "open_store"]
-
 #: Name of the HMAC key file inside the folder.
 KEY_NAME = "hmac.key"
 #: Size of the key [bytes] (and of a tag, HMAC-SHA256).

@@ -34,8 +34,6 @@ from dampfit.files.folder import read_marker
 from dampfit.files.lock import FileLock
 from dampfit.errors import InputError
 
-__all__ = ["MAX_META_BYTES", "MAX_RECORD_BYTES", "RunStore"]
-
 #: Largest study.json [bytes] read (the configuration and its TOML source: a few KiB).
 MAX_META_BYTES = 16 * 2**20
 

@@ -37,8 +37,6 @@ import sys
 import threading
 from pathlib import Path
 
-__all__ = ["exchange", "remove_result", "rename_noreplace", "signals_deferred"]
-
 _AT_FDCWD = -100
 _RENAME_NOREPLACE = 1
 _RENAME_EXCHANGE = 2

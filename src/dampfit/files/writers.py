@@ -24,8 +24,6 @@ from dampfit.files.atomic import atomic_write_text
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 
-__all__ = ["DIALECTS", "phyphox_csv_text", "write_phyphox_csv", "write_truth"]
-
 #: Axis columns written, in order.
 _AXES = ("x", "y", "z")
 #: CSV dialects of phyphox's export: separator and decimal mark.

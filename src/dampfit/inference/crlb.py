@@ -38,7 +38,7 @@ from dampfit import physics
 from dampfit.errors import InputError
 
 __all__ = ["yao_pandit_var_p", "fisher", "bound", "fisher_modes", "bound_modes", "from_noise_density",
-           "UNITS", "ONE_PIECE", "BLOCK"]
+           "UNITS"]
 
 #: A design of at most this many samples gets its Fisher information in one piece, exactly as
 #: before blocks were introduced (the bound of every recording this size or smaller is

@@ -81,9 +81,6 @@ from typing import Any, Callable
 from dampfit._progress import announce
 from dampfit.files.private import PrivateStore, UnsafeFolder, open_store
 
-__all__ = ["ENV", "SWITCH", "Kernel", "chosen_folder", "compiled_count", "kernel",
-           "open_checked", "source_digest", "store", "store_dir"]
-
 #: Environment variable naming the checked folder of stored executables (set by the CLI for
 #: itself and its child processes; unset: :data:`SWITCH` or the default folder decides).
 ENV = "DAMPFIT_EXECUTABLE_CACHE"

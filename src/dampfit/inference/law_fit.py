@@ -56,9 +56,6 @@ from dampfit.model import profile as _profile
 from dampfit.model.laws import P_RANGE
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, FitData, padded_length
 
-__all__ = ["Data", "ModelFit", "ShapeGrid", "fit_model", "laplace", "log_prior", "loglik_batch",
-           "profile", "information", "jacobian", "decay_test", "P_RANGE", "Z_DECAY"]
-
 #: Central-difference step in θ [1] (ln-rates, fraction or exponent, ln ω).
 STEP = 1e-6
 

@@ -52,9 +52,6 @@ from dampfit.inference.sampler_run import SamplerRun, Stop, diagnose
 from dampfit.inference import law_fit
 from dampfit.model import laws
 
-__all__ = ["ModelPosterior", "Budget", "conditioning", "sample_emcee", "sample_laplace",
-           "N_WALKERS"]
-
 N_WALKERS = 64
 #: A law's step budget is at most this many times the viscous sampler's steps …
 STEP_FACTOR = 3

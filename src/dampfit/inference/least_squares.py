@@ -30,8 +30,6 @@ from dampfit.model.viscous import M1 as _M1
 from dampfit.signal.filters import filtfilt_gain
 from dampfit.signal.prepare import FitData
 
-__all__ = ["LeastSquaresResult", "least_squares", "amplitude_gain"]
-
 
 @dataclass(frozen=True)
 class LeastSquaresResult:

@@ -60,13 +60,6 @@ from dampfit.model import profile
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, MIN_CYCLES, FitData, Prepared, fit_data
 from dampfit.signal.window import END_REASONS, IMPACT_RATIO, impacts, running_median
 
-__all__ = ["ModeFit", "check_max_modes", "check_mode_of_mass", "modal_band", "modal_window",
-           "modal_prepared", "modal_fit_data",
-           "support", "fit_modes", "start_grid", "padded_arrays", "vp_residual", "DEFAULT_MAX_MODES",
-           "MAX_MODES_LIMIT", "BAND_RATIO", "MIN_SAMPLES_PER_CYCLE", "GRID_PER_START",
-           "GRID_RATE_FACTORS", "GRID_CELL_SHIFTS", "N_LM", "RESTARTS", "NO_OPTIMUM", "LM_STEPS",
-           "drift_columns", "drift_column_buckets", "warm_kernels"]
-
 #: Modes tried by default, and the most the options accept.
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
 #: Band (MS1): a factor below and above the dominant frequency.

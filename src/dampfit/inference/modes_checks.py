@@ -49,9 +49,6 @@ import numpy as np
 from dampfit.inference.modes_select import HARMONIC_CELLS, HARMONIC_DECAY
 from dampfit.model.modes import P_MAX
 
-__all__ = ["check_components", "drift_split", "DRIFT_CELLS", "unresolved_pair", "PAIR_MIN_CELLS", "BASIN_SHARE", "ZETA_SPAN", "ZETA_EDGE_SHARE", "R_HAT_MAX",
-           "ZETA_PRIOR_MAX"]
-
 #: An f_n 90 % interval wider than this share of the component's basin [1] fills it.
 BASIN_SHARE = 0.25
 #: A ζ 90 % interval with q95/q05 above this [1] reaches 0 (the decay is not measured).

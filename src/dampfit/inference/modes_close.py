@@ -37,10 +37,6 @@ from dampfit import physics
 from dampfit.errors import InputError
 from dampfit.inference import crlb
 
-__all__ = ["pairs", "inflation", "selection_pairs", "selection_bounds", "split_pair",
-           "FLAG_INFLATION", "CLOSE_HALF_POWER", "CLOSE_CELLS", "SPLIT_DAMPING_RATIO",
-           "SPLIT_HALF_POWER"]
-
 #: CRLB inflation (C2) above which a pair is flagged in the warnings …
 FLAG_INFLATION = 1.25
 #: … when it is also within this many half-power bandwidths [1] …

@@ -62,8 +62,6 @@ from dampfit.model import modes as mm
 from dampfit.signal import subspace
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, Prepared
 
-__all__ = ["Screen", "screen", "EDGE", "MAX_ZETA", "MIN_Z2", "ZERO_PAD"]
-
 #: Zero padding of the FFT [1].
 ZERO_PAD = 4
 #: Searched part of the modal band: from EDGE[0]·f_lo to EDGE[1]·f_hi (at the edges the

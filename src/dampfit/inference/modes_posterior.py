@@ -79,9 +79,6 @@ from dampfit.inference.sampler_run import ReadsRun, SamplerRun, to_idata
 from dampfit.model import modes as mm
 from dampfit.model import profile
 
-__all__ = ["ModalPosterior", "sample", "budget", "basins", "modal_summary", "mode_of_mass_default",
-           "PER_MODE", "MASS_MODE", "STEPS_PER_MODE", "walkers", "warm_log_prob"]
-
 #: Step budget of the modal posterior per mode [steps] (K modes: K × this).
 STEPS_PER_MODE = 4000
 #: Quantities reported for every mode, and for the mode of the mass only.

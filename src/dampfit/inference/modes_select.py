@@ -83,12 +83,6 @@ from dampfit.model import modes as mm
 from dampfit.signal import subspace
 from dampfit.signal.prepare import FitData, Prepared
 
-__all__ = ["KResult", "Tried", "ModeSelection", "select", "evidence", "amplitude_z", "z_threshold",
-           "amplitude_prior_radius", "psd_ratios", "local_ratio", "harmonics", "reject_reason",
-           "AMP_PRIOR_FACTOR", "AMPLITUDE_ALPHA", "HARMONIC_TOLERANCE", "HARMONIC_CELLS",
-           "HARMONIC_DECAY",
-           "harmonic_components", "harmonic_alternatives", "MAX_CANDIDATES"]
-
 #: Amplitude prior radius in units of the largest |y⊥| (MS2).
 AMP_PRIOR_FACTOR = 2.0
 #: False-alarm level of the amplitude check (MS4).

@@ -36,8 +36,6 @@ from dampfit.inference import modes as _modes
 from dampfit.inference import modes_posterior as _mp
 from dampfit.signal.prepare import FitData
 
-__all__ = ["drift_buckets", "modal_pairs", "warm_modal"]
-
 _F0, _FS = 1.0, 10.0  # [Hz] the synthetic lowest mode and sample rate
 #: Modal fit samples per drift degree on the decimated path [samples] (:func:`modal_pairs`).
 _SAMPLES_PER_DEGREE = (640, 1280)

@@ -70,10 +70,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import integrate, signal
 
-__all__ = ["NoiseModel", "estimate", "white_ratio", "path_gain", "projection_depletion",
-           "sensor_density", "expected_sigma", "misfit_check", "R_FLOOR", "R_WARN",
-           "RESID_FRACTION", "NOISE_EXCESS"]
-
 #: Smallest calibration factor used [1], a numerical guard (temper ≤ 100). In the calibrated
 #: mode r falls below 1 when slow drift below f₀/2 carries much of the residual variance
 #: (0.53 on paper/calibration.py's drift scenario; 0.07 with a drift 14× the noise power);

@@ -70,8 +70,6 @@ if TYPE_CHECKING:  # arviz imports matplotlib.pyplot: keep it out of the numeric
     import arviz as az
 
 
-__all__ = ["PosteriorResult", "sample", "seed_sampler", "N_WALKERS"]
-
 #: Ensemble size: with the KDE proposal (:func:`default_moves`) a larger ensemble describes the target
 #: better (τ ≈ 2 steps at 64 walkers, ≈ 2.6 at 32) and amortises emcee's per-step Python cost;
 #: 64 walkers reached the stopping rule in the least wall time on the seed paper's recording.

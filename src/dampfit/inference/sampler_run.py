@@ -31,8 +31,6 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ReadsRun", "SamplerRun", "Stop", "diagnose", "diagnostics", "to_idata", "worst"]
-
 
 class Stop(enum.Enum):
     """Why an emcee run stopped; :attr:`remedy` says what to do about a run that did not

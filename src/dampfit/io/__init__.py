@@ -26,8 +26,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from dampfit.io.readers import detect_format as detect_format
     from dampfit.io.readers import read as read
 
-__all__ = ["Recording", "detect_format", "read"]
-
 
 def __getattr__(name: str):
     """:func:`read` and :func:`detect_format` on first use (PEP 562): the readers import

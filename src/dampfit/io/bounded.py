@@ -27,10 +27,6 @@ import numpy as np
 
 from dampfit.errors import InputError, shown
 
-__all__ = ["MAX_INPUT_BYTES", "MAX_UNPACKED_BYTES", "MAX_ZIP_RATIO", "RATIO_MIN_BYTES",
-           "MAX_LINE_BYTES", "MAX_CELLS", "MAX_COLUMNS", "MAX_ROWS", "TEXT_EXTS", "decode", "file_kind",
-           "open_regular", "read_fd", "read_regular", "read_bytes", "size_text"]
-
 #: Largest input file [bytes] read at all (1 GiB: ~25 million rows of phone CSV).
 MAX_INPUT_BYTES = 1 << 30
 #: Largest total decompressed size [bytes] of the ZIP members read (ZIP, xlsx, npz) and of an

@@ -23,8 +23,6 @@ from dampfit.errors import InputError
 from dampfit.io.text import Column, Table
 from dampfit.io.units import name_words, split_name
 
-__all__ = ["Layout", "identify", "role", "select", "axis_names", "looks_like_acceleration", "lookup"]
-
 #: phyphox headers: original with units, and the renamed form without.
 _PHYPHOX_TIME = re.compile(r"^time \(s\)$", re.I)
 _PHYPHOX_ACCEL = re.compile(r"^(linear )?acceleration ([xyz]) \((?:m/s\^2|m/s²)\)$", re.I)

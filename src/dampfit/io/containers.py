@@ -32,8 +32,6 @@ from dampfit.io.bounded import decode
 from dampfit.io.columns import looks_like_acceleration, role
 from dampfit.io.text import PEEK_ROWS, Table, drop_empty_unnamed, is_number, text_table
 
-__all__ = ["container_table", "xls_table", "npy_table", "check_zip", "check_npy_header"]
-
 #: Preferred acceleration data sets in a phyphox/Sensor Logger ZIP or workbook, best first.
 _PREFERRED_SETS = ("linear acceleration", "accelerometer", "raw data")
 

@@ -48,8 +48,6 @@ from dampfit.io.columns import Layout, role
 from dampfit.io.text import Table
 from dampfit.io.units import ACCEL_ALIASES
 
-__all__ = ["DAQ_EXTS", "daq_kind", "daq_table"]
-
 #: Extensions of the DAQ formats and the format each is.
 DAQ_EXTS = {".lvm": "lvm", ".tdms": "tdms", ".uff": "uff58", ".unv": "uff58"}
 #: The pip extra of each format's library.

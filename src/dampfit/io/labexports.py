@@ -38,8 +38,6 @@ from dampfit.errors import InputError
 from dampfit.io import bounded
 from dampfit.io.text import DECIMAL_COMMA, Table, is_number
 
-__all__ = ["is_logger_pro", "logger_pro_table", "split_runs", "native_file_hint"]
-
 #: A run label as Graphical Analysis writes it in front of a column name: ``Run 1:``,
 #: ``Latest:``, ``Data Set 2:`` (also ``Trial 3:``), and as Capstone writes it after the
 #: name: ``… Run #1`` (also ``… Run 1``).

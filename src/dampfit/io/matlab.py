@@ -40,8 +40,6 @@ import numpy as np
 
 from dampfit.errors import InputError
 
-__all__ = ["MatTable", "load", "is_mat", "HDF5_MAGIC"]
-
 #: The HDF5 signature; a v7.3 MAT-file has it at byte 512, after MATLAB's text header.
 HDF5_MAGIC = b"\x89HDF\r\n\x1a\n"
 _V5_COMPRESSED = 15  # miCOMPRESSED

@@ -18,8 +18,6 @@ import re
 
 from dampfit.io.text import is_number
 
-__all__ = ["strip_preamble", "MIN_TABLE_ROWS"]
-
 #: Numeric rows that must follow the table's first line for it to count as one.
 MIN_TABLE_ROWS = 5
 #: Lines looked at for the start of the table.

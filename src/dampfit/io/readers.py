@@ -126,8 +126,6 @@ from dampfit.io.recording import Recording, gap_summary, untangle
 from dampfit.io.text import PEEK_ROWS, Column, Table, text_table
 from dampfit.io.units import ACCEL_ALIASES, TIME_ALIASES, accel_block, canonical_unit, time_axis
 
-__all__ = ["read", "detect_format", "READ_OPTIONS"]
-
 #: The reading options of :func:`read`, as recorded in ``Recording.read_options`` and
 #: ``provenance.options`` (each is also a ``dampfit analyze`` option, ``_`` → ``-``).
 READ_OPTIONS = ("time_column", "accel_columns", "time_unit", "accel_unit", "sheet", "variable",

@@ -30,9 +30,6 @@ import numpy as np
 
 from dampfit.errors import InputError
 
-__all__ = ["Recording", "MIN_SAMPLES", "STANDARD_GRAVITY", "MAX_ACCEL", "time_segments",
-           "gap_summary", "untangle", "GAP_FACTOR", "MIN_GAP_S", "PLAUSIBLE_RATE_HZ"]
-
 #: Fewest samples a recording may have to be analysed at all.
 MIN_SAMPLES = 16
 #: Standard gravity [m/s²] (CGPM 1901), used to convert g to m/s².

@@ -23,8 +23,6 @@ import pandas as pd
 from dampfit.errors import InputError
 from dampfit.io import bounded
 
-__all__ = ["Column", "Table", "PEEK_ROWS", "DECIMAL_COMMA", "text_table", "is_number", "drop_empty_unnamed"]
-
 #: A column by name or by 0-based position.
 Column = str | int
 

@@ -26,9 +26,6 @@ from dampfit.errors import InputError
 from dampfit.io.recording import STANDARD_GRAVITY
 from dampfit.io.text import Column, Table
 
-__all__ = ["TIME_ALIASES", "ACCEL_ALIASES", "canonical_unit", "split_name", "name_words",
-           "infer_time_unit", "infer_accel_unit", "time_axis", "accel_block"]
-
 #: Seconds per unit of time.
 _TIME_FACTORS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 #: Integer ticks per second, for exact conversion of integer stamps.

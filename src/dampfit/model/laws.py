@@ -109,13 +109,6 @@ from dampfit._lazy import LazyModule
 #: command line and the outputs, which should not pay JAX's import (≈ 2 s) for them.
 jnp = LazyModule("jax.numpy")
 
-__all__ = [
-    "Law", "Coefficient", "Viscous", "ViscousM1", "Coulomb", "Quadratic", "Power", "LAWS", "get",
-    "names", "refresh", "MODELS", "SHAPE", "PRIOR_SHAPE", "MAX_PHASE", "P_RANGE", "lam",
-    "envelope", "phase",
-    "columns", "local_rate", "c_equivalent", "physical", "omega_index", "n_phase", "log_prior",
-]
-
 #: Envelope level treated as "stopped" [1]; local decay rates are also capped at ω
 #: (ζ_local ≤ 1), beyond which averaging has no meaning.
 _SMALL = 1e-9

@@ -56,9 +56,6 @@ import numpy as np
 from dampfit.model.laws import P_RANGE, ViscousM1
 from dampfit.model.profile import Sum
 
-__all__ = ["model", "n_modes", "order", "log_prior", "log_prior_volume", "to_theta",
-           "rates", "PARAMS_PER_MODE", "P_MAX"]
-
 #: Nonlinear parameters per mode: (ln p, ln ω_d).
 PARAMS_PER_MODE = 2
 #: Largest decay rate of a mode relative to its frequency, p/ω_d (ζ ≈ 0.2; MK3).

@@ -68,9 +68,6 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
 
-__all__ = ["Samples", "Profile", "Sum", "Joint", "profile", "predict", "log_marginal",
-           "marginal_and_amplitudes", "joint_log_marginal", "conditional_covariance"]
-
 
 class Samples(NamedTuple):
     """One recording's (padded) fit samples: ``tau`` [s], ``y`` [m/s²], orthonormal ``drift``

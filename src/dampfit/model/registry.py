@@ -11,8 +11,6 @@ from __future__ import annotations
 
 from dampfit.model import laws
 
-__all__ = ["BUILT_IN", "prior_weights", "register", "unregister"]
-
 #: The four laws of :mod:`dampfit.model.laws` (never removed).
 BUILT_IN = frozenset(("viscous", "coulomb", "quadratic", "power"))
 

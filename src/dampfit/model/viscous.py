@@ -40,19 +40,6 @@ import numpy as np
 from dampfit.model import profile as _profile
 from dampfit.model.laws import ViscousM1
 
-__all__ = [
-    "M1",
-    "oscillation_columns",
-    "acceleration",
-    "velocity",
-    "displacement",
-    "drift_basis",
-    "design_matrix",
-    "profile",
-    "log_marginal_likelihood",
-    "marginal_and_amplitudes",
-]
-
 
 def acceleration(tau, p, omega_d, a_cos, a_sin, xp=jnp):
     """Acceleration (M1) [m/s²] at times ``tau`` [s] after the window start.

@@ -8,8 +8,6 @@ The campaign's terminal table is :mod:`dampfit.output.text_campaign`, which also
 
 from __future__ import annotations
 
-__all__ = ["FIGURES"]
-
 #: File stem → caption of each campaign figure (the report shows the caption under it).
 FIGURES = {
     "forest": "Forest plot of the damping coefficient c of each test: the test alone (own "

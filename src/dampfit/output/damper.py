@@ -14,8 +14,6 @@ from typing import Any
 
 from dampfit.output.format import interval, lookup, quantiles
 
-__all__ = ["title", "rows", "other_label", "short"]
-
 
 def _num(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)

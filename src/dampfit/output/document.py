@@ -21,8 +21,6 @@ from typing import Any
 
 from dampfit.result.files import MAX_FIGURE_BYTES, REPORT_GENERATOR, REPORT_MARKERS, read_optional
 
-__all__ = ["Block", "GENERATOR", "PNG_MAGIC", "read_png", "render_html", "render_markdown"]
-
 #: The generator a report names in its first lines; the markers built from it (by which a
 #: refresh tells its own report from a foreign file) are defined once, where they are checked:
 #: :data:`dampfit.result.files.REPORT_MARKERS`.

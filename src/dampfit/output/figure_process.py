@@ -50,8 +50,6 @@ import threading
 from pathlib import Path
 from typing import Any
 
-__all__ = ["FigureProcess", "TIMEOUT_S", "main"]
-
 #: Longest wait [s] for the process's answer after the finished analysis was sent; then it
 #: is stopped and the figures are drawn here.
 TIMEOUT_S = 120.0

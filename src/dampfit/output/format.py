@@ -25,9 +25,6 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["baseline", "decimals", "estimate", "fixed", "interval", "lookup", "own_spread", "point",
-           "quantiles", "real", "formatted", "with_interval"]
-
 #: z-value of the two-sided 90 % interval of a normal distribution: a spread ± 1.645·sd.
 Z90 = 1.645
 

@@ -24,8 +24,6 @@ from dampfit.output import damper as damper_rows
 from dampfit.output.format import baseline, estimate, formatted, interval, with_interval
 from dampfit.physics import UNITS
 
-__all__ = ["headline", "html_table", "text"]
-
 #: Row label of each posterior quantity: name and unit (:data:`dampfit.physics.UNITS`).
 _LABELS = {name: f"{name:6s} [{UNITS[name]}]"
            for name in ("c", "k", "u0", "zeta", "f_n", "p", "delta")}

@@ -23,8 +23,6 @@ from dampfit.output.format import formatted, lookup, quantiles, real, with_inter
 from dampfit.physics import UNITS
 from dampfit.result.schema import unique_warnings
 
-__all__ = ["POPULATION", "labels", "shown_quantity", "tests", "text"]
-
 #: Population quantities of the table, in order (m₀ only in added-mass mode).
 POPULATION = ("c", "k", "zeta", "f_n", "m0")
 _UNITS = {**UNITS, "m0": "kg"}

@@ -18,5 +18,3 @@ from dampfit.record.session import Recorded as Recorded
 from dampfit.record.session import record as record
 from dampfit.record.session import write_recording as write_recording
 
-__all__ = ["PhyphoxClient", "Recorded", "check_url", "record", "write_experiment",
-           "write_recording"]

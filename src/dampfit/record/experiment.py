@@ -36,8 +36,6 @@ from pathlib import Path
 
 from dampfit.files.atomic import atomic_write, check_output_file
 
-__all__ = ["EXPERIMENT", "QR_CHUNK", "experiment_bytes", "qr_payloads", "write_experiment"]
-
 #: File name of the shipped experiment.
 EXPERIMENT = "dampfit-decay.phyphox"
 #: Largest chunk [bytes] per QR code (what phyphox's own editor uses: dense codes stay

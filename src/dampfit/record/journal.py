@@ -22,8 +22,6 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["Journal", "PARTIAL"]
-
 #: The file the samples stream into.
 PARTIAL = "recording.partial.csv"
 

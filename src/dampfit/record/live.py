@@ -38,8 +38,6 @@ import time
 
 import numpy as np
 
-__all__ = ["DECAYING", "DONE", "Detector", "GAP_S", "LiveLine", "MAX_BLOCKS", "WAITING"]
-
 WAITING = "waiting for the release"
 DECAYING = "decaying"
 DONE = "done"

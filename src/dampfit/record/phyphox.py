@@ -66,10 +66,6 @@ import numpy as np
 
 from dampfit.errors import InputError
 
-__all__ = ["AccelInput", "Chunk", "Config", "ConnectionLost", "NotPhyphox", "PhyphoxClient",
-           "Status", "check_url", "parse_config", "parse_get", "parse_get_body", "parse_meta",
-           "parse_time", "text", "values_in"]
-
 #: Sensor names of the file format that are accelerometers, in order of preference: the
 #: shipped experiment uses the one without g.
 ACCEL_SOURCES = ("linear_acceleration", "accelerometer")

@@ -47,9 +47,6 @@ from dampfit.errors import InputError
 from dampfit.record.live import DONE, GAP_S, Detector, LiveLine
 from dampfit.record.phyphox import Chunk, ConnectionLost, NotPhyphox, PhyphoxClient
 
-__all__ = ["CSV", "DEFAULT_DURATION", "JSON", "MAX_DURATION", "MAX_RATE_HZ", "POLL_S",
-           "Recorded", "STALL_S", "quantisation_note", "record", "write_recording"]
-
 #: File names in the result folder.
 CSV, JSON = "recording.csv", "recording.json"
 #: Default and largest ``--duration`` [s] of phone time.

@@ -10,4 +10,3 @@ and nothing above: the result classes import this package, not the other way rou
 from dampfit.result.schema import SCHEMA_VERSION as SCHEMA_VERSION
 from dampfit.result.schema import read_summary as read_summary
 
-__all__ = ["SCHEMA_VERSION", "read_summary"]

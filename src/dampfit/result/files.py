@@ -32,10 +32,6 @@ from pathlib import Path
 from dampfit.errors import InputError, shown
 from dampfit.io import bounded
 
-__all__ = ["DIGESTED", "ForeignFile", "check_digest", "digest_fd", "file_digests", "MAX_FIGURE_BYTES", "MAX_SIDE_BYTES", "MAX_VERIFICATION_BYTES", "REPORT_GENERATOR",
-           "REPORT_MARKERS", "Unusable", "open_regular", "read_optional", "read_regular",
-           "written_by_dampfit"]
-
 #: Largest verification.json read [bytes]; ``dampfit verify`` writes a few kB.
 MAX_VERIFICATION_BYTES = 16 * 2**20
 #: Largest PNG figure embedded in a report [bytes]; dampfit's figures are below 1 MB.

@@ -39,10 +39,6 @@ from dampfit.result.files import Unusable, check_digest, open_regular
 from dampfit.result.schema import Summary, folder_of, is_campaign, read_summary
 from dampfit.result.signals import KNOWN_KEYS, SIGNAL_KEYS, check_signals
 
-__all__ = ["LIVE_FIELDS", "Loaded", "check_files", "MAX_DECLARED_RATIO", "MAX_POSTERIOR_BYTES",
-           "MAX_SIGNALS_BYTES", "SIGNAL_KEYS", "Unavailable", "load_signals", "open_result",
-           "read_posterior", "real"]
-
 #: Largest posterior.nc read [bytes]: the longest chain ``--max-steps`` allows is ≈ 2 GB.
 MAX_POSTERIOR_BYTES = 4 * 2**30
 #: Largest signals.npz read [bytes]: the analysed window of a recording, a few MB.

@@ -226,11 +226,6 @@ from dampfit.errors import InputError
 from dampfit.errors import shown
 from dampfit.result import files
 
-__all__ = ["MAX_DEPTH", "MAX_MAGNITUDE", "MAX_SUMMARY_BYTES", "MAX_WARNINGS_SHOWN",
-           "MIN_POSITIVE", "SCHEMA_VERSION", "Summary", "brief", "folder_of", "is_campaign",
-           "not_a_result", "number", "parse_json", "read_regular", "read_summary",
-           "unique_warnings"]
-
 #: Version of the summary.json layout :meth:`dampfit.analysis.Analysis.summary` writes (its
 #: ``schema_version``). 0: written before the field existed (same layout as 1).
 SCHEMA_VERSION = 1

@@ -58,9 +58,6 @@ from dampfit.errors import shown
 from dampfit.signal.display import MAX_DOTS as _DISPLAY_DOTS
 from dampfit.signal.display import MAX_LINE_POINTS, MAX_RUNS
 
-__all__ = ["FIGURE_GROUPS", "KNOWN_KEYS", "MAX_AXES", "MAX_DOTS", "MAX_LINE", "SIGNAL_KEYS",
-           "check_signals", "group_of", "write_npz"]
-
 #: Arrays and scalars ``signals.npz`` must hold.
 SIGNAL_KEYS = ("t", "accel", "accel_model", "displacement", "displacement_model", "p",
                "omega_d", "t0")

@@ -8,8 +8,6 @@ comes from posterior.nc and the convergence from summary.json, never from a live
 
 from __future__ import annotations
 
-__all__ = ["ResultViews"]
-
 
 class ResultViews:
     """``posterior`` and ``converged`` of a live or loaded result; a subclass has the fields

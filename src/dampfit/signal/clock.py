@@ -53,8 +53,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import interpolate, ndimage, signal
 
-__all__ = ["KAPPA_Z", "KAPPA_MIN", "KAPPA_MAX", "ClockCheck", "steady_clock", "check"]
-
 #: κ̂ must exceed this many standard errors before the samples are moved (a false move costs
 #: little — δ is small — but results on regular stamps must not change).
 KAPPA_Z = 4.0

@@ -45,8 +45,6 @@ from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 from dampfit.signal import masks
 
-__all__ = ["Decimation", "reduce", "DECIMATE_ABOVE", "RATE_FACTOR", "MAX_ANALYSED", "CHUNK"]
-
 #: A recording of at most this many samples is analysed as read (every result up to this
 #: size is the same as before decimation existed).
 DECIMATE_ABOVE = 1_000_000

@@ -20,10 +20,6 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["MAX_DOTS", "MAX_LINE_POINTS", "MAX_RUNS", "bounded_runs", "distance_to",
-           "keep_extremes", "robust_limits", "runs", "spectrum_limit", "ZOOM_CYCLES",
-           "zoom_ranges"]
-
 #: Most points drawn per line (longer lines are reduced by min/max per bucket): 2 000 buckets,
 #: more than the pixel columns of the widest axes (10.5 in) at the default 110 dpi.
 MAX_LINE_POINTS = 4_000

@@ -15,8 +15,6 @@ from scipy import signal
 
 from dampfit.errors import InputError
 
-__all__ = ["bandpass_sos", "lowpass_sos", "bandpass", "lowpass", "filtfilt_gain"]
-
 
 def bandpass_sos(band: tuple[float, float], fs: float, order: int = 4) -> np.ndarray:
     """Second-order sections of a Butterworth band-pass ``band`` = (lo, hi) [Hz] at rate ``fs`` [Hz]."""

@@ -12,9 +12,6 @@ from scipy import ndimage, signal
 
 from dampfit.signal.window import running_median
 
-__all__ = ["stale_mask", "clipped", "spikes", "gross_spikes", "STALE_FRACTION", "SPIKE_SIGMA",
-           "GROSS_SPIKE", "GROSS_RUN"]
-
 #: Fraction of exactly repeated samples above which repeats are treated as stale reads.
 STALE_FRACTION = 0.10
 #: Robust z-score above which a sample deviating from its running median is a spike.

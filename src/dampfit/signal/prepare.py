@@ -60,8 +60,6 @@ from dampfit.signal.window import (
     DROP_PERIODS, RAYLEIGH_MEAN, detect_window, envelope_drops, impacts, later_decay, noise_floor,
 )
 
-__all__ = ["Prepared", "FitData", "Padded", "prepare", "fit_data", "padded_length"]
-
 #: Fewest oscillation cycles a free-decay window must hold.
 MIN_CYCLES = 3.0
 #: Drift basis: one Legendre degree per this many oscillation cycles in the window, up to a

@@ -20,9 +20,6 @@ from scipy import signal
 from dampfit.errors import InputError
 from dampfit.signal import filters
 
-__all__ = ["BAND_FACTOR", "AXIS_SHARE_MIN", "dominant_frequency", "parabolic_peak", "auto_band",
-           "noise_density", "axis_share_warning"]
-
 #: Band edges relative to the dominant frequency for the automatic band.
 BAND_FACTOR = 1.5
 

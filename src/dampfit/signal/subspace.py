@@ -57,9 +57,6 @@ from dampfit.errors import InputError
 from dampfit.signal import filters
 from dampfit.signal.spectrum import parabolic_peak
 
-__all__ = ["Pole", "PencilResult", "matrix_pencil", "mdl_order", "gap_order", "floor_order",
-           "spectrum_peaks", "uniform_window", "MAX_PENCIL", "MAX_SAMPLES", "FLOOR_FACTOR"]
-
 #: Largest pencil parameter L (the SVD costs O(N·L²)).
 MAX_PENCIL = 200
 #: Most samples decomposed (the start of the window: every mode is strongest there).

@@ -24,10 +24,6 @@ from scipy import ndimage
 
 from dampfit.signal.spectrum import noise_density
 
-__all__ = ["IMPACT_RATIO", "DROP_PERIODS", "END_REASONS", "RAYLEIGH_MEAN", "PEAK_NOISE",
-           "PEAK_RIPPLE", "envelope_drops", "detect_window", "noise_floor", "impacts",
-           "passes_through", "release_time", "running_median"]
-
 #: A spike this many times the oscillation's envelope ends the free decay (catch or knock).
 IMPACT_RATIO = 10.0
 #: An envelope flat within this many noise floors or this fraction of its maximum (the

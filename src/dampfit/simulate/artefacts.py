@@ -17,8 +17,6 @@ from dampfit.files.writers import DIALECTS, write_phyphox_csv, write_truth  # re
 from dampfit.physics import quantities, to_decay
 from dampfit.simulate.config import SimulationConfig, noise_sigma
 
-__all__ = ["recording_truth", "modes_truth", "envelope_at", "write_phyphox_csv", "write_truth", "DIALECTS"]
-
 
 def recording_truth(cfg: SimulationConfig, t_catch: float | None, direction: np.ndarray) -> dict[str, Any]:
     """JSON-safe truth of ``cfg`` (the catch at ``t_catch`` [s] or None, the unit motion

@@ -19,8 +19,6 @@ from dampfit.simulate.config import (MAX_SIM_SAMPLES, MAX_U0, SimulationConfig,
                                      check_limits)
 from dampfit.simulate.synthesis import recording
 
-__all__ = ["campaign", "MAX_TESTS", "MAX_C_SPREAD"]
-
 #: Most tests in one simulated campaign (the recordings are all held in memory).
 MAX_TESTS = 100
 #: Standard normal 95 % quantile: the 90 % predictive interval is median·e^{±1.645·σ}.

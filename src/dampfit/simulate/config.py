@@ -18,10 +18,6 @@ from dampfit.errors import InputError
 from dampfit.io.recording import STANDARD_GRAVITY
 from dampfit.physics import MAX_MASS, check_mass, critical_damping, stiffness
 
-__all__ = ["SimulationConfig", "check_limits", "PRESETS", "preset", "from_modal", "catch_time",
-           "noise_sigma", "TWO_PI", "AXES", "GAP_LENGTH", "MAX_SIM_SAMPLES", "MAX_SAMPLE_RATE",
-           "MIN_SAMPLES", "MAX_U0", "MAX_NOISE_DENSITY", "MAX_ACCEL", "MAX_TIMESTAMP_JITTER"]
-
 TWO_PI = 2.0 * math.pi
 #: The phone axes, in the cyclic order the tilt's azimuth is measured in.
 AXES = ("x", "y", "z")

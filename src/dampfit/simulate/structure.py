@@ -32,8 +32,6 @@ import numpy as np
 from dampfit.errors import InputError
 from dampfit.io.recording import Recording
 
-__all__ = ["clipped", "nonlinear", "modulated", "drifting", "two_modes", "KINDS"]
-
 #: The structured cases by name (``paper/modes_false_rate.py``).
 KINDS = ("clipped", "coulomb", "quadratic", "modulated", "drifting", "mode_at_2f", "close_pair")
 

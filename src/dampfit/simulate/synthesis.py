@@ -53,8 +53,6 @@ from dampfit.simulate.artefacts import recording_truth
 from dampfit.simulate.config import (AXES, GAP_LENGTH, TWO_PI, SimulationConfig, catch_time,
                                      noise_sigma)
 
-__all__ = ["recording", "free_decay", "extra_modes"]
-
 #: Hand-tremor band [Hz] and rms per axis [m/s²].
 _TREMOR_BAND = (3.0, 12.0)
 _TREMOR_RMS = 0.1

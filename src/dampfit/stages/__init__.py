@@ -50,14 +50,6 @@ from dampfit.io.recording import Recording
 from dampfit.signal import display
 from dampfit.signal import prepare
 
-__all__ = ["FitStages", "ViscousStages", "ModesStage", "modes_stage", "modes_disagreement",
-           "one_mode_values", "MIN_EXPLAINED", "NOISE_FREE_POWER", "PLAUSIBLE_F0_HZ",
-           "PLAUSIBLE_K_N_PER_M", "POSSIBLE_RATE_HZ", "R_WARN", "assess_damping",
-           "crlb_stage", "figure_signals", "fit_stages", "fit_summary",
-           "fitted_curve", "initial_decay_rate", "ls_quantities", "ls_summary",
-           "refuse_impossible_time", "sampling_summary", "unit_plausibility", "viscous_stages",
-           "window_signals"]
-
 #: A PSD ratio r above this many times its white-noise value signals residual structure.
 R_WARN = noise.R_WARN
 

@@ -42,9 +42,6 @@ from dampfit._options import DEFAULT_MAX_MODES, DEFAULT_MAX_STEPS, DEFAULT_MIN_E
 from dampfit.errors import InputError
 from dampfit.signal import prepare
 
-__all__ = ["ModesStage", "modes_stage", "modes_disagreement", "one_mode_values", "fundamental",
-           "split_partners", "drift_partners", "unresolved_pair_note"]
-
 #: One-mode damping verdicts (:mod:`dampfit.damping`) under which any close pair at the
 #: one-mode frequency may be that mode split in two (:func:`~dampfit.inference.modes_close.split_pair`).
 SPLIT_VERDICTS = ("amplitude-dependent", "misfit")

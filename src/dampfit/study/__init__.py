@@ -26,8 +26,6 @@ not use :mod:`dampfit.result`. Nothing heavy is imported here at the top.
 
 from __future__ import annotations
 
-__all__ = ["load", "run_study"]
-
 
 def load(path, available=None):
     """Read and validate a study file (see :func:`dampfit.study.config.load`); estimator names

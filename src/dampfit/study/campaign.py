@@ -49,9 +49,6 @@ from dampfit.errors import InputError
 from dampfit._json import finite
 from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 
-__all__ = ["CHECKS", "added_masses", "check_scenario", "empty_row", "per_test", "run",
-           "score", "streams", "truth"]
-
 #: The coverage flags of a row (``covers_<name>``), in table order.
 CHECKS = ("c", "k", "m0", "zeta", "predictive_c", "predictive_zeta", "spread")
 #: Spawn key of the run's second stream (analysis seed and the new test's z): far beyond the

@@ -11,8 +11,6 @@ import pandas as pd
 
 from dampfit.files.atomic import atomic_write
 
-__all__ = ["save_campaign_figures", "save_figures"]
-
 
 def _save(fig, path: Path) -> None:
     """Save atomically (:func:`dampfit.files.folder.atomic_write`)."""

@@ -48,8 +48,6 @@ from dampfit.study.config.study import DEFAULT_MAX_MODES
 from dampfit.study.registry import (BAYES_MIN_ESS, Z90, Estimate, estimate_from,
                                     failed_estimate)
 
-__all__ = ["DEFAULT_MAX_MODES", "MODE_ESTIMATORS", "Shared", "match", "run"]
-
 
 
 class Shared:

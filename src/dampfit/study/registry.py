@@ -46,9 +46,6 @@ from dampfit import physics
 from dampfit.signal.prepare import Prepared
 from dampfit.io.recording import Recording
 
-__all__ = ["Estimate", "ESTIMATORS", "run", "BAYES_MIN_ESS", "Z90", "estimate_from",
-           "failed_estimate"]
-
 #: Bulk ESS the "bayes" estimator asks for (the CLI default is 1000; 400 keeps studies fast).
 BAYES_MIN_ESS = 400.0
 #: Two-sided 90 % normal quantile.

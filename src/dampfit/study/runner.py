@@ -32,8 +32,6 @@ from dampfit.cluster import check_workers, client as dask_client
 from dampfit.study.store import Store
 from dampfit.study.task import run_task
 
-__all__ = ["StudyIncomplete", "run_study"]
-
 class StudyIncomplete(Exception):
     """Some runs did not finish (a worker died); the finished ones are stored."""
 

@@ -10,8 +10,6 @@ from typing import Any
 
 from dampfit.files.runlog import MAX_RECORD_BYTES, RunStore
 
-__all__ = ["MAX_RECORD_BYTES", "OUTPUTS", "Store", "check_record"]
-
 #: Files the study writes (and ``--force`` removes); nothing else in DIR is touched.
 OUTPUTS = ("study.json", "runs.jsonl", "runs.csv", "runs.parquet", "aggregate.csv",
            "ranking.csv", "summary.md", "ranking.png", "coverage.png")

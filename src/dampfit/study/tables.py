@@ -41,9 +41,6 @@ import pandas as pd
 
 from dampfit.study.config import StudyConfig
 
-__all__ = ["aggregate", "campaign_aggregate", "coverage_view", "markdown", "ranking", "runs_frame",
-           "scenario_labels"]
-
 
 def scenario_labels(cfg: StudyConfig) -> dict[str, str]:
     """Short label of each scenario from its varying grid fields, e.g. ``zeta=0.002 duration=30``."""

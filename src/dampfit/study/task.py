@@ -49,9 +49,6 @@ from dampfit._json import finite
 from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 from dampfit.study.config import Task, sim_config
 
-__all__ = ["QUANTITIES", "crlb_design", "crlb_design_modes", "run_campaign_task", "run_task",
-           "true_modes"]
-
 #: Quantities compared with the truth, with the bound's key for each.
 QUANTITIES = ("p", "f_n", "zeta", "c")
 

@@ -47,11 +47,6 @@ from dampfit.output.figures.png import drawing, save_png, write_png
 from dampfit.output.figures.posterior import posterior_figure, trace_figure
 from dampfit.output.figures.recording import signal_figure, spectrum_figure
 
-__all__ = ["FIGURES", "FigureData", "MissingData", "NEEDS", "Redrawn", "amplitude_figure",
-           "amplitude_of", "displacement_figure", "drawing", "fit_figure", "modes_figure", "posterior_figure",
-           "redraw_missing", "render", "save_figures", "save_png", "signal_figure",
-           "spectrum_figure", "trace_figure", "write_png"]
-
 #: name → figure function; the name is also the PNG file stem.
 FIGURES: dict[str, Callable[[Any], Any]] = {
     "signal": signal_figure,

@@ -21,8 +21,6 @@ from dampfit.output.figures.data import as_data, plain, unit
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["amplitude_figure", "amplitude_of"]
-
 #: Colour of a law whose curve names none (an older summary.json: the four laws' own colours,
 #: which every law now carries itself, :attr:`dampfit.model.laws.Law.colour`).
 _OLD_COLOURS = {"viscous": "0.45", "coulomb": "tab:orange", "quadratic": "tab:green",

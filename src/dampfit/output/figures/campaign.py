@@ -31,8 +31,6 @@ from dampfit.result.folder import real
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["DRAW", "added_mass_figure", "forest_figure", "save_figures"]
-
 
 def forest_figure(s: dict[str, Any]) -> "Figure | None":
     """Forest plot of per-test c (ζ without a mass): own and pooled 90 % intervals, the

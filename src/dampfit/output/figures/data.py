@@ -26,9 +26,6 @@ from dampfit import physics
 from dampfit.errors import InputError
 from dampfit.result.signals import FIGURE_GROUPS
 
-__all__ = ["DATA_KEYS", "FigureData", "LABELS", "MissingData", "as_data", "fmt", "label",
-           "plain", "unit"]
-
 #: Symbol and unit (:data:`dampfit.physics.UNITS`, "N s/m" drawn as "N·s/m") of each quantity.
 LABELS = {
     name: (sym, physics.UNITS[name].replace(" ", "·"))

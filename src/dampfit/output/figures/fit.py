@@ -23,8 +23,6 @@ from dampfit.signal.display import MAX_DOTS, ZOOM_CYCLES, keep_extremes, zoom_ra
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["displacement_figure", "fit_figure"]
-
 
 def fit_figure(an: Any) -> "Figure":
     """Fitted samples and the least-squares model: whole window, first/last cycles, residuals.

@@ -27,11 +27,6 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["EDGE", "LABEL_PAD", "PT", "SIZE", "SUPTITLE", "TICK", "TITLE_PAD", "above",
-           "compact_ticks", "gridspec", "legend_above", "lift_titles", "line", "log_ticks",
-           "new_figure", "offset", "place", "spans", "suptitle", "text_width", "tick_texts",
-           "ticks_width", "title", "top", "unicode_formatter", "unmath", "x_room", "y_room"]
-
 PT = 1.0 / 72.0  #: [in] per typographic point
 EDGE = 5 * PT  #: free border of the figure [in]
 TICK = 7 * PT  #: tick length + tick-label pad [in] (matplotlib's 3.5 + 3.5 pt)

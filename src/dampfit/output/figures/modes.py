@@ -26,8 +26,6 @@ from dampfit.output.format import interval, quantiles
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["marked_modes", "modes_figure"]
-
 _COLORS = ("tab:red", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive",
            "tab:cyan", "tab:orange")
 

@@ -25,8 +25,6 @@ from dampfit.files.atomic import atomic_write
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["PNG_COMPRESSION", "drawing", "release", "save_png", "write_png"]
-
 #: zlib level of the PNG files: 1 encodes about twice as fast as Pillow's default 6; without
 #: the alpha channel the seven figures are then no larger than matplotlib's RGBA files at 6.
 PNG_COMPRESSION = 1

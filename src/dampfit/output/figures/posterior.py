@@ -24,9 +24,6 @@ from dampfit.output.format import interval
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["KDE_DRAWS", "MAX_SCATTER_POINTS", "SCATTER_SEED", "contours", "density",
-           "posterior_figure", "quantiles", "trace_figure", "variables"]
-
 #: Most points drawn in one scatter (random subsample).
 MAX_SCATTER_POINTS = 4_000
 #: Seed of the scatter's subsample: the same draws give the same figure.

@@ -20,8 +20,6 @@ from dampfit.output.figures.data import MissingData, as_data, plain
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
-__all__ = ["signal_figure", "spectrum_figure"]
-
 _AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown")
 
 

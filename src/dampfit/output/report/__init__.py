@@ -44,5 +44,3 @@ from dampfit.output.report.build import write_report as write_report
 from dampfit.output.report.reproduce import campaign_reproduce_command as campaign_reproduce_command
 from dampfit.output.report.reproduce import reproduce_command as reproduce_command
 
-__all__ = ["GENERATOR", "PNG_MAGIC", "build", "campaign_reproduce_command", "load",
-           "render_html", "render_markdown", "reproduce_command", "write_report"]

@@ -26,8 +26,6 @@ from dampfit.result.files import (MAX_VERIFICATION_BYTES, REPORT_MARKERS, read_o
                                   written_by_dampfit)
 from dampfit.result.schema import folder_of, parse_json, read_summary
 
-__all__ = ["build", "load", "write_report"]
-
 
 def load(directory: str | os.PathLike | Any) -> dict[str, Any]:
     """Read ``DIR/summary.json`` (required; by the one reader of result folders,

@@ -25,8 +25,6 @@ from dampfit.output.report.values import (NAMES, UNITS, bracket, figure, finite,
 from dampfit.output.text_campaign import labels
 from dampfit.result.schema import unique_warnings
 
-__all__ = ["CAMPAIGN_NAMES", "CAMPAIGN_UNITS", "build_campaign"]
-
 # A campaign folder (several recordings of one damper, summary "kind": "campaign";
 # dampfit.campaign): design, population table with the predictive interval and the spread,
 # per-test table, the verdict, the forest and added-mass figures.

@@ -16,8 +16,6 @@ from dampfit.output.report.reproduce import not_computed
 from dampfit.output.report.values import (UNITS, figure, finite, generic, get, isnum, label_of,
                                           number, spec, with_interval)
 
-__all__ = ["CRITERIA_WORDS", "VERDICT_WORDS", "amplitude", "model_checks"]
-
 
 #: The adequacy verdicts (:data:`dampfit.damping.checks.VERDICTS`) in plain words — the rule
 #: of :func:`dampfit.damping.checks.adequacy`, which needs evidence both ways; ``{c}`` is c, or

@@ -27,8 +27,6 @@ from dampfit.output.document import Block
 from dampfit.output.report.values import (finite, figure, get, isnum, number, spec,
                                           with_interval)
 
-__all__ = ["CONVENTIONS", "FLAG_INFLATION", "inverse_q", "modes_blocks", "several_modes"]
-
 #: The CRLB inflation above which a pair is flagged: the value of
 #: :data:`dampfit.inference.modes_close.FLAG_INFLATION` (the report imports no numeric code;
 #: a test holds the two equal).

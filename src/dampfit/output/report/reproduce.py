@@ -24,9 +24,6 @@ from dampfit.files.folder import DEMO_MARKER, read_marker
 from dampfit.output.document import Block
 from dampfit.output.report.values import finite, get
 
-__all__ = ["campaign_reproduce_command", "is_demo", "not_computed", "own_input",
-           "reanalysis_folder", "reproduce_blocks", "reproduce_command"]
-
 
 def is_demo(s: dict, directory: Path) -> bool:
     """Whether ``directory`` is a folder ``dampfit demo`` wrote (its truth file is there)."""

@@ -39,8 +39,6 @@ from dampfit.output.report.values import (DERIVED, MAIN, NAMES, UNITS, baseline_
 from dampfit.result.files import MAX_SIDE_BYTES, read_optional
 from dampfit.result.schema import parse_json, unique_warnings
 
-__all__ = ["BASELINES", "build_single", "crlb_sd"]
-
 #: The seed paper's baselines by summary key, as the methods table names them.
 BASELINES = {"log_decrement": "logarithmic decrement, seed paper baseline (paper eqs 9, 13, 15)",
              "envelope_pipeline": "envelope pipeline, seed paper baseline (paper eqs 3, 4; "

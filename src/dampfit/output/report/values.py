@@ -23,10 +23,6 @@ from dampfit.output.format import (baseline, formatted, interval, lookup, point,
 from dampfit.output.format import estimate as estimate_text
 from dampfit.output.format import with_interval as interval_text
 
-__all__ = ["DERIVED", "FIGURES", "LABELS", "MAIN", "NAMES", "UNITS", "baseline_value",
-           "bracket", "estimate", "figure", "finite", "generic", "get", "isnum", "label_of",
-           "median", "more_warnings", "number", "spec", "unit_of", "with_interval"]
-
 #: The headline quantities (the result table) and the derived ones.
 MAIN = ("c", "k", "u0", "zeta", "f_n")
 DERIVED = ("p", "f_d", "delta", "Q", "c_crit")

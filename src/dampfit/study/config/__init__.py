@@ -91,5 +91,3 @@ from dampfit.study.config.study import run_seed as run_seed
 from dampfit.study.config.study import scenario_id as scenario_id
 from dampfit.study.config.study import sim_config as sim_config
 
-__all__ = ["CAMPAIGN_AXES", "CAMPAIGN_KEYS", "FIELDS", "MAX_RUNS", "StudyConfig", "Task", "load",
-           "parse", "run_seed", "scenario_id", "sim_config"]

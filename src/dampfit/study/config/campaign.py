@@ -10,9 +10,6 @@ from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
 from dampfit.errors import InputError
 from dampfit.study.config.fields import number
 
-__all__ = ["CAMPAIGN_AXES", "CAMPAIGN_KEYS", "CAMPAIGN_LISTS", "CAMPAIGN_SETTINGS",
-           "campaign_table", "campaign_value"]
-
 #: [campaign] settings that may also be [grid] axes (scenario fields), with their kind.
 CAMPAIGN_AXES: dict[str, str] = {"tests": "int", "c_spread": "float", "added_mass_fraction": "float"}
 #: Per-test lists of [campaign] (scenario fields, one value per test).

@@ -20,8 +20,6 @@ from typing import Any
 
 from dampfit.errors import InputError
 
-__all__ = ["FIELDS", "MAX_EXTRA_MODES", "check_field", "field_value", "number"]
-
 #: Simulator fields a study may set, with their kind: float, int, bool, str, bias or modes.
 FIELDS: dict[str, str] = {
     "f_n": "float", "zeta": "float", "u0": "float", "duration": "float", "sample_rate": "float",

@@ -23,9 +23,6 @@ from dampfit.study.config.campaign import (CAMPAIGN_AXES, CAMPAIGN_KEYS, CAMPAIG
                                            campaign_table, campaign_value)
 from dampfit.study.config.fields import check_field, field_value
 
-__all__ = ["MAX_RUNS", "StudyConfig", "Task", "load", "parse", "run_seed", "scenario_id",
-           "sim_config"]
-
 _STUDY_KEYS = {"name", "replicates", "seed", "estimators", "mass", "max_replicates", "max_modes"}
 _DEFAULT_MASS = 5.3  # [kg] simulated mass when [study] mass is omitted (the seed paper's)
 #: Largest number of modes the several-mode estimators try when [study] max_modes is omitted.
