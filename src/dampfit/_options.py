@@ -31,9 +31,7 @@ from dampfit.errors import InputError
 SEED_LIMIT = 2**32
 #: Largest max_steps: the stored chain grows with it (10⁶ steps × 64 walkers ≈ 2 GB).
 MAX_STEPS = 10**6
-#: Default and largest max_modes: :data:`dampfit.inference.modes.DEFAULT_MAX_MODES` and
-#: :data:`~dampfit.inference.modes.MAX_MODES_LIMIT` (not imported: that module imports JAX,
-#: and the parser is built before the scientific stack; a test checks they agree).
+#: Default and largest max_modes (here only: :mod:`dampfit.inference.modes` imports them).
 DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
 #: max_modes when not given, for one recording (paper/modes.md) and for a campaign's tests
 #: (their own modes are opt-in).

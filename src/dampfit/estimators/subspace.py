@@ -21,6 +21,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from dampfit import physics
+from dampfit._options import DEFAULT_MAX_MODES
 from dampfit.errors import InputError
 from dampfit.signal import subspace
 from dampfit.signal.prepare import Prepared
@@ -44,7 +45,7 @@ class ModeEstimate:
         return asdict(self)
 
 
-def subspace_modes(prep: Prepared, *, max_modes: int = 4,
+def subspace_modes(prep: Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
                    band: tuple[float, float] | None = None) -> list[ModeEstimate]:
     """The subspace baseline's modes of ``prep`` (module docstring), by frequency.
 

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED
 from dampfit.inference.posterior import ensemble, run_adaptive
 from dampfit.inference.sampler_run import SamplerRun, Stop, diagnose
 from dampfit.inference import law_fit
@@ -229,7 +230,8 @@ def sample_laplace(mf: law_fit.ModelFit, data: law_fit.Data, n_draws: int = 2000
 
 
 def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, float], *,
-                 seed: int = 0, min_ess: float = 1000.0, max_steps: int = 20000,
+                 seed: int = DEFAULT_SEED, min_ess: float = DEFAULT_MIN_ESS,
+                 max_steps: int = DEFAULT_MAX_STEPS,
                  progress: bool = False, budget: Budget | None = None) -> ModelPosterior:
     """emcee posterior of one law with the tempered likelihood (module docstring).
 

@@ -53,6 +53,7 @@ import jax.scipy.linalg as jsl
 import numpy as np
 from scipy import ndimage
 
+from dampfit._options import DEFAULT_MAX_MODES, MAX_MODES_LIMIT  # modes tried by default, the most accepted
 from dampfit.errors import InputError
 from dampfit.inference.executables import kernel
 from dampfit.model import modes as mm
@@ -60,8 +61,6 @@ from dampfit.model import profile
 from dampfit.signal.prepare import MAX_DRIFT_DEGREE, MIN_CYCLES, FitData, Prepared, fit_data
 from dampfit.signal.window import END_REASONS, IMPACT_RATIO, impacts, running_median
 
-#: Modes tried by default, and the most the options accept.
-DEFAULT_MAX_MODES, MAX_MODES_LIMIT = 4, 8
 #: Band (MS1): a factor below and above the dominant frequency.
 BAND_RATIO = 8.0
 #: A rise of the one-period envelope mean by more than this factor within one period is a new

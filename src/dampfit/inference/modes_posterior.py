@@ -68,6 +68,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from dampfit import physics
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED
 from dampfit._progress import stage_bar
 from dampfit.inference import posterior as _post
 from dampfit.inference.executables import kernel
@@ -243,8 +244,8 @@ def budget(n_modes: int, max_seconds: float | None = None) -> Budget:
 
 
 def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
-           mode_of_mass: int | None = None, seed: int = 0, min_ess: float = 1000.0,
-           max_steps: int = 20000, budget: Budget | None = None) -> ModalPosterior:
+           mode_of_mass: int | None = None, seed: int = DEFAULT_SEED, min_ess: float = DEFAULT_MIN_ESS,
+           max_steps: int = DEFAULT_MAX_STEPS, budget: Budget | None = None) -> ModalPosterior:
     """Sample the posterior of the chosen K of ``sel`` (a
     :class:`~dampfit.inference.modes_select.ModeSelection`); see the module docstring.
 

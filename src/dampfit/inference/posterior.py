@@ -59,6 +59,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from dampfit import physics
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED
 from dampfit.model import profile
 from dampfit.model.viscous import M1
 from dampfit.inference.executables import kernel
@@ -186,8 +187,8 @@ def mass_draws(mass: float | None, mass_sd: float, size, rng) -> np.ndarray | No
 
 
 def sample(target: Target, ls: LeastSquaresResult, *, mass: float | None = None,
-           mass_sd: float = 0.0, seed: int = 0, min_ess: float = 1000.0,
-           max_steps: int = 20000, progress: bool = False) -> SamplerRun:
+           mass_sd: float = 0.0, seed: int = DEFAULT_SEED, min_ess: float = DEFAULT_MIN_ESS,
+           max_steps: int = DEFAULT_MAX_STEPS, progress: bool = False) -> SamplerRun:
     """Sample the posterior of ``target`` from the least squares ``ls``; see the module
     docstring for the model, priors and stopping rule. ``mass``, ``mass_sd`` [kg]; ``seed``
     makes the run reproducible. The result's ``idata`` holds the draws, its ``warnings`` say

@@ -20,6 +20,7 @@ import os
 import shlex
 from pathlib import Path
 
+from dampfit._options import DEFAULT_MAX_STEPS
 from dampfit.files.folder import DEMO_MARKER, read_marker
 from dampfit.output.document import Block
 from dampfit.output.report.values import finite, get
@@ -138,7 +139,7 @@ def reproduce_command(s: dict, directory: str | os.PathLike) -> str:
         parts += ["--model", q(opts["model"])]
     if finite(opts.get("amplitude")):
         parts += ["--amplitude", repr(float(opts["amplitude"]))]
-    if isinstance(opts.get("max_steps"), int) and opts["max_steps"] != 20000:
+    if isinstance(opts.get("max_steps"), int) and opts["max_steps"] != DEFAULT_MAX_STEPS:
         parts += ["--max-steps", str(opts["max_steps"])]
     out = directory if own is None else reanalysis_folder(directory)
     return " ".join(parts + ["--seed", str(seed), "--out", q(str(out))])
