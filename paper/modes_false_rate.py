@@ -115,13 +115,14 @@ def _modes_path(rec, seed: int) -> dict:
     squares and that verdict. Left out: the one-mode emcee posterior and the Cramér–Rao bound,
     which the modes stage does not read (``--full`` runs them too; identical modes rows)."""
     from dampfit import damping, stages
+    from dampfit._options import SamplerSettings
     from dampfit.signal import prepare
 
     prep = prepare.prepare(rec, axis="auto")
     st = stages.fit_stages(prep, MASS)
     ls = st.least_squares
     a = damping.assess(prep, st.fit_data, ls, st.noise, MASS, 0.0, posterior="laplace",
-                       seed=seed, min_ess=MIN_ESS)
+                       sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS))
     verdict = a.verdict_name
     ms = stages.modes_stage(prep, max_modes=4, mass=MASS, seed=seed, min_ess=MIN_ESS,
                             one_mode=(ls.p, ls.omega_d), verdict=verdict,
