@@ -252,6 +252,7 @@ def test_a_killed_batch_keeps_its_rows_and_resumes(data, tmp_path):
     assert list(_table(out)["status"]) == ["ok", "ok", "ok"]
 
 
+@pytest.mark.slow  # a Dask cluster started and a batch run on it (≈ 45 s)
 def test_a_dask_batch_gives_the_rows_of_an_in_process_one(done, data, tmp_path, capsys):
     """Two local Dask workers (isolated processes): the same numbers as in this process."""
     pytest.importorskip("distributed")

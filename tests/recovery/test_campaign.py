@@ -87,6 +87,7 @@ def test_campaign_outputs_roundtrip(spread_result, tmp_path):
     assert post["c_test"].shape[-1] == 5
 
 
+@pytest.mark.slow  # a campaign sampled to convergence (≈ 30 s)
 def test_zero_spread_is_consistent_with_zero():
     recs, truth = _campaign(n_tests=4, c_spread=0.0, seed=4)
     s = analyze_campaign(recs, mass=1.0, seed=2, **FAST).summary()
@@ -95,6 +96,7 @@ def test_zero_spread_is_consistent_with_zero():
     assert _inside(s["parameters"]["c"], truth["c"])
 
 
+@pytest.mark.slow  # an added-mass campaign sampled (≈ 40 s)
 def test_added_mass_scale_error_is_not_called_scatter():
     """Quiet tests (decay rates known to ≈ 0.1 %) with added masses known to ± 0.5 % of m₀ and
     no true spread: the per-test c = 2·(m₀ + Δm)·p differ by the masses' errors, which the
@@ -107,6 +109,7 @@ def test_added_mass_scale_error_is_not_called_scatter():
     assert _inside(s["parameters"]["m0"], truth["mass"])
 
 
+@pytest.mark.slow  # an added-mass campaign sampled (≈ 40 s; the CLI's end-to-end added mass stays)
 def test_added_mass_recovers_m0_and_k():
     dm = [0.0, 0.3, 0.6, 1.0]
     recs, truth = _campaign(n_tests=4, c_spread=0.05, seed=5, added_mass=dm, added_mass_sd=0.005)
