@@ -247,6 +247,42 @@ def batch_times(folder: Path, n: int, cache: Path) -> dict[str, float]:
                                        "--summaries-only"], _env(cache))}
 
 
+def batch_only(n: int, json_path: str | None) -> int:
+    """Item 6 alone: ``dampfit batch`` of ``n`` recordings with its default outputs (the table,
+    the comparison figure and each recording's summary, posterior and FEM deck; no
+    per-recording figures, issue 36) and ``--summaries-only``, against the median of three warm
+    single ``dampfit analyze FILE --mass 5.3`` (default outputs, figures included) before the
+    batches and three after, all on one compiled-kernel store filled by a first run."""
+    from dampfit import simulate as sim
+
+    rec, _ = sim.recording(sim.preset("paper", seed=0))
+    with tempfile.TemporaryDirectory() as tmp:
+        csv, cache = Path(tmp) / "paper.csv", Path(tmp) / "jax-cache"
+        sim.write_phyphox_csv(rec, csv)
+        cli_times(csv, cache, 1, report=False)  # fills the store
+        single_runs = cli_times(csv, cache, report=False)
+        batch = batch_times(Path(tmp), n, cache)
+        single_runs += cli_times(csv, cache, report=False)
+    single = float(np.median(single_runs))
+    marginal = {kind: (batch[kind] - batch[f"{kind}_small"]) / (n - SMALL)
+                for kind in ("all", "summaries")}
+    out = {"batch_recordings": n, "single_cli_s": single, "single_cli_runs_s": single_runs,
+           "batch_times_s": batch,
+           "batch_per_recording_over_single": batch["all"] / n / single,
+           "batch_summaries_per_recording_over_single": batch["summaries"] / n / single,
+           "batch_marginal_over_single": marginal["all"] / single,
+           "batch_summaries_marginal_over_single": marginal["summaries"] / single}
+    print(f"batch of {n} on 2 workers, default outputs: {batch['all'] / n:.2f} s per recording "
+          f"= {out['batch_per_recording_over_single']:.2f} x one warm dampfit analyze "
+          f"({single:.2f} s, median of {len(single_runs)}; goal <= 0.35x); marginal "
+          f"{out['batch_marginal_over_single']:.2f} x; --summaries-only "
+          f"{out['batch_summaries_per_recording_over_single']:.2f} x (marginal "
+          f"{out['batch_summaries_marginal_over_single']:.2f} x)")
+    if json_path:
+        Path(json_path).write_text(json.dumps(out, indent=2) + "\n")
+    return 0
+
+
 #: Recordings of the small batch that measures a batch's fixed cost (one per worker).
 SMALL = 2
 
@@ -298,7 +334,11 @@ def main(argv=None) -> int:
     ap.add_argument("--fits", type=int, default=20, help="recordings for the throughput test")
     ap.add_argument("--batch", type=int, default=20, help="recordings of the batch throughput")
     ap.add_argument("--json", help="also write the numbers to this JSON file")
+    ap.add_argument("--batch-only", action="store_true",
+                    help="measure only the batch against warm single runs (item 6)")
     a = ap.parse_args(argv)
+    if a.batch_only:
+        return batch_only(a.batch, a.json)
 
     import os
 
