@@ -249,6 +249,22 @@ def unresolved_pair(tau, y, drift, p: float, omega_d: float, law_rss: float,
     ``omega_d`` [rad/s] the one-mode least squares; ``law_rss`` [(m/s²)²] and ``law_k`` the
     preferred law's fit on the same samples. Returns {"f_hz": [f₁, f₂], "separation_hz",
     "separation_cells", "delta_bic"} when the pair is preferred, else None."""
+    got = pair_fit(tau, y, drift, p, omega_d, law_rss, law_k)
+    if got is None:
+        return None
+    score, f = got
+    span = float(np.asarray(tau, float)[-1] - np.asarray(tau, float)[0])
+    if not (score < 0 and (f[1] - f[0]) * span >= PAIR_MIN_CELLS):
+        return None
+    return {"f_hz": f, "separation_hz": f[1] - f[0], "separation_cells": (f[1] - f[0]) * span,
+            "delta_bic": score}
+
+
+def pair_fit(tau, y, drift, p: float, omega_d: float, law_rss: float,
+             law_k: int) -> tuple[float, list[float]] | None:
+    """The pair fit of :func:`unresolved_pair` before its two thresholds: (the BIC score
+    n ln(RSS_pair/RSS_law) + (6 − k_law) ln n, the two frequencies [Hz] in order), or None
+    when a residual sum is zero. Same arguments."""
     from scipy.optimize import least_squares
 
     tau, y = np.asarray(tau, float), np.asarray(y, float)
@@ -275,8 +291,4 @@ def unresolved_pair(tau, y, drift, p: float, omega_d: float, law_rss: float,
     if not (best and best[0] > 0 and law_rss > 0):
         return None
     score = n * math.log(best[0] / law_rss) + (6 - int(law_k)) * math.log(n)
-    f = sorted(float(best[1][k]) / (2 * math.pi) for k in (1, 3))
-    if not (score < 0 and (f[1] - f[0]) * span >= PAIR_MIN_CELLS):
-        return None
-    return {"f_hz": f, "separation_hz": f[1] - f[0], "separation_cells": (f[1] - f[0]) * span,
-            "delta_bic": score}
+    return score, sorted(float(best[1][k]) / (2 * math.pi) for k in (1, 3))
