@@ -26,6 +26,7 @@ from dampfit.model import laws as models
 from tests._support.reference_sim import noisy_recording, reference_decay
 from dampfit.inference.law_sampler import sample_emcee, sample_laplace
 from dampfit.errors import InputError
+from dampfit.physics import Mass
 
 from tests._support.requirements import REAL
 
@@ -267,6 +268,8 @@ def test_input_errors(cases):
                     (dict(posterior="nuts"), "posterior must be"),
                     (dict(window_cycles=1.0), "at least 2 cycles")):
         with pytest.raises(InputError, match=msg):
+            if "mass_sd" in kw:  # a mass and its sd are one Mass, checked where it is made
+                kw = {**kw, "mass": Mass(kw["mass"], kw.pop("mass_sd"))}
             assess(prep, fd, None, None, **kw)
 
 

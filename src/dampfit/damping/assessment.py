@@ -34,7 +34,7 @@ from dampfit.errors import InputError
 from dampfit.damping import checks, curve, quantities
 from dampfit.damping import evidence
 from dampfit._options import SamplerSettings
-from dampfit.physics import check_mass
+from dampfit.physics import Mass
 from dampfit.model import laws
 from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit
@@ -176,22 +176,20 @@ class DampingAssessment:
         return out
 
 
-def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_cycles) -> None:
+def _check_inputs(model: str, amplitude, posterior: str, window_cycles) -> None:
     if model not in choices():
         raise InputError(f"unknown damping model {model!r}; choose one of "
                          f"{', '.join(choices())}")
     if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
         raise InputError("the reference amplitude must be a positive displacement in m, "
                          f"got {amplitude!r}")
-    if mass is not None:
-        check_mass(mass, mass_sd)
     if posterior not in POSTERIORS:
         raise InputError(f"posterior must be one of {', '.join(POSTERIORS)}, got {posterior!r}")
     if window_cycles is not None and not (np.isfinite(window_cycles) and window_cycles >= 2):
         raise InputError(f"amplitude windows must span at least 2 cycles, got {window_cycles!r}")
 
 
-def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float = 0.0, *,
+def assess(prep, fd, ls, noise_model, mass: Mass | float | None = None, *,
            model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
            window_cycles: float | None = None, sampler: SamplerSettings | None = None,
            budget=None) -> DampingAssessment:
@@ -200,8 +198,9 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     ``prep`` :class:`~dampfit.signal.prepare.Prepared`, ``fd`` :class:`~dampfit.signal.prepare.FitData`,
     ``ls`` the viscous :class:`~dampfit.inference.least_squares.LeastSquaresResult` (start values; None: from the
     envelope), ``noise_model`` its :class:`~dampfit.inference.noise.NoiseModel` or None (its r is
-    reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
-    [kg]; ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
+    reported; the comparison re-measures r on the best law's residuals). ``mass`` the
+    :class:`~dampfit.physics.Mass` (value and sd [kg], checked when it was made; a bare number
+    [kg] is ``Mass(number)``); ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
     the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
     ``"chosen"`` = emcee for the chosen law and the Laplace approximation for the others,
     ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
@@ -210,9 +209,10 @@ def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float 
     ζ(amplitude) windows (automatic if None); ``sampler`` the
     :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None).
     """
-    _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
+    _check_inputs(model, amplitude, posterior, window_cycles)
+    checked = mass if isinstance(mass, Mass) else Mass(mass)
+    mass, mass_sd = checked.value, checked.sd
     sampler = SamplerSettings() if sampler is None else sampler
-    mass_sd = float(mass_sd or 0.0)
     data = law_fit.Data.from_fit_data(fd)
     f0 = float(prep.f0)
     p_start, w_start = (ls.p, ls.omega_d) if ls is not None else _initial_guess(prep)
@@ -353,7 +353,8 @@ def _request_warnings(out: DampingAssessment, model: str, amplitude: float | Non
 def from_analysis(an, **kw) -> DampingAssessment:
     """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
     kw.setdefault("sampler", SamplerSettings(seed=an.seed))
-    return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
+    return assess(an.prepared, an.fit_data, an.least_squares, an.noise, Mass(an.mass, an.mass_sd),
+                  **kw)
 
 
 def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> law_fit.ModelFit:
