@@ -201,7 +201,9 @@ def rule(**kw):
                 p_viscous=0.9, best_nonlinear="power", viscous=CLEAN, best=CLEAN,
                 best_model="power", pipeline=CLEAN)
     base.update(kw)
-    return checks.adequacy(**base)
+    laws = checks.LawEvidence(*(base.pop(k, None) for k in checks.LawEvidence._fields))
+    fits = checks.FitChecks(*(base.pop(k) for k in checks.FitChecks._fields))
+    return checks.adequacy(**base, laws=laws, fits=fits)
 
 
 def test_clean_viscous_evidence_is_adequate():

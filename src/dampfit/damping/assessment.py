@@ -473,11 +473,11 @@ def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
     if not usability.get("power", {}).get("issue") and q is not None and len(q):
         q05, q50, q95 = np.quantile(np.asarray(q) - 1.0, [0.05, 0.5, 0.95])
         power = {"q05": float(q05), "q50": float(q50), "q95": float(q95)}
-    out = checks.adequacy(n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
-                          p_viscous=a.verdict["p_viscous"], best_nonlinear=best_nl,
-                          viscous=fc.get("viscous"), best=fc.get(best_model),
-                          best_model=best_model, pipeline=pipe, laws=usability,
-                          power_slope=power, decay=a.decay)
+    out = checks.adequacy(
+        n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
+        laws=checks.LawEvidence(a.verdict["p_viscous"], best_nl, usability, power),
+        fits=checks.FitChecks(fc.get("viscous"), fc.get(best_model), best_model, pipe),
+        decay=a.decay)
     out["fit_checks"] = fc
     out["frequency_trend"] = freq
     out["laws"] = usability
@@ -522,5 +522,5 @@ def _warning(a: DampingAssessment, law: str | None = None) -> str | None:
         zeta_hi, zeta_lo = _q50(q, "zeta_eq_start"), _q50(q, "zeta_eq_end")
         a_hi, a_lo = a.amplitudes["start"], a.amplitudes["end"]
         source = f"{m} law"
-    return checks.warning_text(m, a.verdict["p_viscous"], zeta_hi, zeta_lo, a_hi, a_lo, c_ref,
-                               a.amplitudes["ref"], source)
+    return checks.warning_text(m, a.verdict["p_viscous"], (zeta_hi, a_hi), (zeta_lo, a_lo),
+                               c_ref, a.amplitudes["ref"], source)
