@@ -30,8 +30,10 @@ def analyze(recording: Recording, mass: float | None = None, mass_sd: float | No
 
     The analysis options are one :class:`~dampfit._options.AnalysisOptions` (``options``),
     or its fields as keywords — ``axis``, ``window``, ``band``, ``model``, ``amplitude``,
-    ``max_modes``, ``mode_of_mass`` and the sampler's ``seed`` (default 0), ``max_steps``
-    (20000), ``min_ess`` (1000), ``progress`` — checked once, before any work.
+    ``max_modes``, ``mode_of_mass`` and the sampler's ``seed``, ``max_steps``, ``min_ess``
+    and ``progress`` (defaults: :data:`~dampfit._options.DEFAULT_SEED`,
+    :data:`~dampfit._options.DEFAULT_MAX_STEPS`, :data:`~dampfit._options.DEFAULT_MIN_ESS`)
+    — checked once, before any work.
 
     ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
     the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
@@ -59,7 +61,7 @@ def analyze(recording: Recording, mass: float | None = None, mass_sd: float | No
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
     looked for in the recording (:func:`dampfit.stages.modes_stage`; by default
-    :data:`~dampfit._options.DEFAULT_MAX_MODES`, 4: a one-mode recording pays only the
+    :data:`~dampfit._options.DEFAULT_MAX_MODES`: a one-mode recording pays only the
     screen, one with a second mode its selection and posterior — seconds to minutes on a
     real record, paper/modes.md; 1 skips the stage) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass

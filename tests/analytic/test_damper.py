@@ -44,6 +44,8 @@ def damper(**kw):
     args = dict(verdict="amplitude-dependent", reasons=["windowed slope decisive"], law="power",
                 draws=power_draws(), measured=MEASURED, amplitude=None, mass=M, mass_sd=0.0)
     args.update(kw)
+    args["amplitudes"] = (args.pop("measured"), args.pop("amplitude"))
+    args["mass"] = (args["mass"], args.pop("mass_sd"))
     return recommend(**args)
 
 
