@@ -36,6 +36,7 @@ from dampfit.cli.options import real_arg, seed_arg
 from dampfit.physics import MAX_MASS
 from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
+from dampfit.files.folder import Free
 from dampfit.errors import InputError
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
@@ -312,8 +313,9 @@ def demo(args) -> int:
     # a previous demo's own folder (marker of kind "demo", or an old one recognised by its
     # files) is regenerated freely; an analyze result only with --force; anything else never
     with figure_process(args) as figs, \
-            result_folder(out, "demo", args.force, free_kinds=("demo",),
-                          legacy=old_demo_folder) as folder, contextlib.closing(figs):
+            result_folder(out, "demo", args.force,
+                          free=Free(("demo",), old_demo_folder)) as folder, \
+            contextlib.closing(figs):
         figs.target(folder.stage)
         print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
               f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at "

@@ -76,8 +76,9 @@ def _finished(store: Store, tasks: list[Task]) -> dict[tuple[str, int], dict[str
 
 def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler: str | None = None,
               force: bool = False, quiet: bool = False, figures: bool = True,
-              stdout: TextIO | None = None, stderr: TextIO | None = None) -> dict[str, Any]:
+              streams: tuple[TextIO, TextIO] | None = None) -> dict[str, Any]:
     """Run (or resume) the study ``cfg`` into folder ``out``; return what was done.
+    ``streams`` = (stdout, stderr) to print to (default: the process's).
 
     Raises :class:`InputError` for a folder holding another study (unless ``force``), an
     unreachable scheduler or unusable workers, and :class:`StudyIncomplete` if some runs did
@@ -85,8 +86,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
     """
     from dampfit._meta import __version__
 
-    stdout = stdout or sys.stdout
-    stderr = stderr or sys.stderr
+    stdout, stderr = streams or (sys.stdout, sys.stderr)
     if importlib.util.find_spec("distributed") is None:
         raise InputError("dampfit study runs on Dask: install it with "
                          "pip install 'dask[distributed]'")
