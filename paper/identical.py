@@ -16,9 +16,10 @@ Usage (from the worktree root; the base sources from ``git worktree add /tmp/bas
 * each side runs ``python -m dampfit analyze FILE --out DIR --seed 0 --no-figures --quiet``
   with ``PYTHONPATH`` = that side's ``src`` (a side's output is reused when its summary.json
   exists already, so the base side can be run once);
-* the comparison drops every key whose name says time, duration, path, file, directory, version,
-  host or digest of the code (:data:`VOLATILE`) and compares the rest as canonical JSON text
-  (sorted keys): ``identical`` or the first differing keys.
+* the comparison drops every key whose name says time, date, duration, path, file, directory,
+  version, host or digest of the code (:data:`VOLATILE`) and compares the rest as canonical
+  JSON text (sorted keys): ``identical`` or the first differing keys. Keys dropped by
+  substring are dropped on both sides alike (e.g. ``time_column``, ``files``).
 
 Prints one line per recording and writes a Markdown table (``--out``).
 """
@@ -37,7 +38,7 @@ PY = sys.executable
 #: Key names (lower case, substrings) whose values differ between runs or trees by nature.
 VOLATILE = ("time", "duration", "elapsed", "seconds", "path", "file", "dir", "version",
             "created", "host", "platform", "python", "code_digest", "source_digest", "cwd",
-            "started", "finished", "cpu", "wall", "reproduce", "command")
+            "started", "finished", "cpu", "wall", "reproduce", "command", "date")
 
 
 def _simulated(work: Path, new_src: Path) -> list[tuple[str, Path]]:
@@ -89,11 +90,20 @@ def _analyze(src: Path, path: Path, out: Path, extra: list[str]) -> tuple[dict |
     return json.loads(summary.read_text()), "", time.monotonic() - started
 
 
+DROPPED: set[str] = set()
+
+
 def _clean(value):
-    """``value`` without the volatile keys (:data:`VOLATILE`), recursively."""
+    """``value`` without the volatile keys (:data:`VOLATILE`), recursively (the names
+    dropped are collected in :data:`DROPPED`)."""
     if isinstance(value, dict):
-        return {k: _clean(v) for k, v in value.items()
-                if not any(word in k.lower() for word in VOLATILE)}
+        out = {}
+        for k, v in value.items():
+            if any(word in k.lower() for word in VOLATILE):
+                DROPPED.add(k)
+            else:
+                out[k] = _clean(v)
+        return out
     if isinstance(value, list):
         return [_clean(v) for v in value]
     return value
@@ -137,7 +147,8 @@ def _markdown(rows: list[dict], base: Path, new: Path) -> str:
     for r in rows:
         lines.append(f"| {r['name']} (`{r['path']}`) | {r['options'] or '—'} | {r['bytes']} | "
                      f"{r['verdict']} |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines) + "\n\nKeys dropped before the comparison (on both sides): " + \
+        ", ".join(f"`{k}`" for k in sorted(DROPPED)) + "\n"
 
 
 def main(argv=None) -> int:

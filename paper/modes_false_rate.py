@@ -121,8 +121,8 @@ def _modes_path(rec, seed: int) -> dict:
     prep = prepare.prepare(rec, axis="auto")
     st = stages.fit_stages(prep, MASS)
     ls = st.least_squares
-    a = damping.assess(prep, st.fit_data, ls, st.noise, MASS, posterior="laplace",
-                       sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS))
+    a = damping.assess(prep, st.fit_data, ls, st.noise, MASS, settings=damping.Settings(
+        "laplace", sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS)))
     verdict = a.verdict_name
     ms = stages.modes_stage(prep, max_modes=4, mass=MASS,
                             sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS),

@@ -28,6 +28,7 @@ from dampfit.inference import noise
 from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.damping import assess, checks
+from dampfit.damping import Settings
 from tests._support.reference_sim import noisy_recording, reference_decay
 from dampfit.errors import InputError
 
@@ -181,7 +182,7 @@ def verdict_of(rec):
         prep = preprocess.prepare(rec)
         fd = preprocess.fit_data(prep)
         ls = fit.least_squares(fd, float("nan"), prep.f0)
-        return assess(prep, fd, ls, None, posterior="laplace"), prep
+        return assess(prep, fd, ls, None, settings=Settings("laplace")), prep
 
 
 # ----------------------------------------------------------------------------- the rule

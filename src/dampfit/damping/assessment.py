@@ -24,7 +24,7 @@ the largest and smallest recorded displacement amplitudes), with the amplitude s
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -39,6 +39,18 @@ from dampfit.model import laws
 from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit
 from dampfit.inference import law_sampler as dsample
+
+
+class Settings(NamedTuple):
+    """How :func:`assess` runs: ``posterior`` (:data:`POSTERIORS`), ``window_cycles``
+    [cycles] of the ζ(amplitude) windows (None: automatic), ``sampler`` the
+    :class:`~dampfit._options.SamplerSettings` of the emcee runs (None: default ones) and
+    ``budget`` their step budget (:class:`dampfit.inference.law_sampler.Budget`, None: none)."""
+
+    posterior: str = "chosen"
+    window_cycles: float | None = None
+    sampler: SamplerSettings | None = None
+    budget: Any = None
 
 
 def choices() -> tuple[str, ...]:
@@ -190,9 +202,8 @@ def _check_inputs(model: str, amplitude, posterior: str, window_cycles) -> None:
 
 
 def assess(prep, fd, ls, noise_model, mass: Mass | float | None = None, *,
-           model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
-           window_cycles: float | None = None, sampler: SamplerSettings | None = None,
-           budget=None) -> DampingAssessment:
+           model: str = "auto", amplitude: float | None = None,
+           settings: Settings = Settings()) -> DampingAssessment:
     """Compare damping laws on a prepared recording (see the module docstring).
 
     ``prep`` :class:`~dampfit.signal.prepare.Prepared`, ``fd`` :class:`~dampfit.signal.prepare.FitData`,
@@ -201,14 +212,17 @@ def assess(prep, fd, ls, noise_model, mass: Mass | float | None = None, *,
     reported; the comparison re-measures r on the best law's residuals). ``mass`` the
     :class:`~dampfit.physics.Mass` (value and sd [kg], checked when it was made; a bare number
     [kg] is ``Mass(number)``); ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
-    the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
+    the reference displacement amplitude for c_eq; ``settings`` (:class:`Settings`): its
+    ``posterior`` (:data:`POSTERIORS`):
     ``"chosen"`` = emcee for the chosen law and the Laplace approximation for the others,
     ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
     posterior :func:`dampfit.analyze` has already), ``"emcee"`` for all, ``"laplace"`` for
     none (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
     ζ(amplitude) windows (automatic if None); ``sampler`` the
-    :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None).
+    :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None) and
+    their ``budget``.
     """
+    posterior, window_cycles, sampler, budget = settings
     _check_inputs(model, amplitude, posterior, window_cycles)
     checked = mass if isinstance(mass, Mass) else Mass(mass)
     mass, mass_sd = checked.value, checked.sd
@@ -350,9 +364,10 @@ def _request_warnings(out: DampingAssessment, model: str, amplitude: float | Non
     return warns
 
 
-def from_analysis(an, **kw) -> DampingAssessment:
-    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
-    kw.setdefault("sampler", SamplerSettings(seed=an.seed))
+def from_analysis(an, posterior: str = "chosen", **kw) -> DampingAssessment:
+    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed),
+    with ``posterior`` (:class:`Settings`) and :func:`assess`'s ``model`` and ``amplitude``."""
+    kw["settings"] = Settings(posterior, sampler=SamplerSettings(seed=an.seed))
     return assess(an.prepared, an.fit_data, an.least_squares, an.noise, Mass(an.mass, an.mass_sd),
                   **kw)
 

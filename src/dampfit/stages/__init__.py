@@ -240,8 +240,9 @@ def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: physics.Mas
 
     budget = Budget.from_viscous(run.sampling.n_steps, run.posterior_seconds)
     return damping.assess(prep, run.fit_data, run.least_squares, run.noise, mass,
-                          posterior="chosen-nonviscous", model=options.model,
-                          amplitude=options.amplitude, sampler=options.sampler, budget=budget)
+                          model=options.model, amplitude=options.amplitude,
+                          settings=damping.Settings("chosen-nonviscous",
+                                                    sampler=options.sampler, budget=budget))
 
 
 def crlb_stage(prep, fd, ls, nm, mass: physics.Mass) -> tuple[dict[str, Any] | None, list[str]]:
