@@ -200,10 +200,9 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
          "whose cost shows as RMSE/CRLB > 1. With n runs, RMSE/CRLB has a sampling scatter of "
          "about 1/√(2n) and coverage one of about √(0.09/n).\n"),
     ]
-    if figures:
-        parts.append("![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n")
-    parts += _configuration_md(cfg)
-    return "\n".join(parts)
+    return _closing_md(parts, figures and
+                       "![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n",
+                       cfg)
 
 
 def _modes_md(cfg: StudyConfig) -> list[str]:
@@ -264,7 +263,13 @@ def _campaign_summary_md(cfg: StudyConfig, runs, agg, pooled, version: str, figu
          "aggregate.csv (per scenario), ranking.csv (pooled), runs.csv (one row per "
          "campaign).\n"),
     ]
-    if figures:
-        parts.append("![coverage](coverage.png)\n")
+    return _closing_md(parts, figures and "![coverage](coverage.png)\n", cfg)
+
+
+def _closing_md(parts: list[str], images: str | bool, cfg) -> str:
+    """The Markdown of ``parts``, the ``images`` line (none when False) and the study's
+    configuration (:func:`_configuration_md`)."""
+    if images:
+        parts.append(images)
     parts += _configuration_md(cfg)
     return "\n".join(parts)
