@@ -65,10 +65,12 @@ def one(rep: int, max_steps: int, min_ess: float) -> dict:
     d = design(rep)
     base = sim.from_modal(M0, d["f_n"], d["zeta"], duration=20.0, sample_rate=100.0,
                           noise_density=d["noise_density"])
-    r = campaign.run(base, n_tests=d["n_tests"], c_spread=d["c_spread"],
-                     added_mass=d["added_mass"], mass_known=True, added_mass_sd=0.002 * M0,
-                     sim_seed=d["seed"], analysis_seed=rep, z_new=d["z_new"],
-                     max_steps=max_steps, min_ess=min_ess)
+    from dampfit._options import SamplerSettings
+
+    design = campaign.Design(d["n_tests"], d["c_spread"], d["added_mass"],
+                             added_mass_sd=0.002 * M0)
+    r = campaign.run(base, design, mass_known=True, sim_seed=d["seed"], z_new=d["z_new"],
+                     sampler=SamplerSettings(seed=rep, max_steps=max_steps, min_ess=min_ess))
     row = {k: v for k, v in d.items() if k not in ("added_mass", "z_new", "seed")}
     row["max_added_mass_kg"] = max(d["added_mass"]) if d["added"] else 0.0
     row.update(refused=r["refused"], seconds=r["runtime_s"])

@@ -121,12 +121,13 @@ def _modes_path(rec, seed: int) -> dict:
     prep = prepare.prepare(rec, axis="auto")
     st = stages.fit_stages(prep, MASS)
     ls = st.least_squares
-    a = damping.assess(prep, st.fit_data, ls, st.noise, MASS, 0.0, posterior="laplace",
-                       sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS))
+    a = damping.assess(prep, st.fit_data, ls, st.noise, MASS, settings=damping.Settings(
+        "laplace", sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS)))
     verdict = a.verdict_name
-    ms = stages.modes_stage(prep, max_modes=4, mass=MASS, seed=seed, min_ess=MIN_ESS,
-                            one_mode=(ls.p, ls.omega_d), verdict=verdict,
-                            law=(st.fit_data, a.fits[a.verdict["preferred"]]))
+    ms = stages.modes_stage(prep, max_modes=4, mass=MASS,
+                            sampler=SamplerSettings(seed=seed, min_ess=MIN_ESS),
+                            one_mode=stages.OneMode(ls.p, ls.omega_d, verdict,
+                                                    (st.fit_data, a.fits[a.verdict["preferred"]])))
     modes = (ms.summary or {}).get("modes") or [
         {"f_n": {"q50": ls.omega_d / (2 * math.pi)}}]
     return {"window": {"start_s": prep.window[0], "end_s": prep.window[1]}, "modes": modes,

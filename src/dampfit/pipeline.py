@@ -3,7 +3,7 @@
 Fixed pipeline, each stage in :mod:`dampfit.stages`: ``prepare`` (axis, band, window) →
 ``baselines`` (initial guess, reported) → ``least squares`` → ``noise`` (calibration) →
 ``posterior`` (emcee) → ``CRLB`` → ``damping`` (laws, verdict) → ``modes`` (several modes,
-:func:`modes_stage`) → :class:`~dampfit.analysis.Analysis`.
+:func:`dampfit.stages.modes_stage`) → :class:`~dampfit.analysis.Analysis`.
 Several recordings of one damper: :func:`dampfit.campaign.analyze_campaign` (both through
 :func:`dampfit.analyze`).
 """
@@ -30,8 +30,10 @@ def analyze(recording: Recording, mass: float | None = None, mass_sd: float | No
 
     The analysis options are one :class:`~dampfit._options.AnalysisOptions` (``options``),
     or its fields as keywords — ``axis``, ``window``, ``band``, ``model``, ``amplitude``,
-    ``max_modes``, ``mode_of_mass`` and the sampler's ``seed`` (default 0), ``max_steps``
-    (20000), ``min_ess`` (1000), ``progress`` — checked once, before any work.
+    ``max_modes``, ``mode_of_mass`` and the sampler's ``seed``, ``max_steps``, ``min_ess``
+    and ``progress`` (defaults: :data:`~dampfit._options.DEFAULT_SEED`,
+    :data:`~dampfit._options.DEFAULT_MAX_STEPS`, :data:`~dampfit._options.DEFAULT_MIN_ESS`)
+    — checked once, before any work.
 
     ``mass`` [kg] (with standard deviation ``mass_sd`` [kg]) is needed for c and k; without it
     the identifiable quantities (ζ, f_n, p, δ, u₀) are still estimated. ``axis``, ``window``
@@ -58,8 +60,8 @@ def analyze(recording: Recording, mass: float | None = None, mass_sd: float | No
     recordings.
 
     ``max_modes`` (1 … :data:`~dampfit.inference.modes.MAX_MODES_LIMIT`) is the most modes
-    looked for in the recording (:func:`modes_stage`; by default
-    :data:`~dampfit._options.DEFAULT_MAX_MODES`, 4: a one-mode recording pays only the
+    looked for in the recording (:func:`dampfit.stages.modes_stage`; by default
+    :data:`~dampfit._options.DEFAULT_MAX_MODES`: a one-mode recording pays only the
     screen, one with a second mode its selection and posterior — seconds to minutes on a
     real record, paper/modes.md; 1 skips the stage) and
     ``mode_of_mass`` (1-based, by frequency; default the dominant mode) the mode the mass
@@ -69,12 +71,12 @@ def analyze(recording: Recording, mass: float | None = None, mass_sd: float | No
     if not isinstance(recording, Recording):
         raise InputError("analyze() takes a Recording; use dampfit.read(path) first")
     opts = AnalysisOptions.of(options, **keywords).resolved()
-    m, sd = physics.check_mass(mass, mass_sd)
+    checked = physics.Mass(mass, mass_sd)
     # BLAS on one thread (threadpoolctl): every matrix here is thin (n × a few columns), and
     # OpenBLAS's spinning worker threads only compete with the CLI's figure process or a
     # batch's other worker for the cores (measured: 0.3 s of a 4 s CLI run on 2 cores)
     with threadpool_limits(limits=1, user_api="blas"), _reporting(opts.sampler.progress):
-        return _analyze(recording, m, sd, opts, on_stage)
+        return _analyze(recording, checked, opts, on_stage)
 
 
 def _reporting(progress: bool):
@@ -89,10 +91,11 @@ def _reporting(progress: bool):
     return contextlib.nullcontext()
 
 
-def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOptions,
+def _analyze(recording: Recording, mass: physics.Mass, opts: AnalysisOptions,
              on_stage) -> Analysis:
     """The stages of :func:`analyze` (mass and options checked); every stage's warnings
     are returned with its result and collected here, in the order of the stages."""
+    m, sd = mass.value, mass.sd
     warns: list[str] = []
     stages.refuse_impossible_time(recording)
     prep = prepare.prepare(recording, axis=opts.axis, window=opts.window, band=opts.band)
@@ -106,23 +109,24 @@ def _analyze(recording: Recording, m: float | None, sd: float, opts: AnalysisOpt
         on_stage("posterior", {"posterior": run.sampling.idata,
                                "summary": {"diagnostics": stages.sampling_summary(run.sampling)}})
     warns.extend(run.warnings)
-    bound, said = stages.crlb_stage(prep, run.fit_data, run.least_squares, run.noise, m, sd)
+    bound, said = stages.crlb_stage(prep, run.fit_data, run.least_squares, run.noise, mass)
     warns.extend(said)
-    assessment = stages.assess_damping(prep, run, m, sd, opts)
+    assessment = stages.assess_damping(prep, run, mass, opts)
     warns.extend(assessment.warnings)
     warns.extend(_noise_warning(run.noise, assessment))
-    s = opts.sampler
-    modes = modes_stage(prep, run.least_squares, m, sd, max_modes=opts.max_modes,
-                        mode_of_mass=opts.mode_of_mass, seed=s.seed, min_ess=s.min_ess,
-                        max_steps=s.max_steps, viscous_seconds=run.posterior_seconds,
-                        verdict=assessment.verdict_name,
-                        law=(run.fit_data, assessment.fits[assessment.verdict["preferred"]]))
+    law = (run.fit_data, assessment.fits[assessment.verdict["preferred"]])
+    st = stages.modes_stage(prep, max_modes=opts.max_modes, mass=mass,
+                            mode_of_mass=opts.mode_of_mass, sampler=opts.sampler,
+                            one_mode=stages.OneMode(run.least_squares.p,
+                                                    run.least_squares.omega_d,
+                                                    assessment.verdict_name, law))
+    modes = modes_result(st, run.least_squares)
     warns.extend(modes.warnings)
     an = Analysis(
         recording=recording, prepared=prep, fit_data=run.fit_data,
         least_squares=run.least_squares, noise=run.noise, sampling=run.sampling,
         baselines=run.baselines, crlb=bound, damping=assessment, mass=m, mass_sd=sd,
-        seed=s.seed, options=opts.to_dict(reading=recording.read_options), warnings=warns,
+        seed=opts.seed, options=opts.to_dict(reading=recording.read_options), warnings=warns,
         modes=modes,
     )
     if fitted:
@@ -158,22 +162,11 @@ def _noise_warning(nm, assessment) -> list[str]:
     return []
 
 
-def modes_stage(prep, ls, mass: float | None, mass_sd: float, *, max_modes: int,
-                mode_of_mass: int | None, seed: int, min_ess: float,
-                max_steps: int, viscous_seconds: float | None = None,
-                verdict: str | None = None, law=None) -> Modes:
-    """Several modes in the recording (issue 21), after the one-mode analysis: the stage
-    :func:`dampfit.stages.modes_stage` with the one-mode least squares ``ls`` (its screen
-    first; K = 1 is the one-mode posterior of ``parameters``, so no second sampler runs) and
-    the damping-law ``verdict`` (a close pair at the one-mode frequency explained; ``law``
-    its preferred law's fit, an unresolved pair flagged), as the
-    result's :class:`~dampfit.analysis.Modes`. A recording the modal analysis cannot handle
-    gives one mode with the reason as a warning; ``mode_of_mass`` beyond the modes found is
-    a one-line :class:`~dampfit.errors.InputError`."""
-    st = stages.modes_stage(prep, max_modes=max_modes, mass=mass, mass_sd=mass_sd,
-                            mode_of_mass=mode_of_mass, seed=seed, min_ess=min_ess,
-                            max_steps=max_steps, viscous_seconds=viscous_seconds,
-                            one_mode=(ls.p, ls.omega_d), verdict=verdict, law=law)
+def modes_result(st: stages.ModesStage, ls) -> Modes:
+    """The modes stage's result ``st`` (:func:`dampfit.stages.modes_stage`, run after the
+    one-mode least squares ``ls``) as the result's :class:`~dampfit.analysis.Modes`, with the
+    warnings that compare it with the one-mode analysis: a recording the modal analysis
+    cannot handle gives one mode with the reason as a warning."""
     evidence = dict(st.evidence)
     seen = list(st.seen)
     if st.n_modes is None or st.n_modes == 1 or st.posterior is None:

@@ -44,6 +44,8 @@ def damper(**kw):
     args = dict(verdict="amplitude-dependent", reasons=["windowed slope decisive"], law="power",
                 draws=power_draws(), measured=MEASURED, amplitude=None, mass=M, mass_sd=0.0)
     args.update(kw)
+    args["amplitudes"] = (args.pop("measured"), args.pop("amplitude"))
+    args["mass"] = (args["mass"], args.pop("mass_sd"))
     return recommend(**args)
 
 
@@ -160,9 +162,11 @@ def _inconclusive():
     return checks.adequacy(n_cycles=60.0, slope={"s": 0.0, "s_sd": 0.5, "s_q05": -0.8,
                                                  "s_q95": 0.8, "n_windows": 8,
                                                  "chi2_per_dof": 1.0},
-                           amplitude_span=1.5, freq=None, p_viscous=0.9, best_nonlinear="power",
-                           viscous={"ljung_box_p": 0.5, "r_excess": 1.0, "resid_fraction": 0.01,
-                                    "noise_excess": 1.0}, best=None)
+                           amplitude_span=1.5, freq=None,
+                           laws=checks.LawEvidence(p_viscous=0.9, best_nonlinear="power"),
+                           fits=checks.FitChecks(viscous={"ljung_box_p": 0.5, "r_excess": 1.0,
+                                                          "resid_fraction": 0.01,
+                                                          "noise_excess": 1.0}, best=None))
 
 
 def test_without_a_mass_the_warnings_speak_of_zeta_not_c():

@@ -217,6 +217,7 @@ def viscous_case():
     """Least-squares + Laplace fits of every law to a clean simulated viscous decay."""
     from dampfit.signal import prepare as preprocess
     from dampfit.damping import assess
+    from dampfit.damping import Settings
     from dampfit.inference.law_fit import Data
     from tests._support.reference_sim import noisy_recording, reference_decay
 
@@ -228,7 +229,7 @@ def viscous_case():
         warnings.simplefilter("ignore")
         prep = preprocess.prepare(rec)
         fd = preprocess.fit_data(prep)
-        res = assess(prep, fd, None, None, mass=m, posterior="laplace")
+        res = assess(prep, fd, None, None, mass=m, settings=Settings("laplace"))
     return prep, Data.from_fit_data(fd), res
 
 

@@ -22,7 +22,7 @@ import pytest
 from dampfit.cli import main
 from dampfit.errors import InputError
 from dampfit.fem import calculix, damper, lsdyna, opensees, response, units
-from dampfit.fem.export import build
+from dampfit.fem.export import Deck, build
 from tests._support.fem import C, K, LAW_CASES, M, U0, write_damper_summary, write_summary
 from tests._support.hostile import assert_one_line_error, run
 
@@ -55,7 +55,7 @@ def test_opensees_deck_of_each_law_follows_its_closed_form_envelope(tmp_path, la
 @pytest.mark.parametrize("unit", ["SI", "mm-ms-kg", "mm-s-t"])
 def test_lsdyna_curve_read_back_is_the_law(tmp_path, law, unit):
     folder = write_damper_summary(tmp_path / law, law)
-    text, info = build(folder, "lsdyna", units=unit)
+    text, info = build(folder, "lsdyna", Deck(units=unit))
     assert "*MAT_DAMPER_NONLINEAR_VISCOUS" in text and "*MAT_DAMPER_VISCOUS\n" not in text
     back = lsdyna.read_deck(text)
     sysu = units.get(unit)
@@ -121,9 +121,9 @@ def test_a_damper_deck_has_the_damper_sections_k_in_every_format(tmp_path):
     assert f"k = {k_law!r}" in text
     text, _ = build(folder, "calculix")
     assert calculix.read_deck(text)["k"] == pytest.approx(k_law, rel=1e-9)
-    text, _ = build(folder, "lsdyna", law="viscous")  # the law's c_linear with the law's k
+    text, _ = build(folder, "lsdyna", Deck(law="viscous"))  # the law's c_linear with the law's k
     assert lsdyna.read_deck(text)["k"] == pytest.approx(k_law, rel=1e-9)
-    text, _ = build(folder, "lsdyna", force_law="viscous")  # the viscous posterior's c and k
+    text, _ = build(folder, "lsdyna", Deck(force_law="viscous"))  # the viscous posterior's c and k
     assert lsdyna.read_deck(text)["k"] == pytest.approx(K, rel=1e-9)
     plain = write_damper_summary(tmp_path / "v", "viscous", k=1.01 * K)
     assert lsdyna.read_deck(build(plain, "lsdyna")[0])["k"] == pytest.approx(K, rel=1e-9)
@@ -155,25 +155,25 @@ def test_a_summary_without_a_damper_section_writes_the_viscous_c_with_a_note(tmp
     assert lsdyna.read_deck(text)["c"] == pytest.approx(C, rel=1e-6)
     assert "has no damper section" in text
     with pytest.raises(InputError, match="no damper section"):
-        build(folder, "lsdyna", force_law="power")
+        build(folder, "lsdyna", Deck(force_law="power"))
 
 
 def test_nonlinear_law_refuses_a_quantile_and_a_foreign_law(tmp_path):
     folder = write_damper_summary(tmp_path / "p", "power")
     with pytest.raises(InputError, match="--draws N"):
-        build(folder, "opensees", quantile=0.95)
+        build(folder, "opensees", Deck(quantile=0.95))
     with pytest.raises(InputError, match="--force-law coulomb"):
-        build(folder, "opensees", law="coulomb")
+        build(folder, "opensees", Deck(law="coulomb"))
     with pytest.raises(InputError, match="choose one of"):
-        build(folder, "opensees", law="rubber")
+        build(folder, "opensees", Deck(law="rubber"))
     with pytest.raises(InputError, match="not both"):
-        build(folder, "opensees", law="viscous", force_law="power")
+        build(folder, "opensees", Deck(law="viscous", force_law="power"))
 
 
 @pytest.mark.parametrize("law", NONLINEAR)
 def test_opensees_script_constants_are_the_coefficients_in_deck_units(tmp_path, law):
     folder = write_damper_summary(tmp_path / law, law)
-    text, _ = build(folder, "opensees", units="mm-ms-kg")
+    text, _ = build(folder, "opensees", Deck(units="mm-ms-kg"))
     ns: dict = {}
     body = text.split("\ncli = argparse")[0].split('"""', 2)[2]
     exec(compile(body, "script", "exec"), ns)  # the constants block only (no OpenSees)
@@ -264,7 +264,7 @@ def test_law_measured_writes_the_fitted_curve_in_each_format(tmp_path, capsys):
     from tests._support.fem import write_damper_result
 
     folder = write_damper_result(tmp_path / "q", "quadratic", span=20.0)
-    text, info = build(folder, "lsdyna", law="measured")
+    text, info = build(folder, "lsdyna", Deck(law="measured"))
     dmp = info["damper"]
     assert dmp.law == "measured" and dmp.coefficients and all(
         v > 0 for v in dmp.coefficients.values())
@@ -280,14 +280,14 @@ def test_law_measured_writes_the_fitted_curve_in_each_format(tmp_path, capsys):
     truth = damper.c_equivalent("quadratic", LAW_CASES["quadratic"], math.sqrt(K / M), a_d)
     assert dmp.c_linear["q50"] == pytest.approx(truth, rel=0.02)
     assert dmp.c_linear["q05"] < dmp.c_linear["q50"] < dmp.c_linear["q95"]
-    script, _ = build(folder, "opensees", law="measured")
+    script, _ = build(folder, "opensees", Deck(law="measured"))
     assert script.count('ops.uniaxialMaterial("Viscous", 1') == len(dmp.coefficients)
     assert 'ops.uniaxialMaterial("Parallel", 2, 11' in script
-    inp, _ = build(folder, "calculix", law="measured")
+    inp, _ = build(folder, "calculix", Deck(law="measured"))
     assert calculix.read_deck(inp)["c"] == pytest.approx(dmp.c_linear["q50"], rel=1e-6)
-    assert build(folder, "lsdyna", law="measured")[0] == text  # seeded: the same deck
+    assert build(folder, "lsdyna", Deck(law="measured"))[0] == text  # seeded: the same deck
     with pytest.raises(InputError, match="not both"):
-        build(folder, "lsdyna", law="measured", force_law="power")
+        build(folder, "lsdyna", Deck(law="measured", force_law="power"))
     code, _, err = run(["export", write_summary(tmp_path / "old"), "--format", "lsdyna",
                         "--law", "measured"], capsys)
     assert_one_line_error(code, err, match="damper section")

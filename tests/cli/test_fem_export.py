@@ -18,7 +18,7 @@ import pytest
 from dampfit.cli import main
 from dampfit.errors import InputError
 from dampfit.fem import calculix, keyword, lsdyna, opensees, sdof, timestep, units
-from dampfit.fem.export import build, output_interval
+from dampfit.fem.export import Deck, build, output_interval
 from dampfit.simulate import free_decay
 from tests._support.fem import C, K, M, U0, write_summary
 
@@ -103,7 +103,7 @@ def test_lsdyna_deck_round_trip(name, gravity):
     s, u = _system(gravity), units.get(name)
     out = output_interval(s.period, 500.0)
     dt = timestep.choose(s.omega_n, 60.0, out)
-    text = lsdyna.deck(s, u, 60.0, dt, out)
+    text = lsdyna.deck(s, u, (60.0, dt, out))
     lines = text.splitlines()
     assert lines[0] == "*KEYWORD" and lines[-1] == "*END"
     assert all(len(line) <= 80 for line in lines)
@@ -130,7 +130,7 @@ def test_lsdyna_deck_round_trip(name, gravity):
 def test_lsdyna_offset_carries_the_initial_force():
     """The spring's OFFSET is its elongation at t = 0: the net force on the mass is −k·u0."""
     s = _system(gravity=True, u0=-0.03)
-    r = lsdyna.read_deck(lsdyna.deck(s, units.get("SI"), 10.0, 1e-3, 2e-3))
+    r = lsdyna.read_deck(lsdyna.deck(s, units.get("SI"), (10.0, 1e-3, 2e-3)))
     spring_up = r["k"] * r["offset"]          # tension pulls the hanging mass up
     assert spring_up - r["mass"] * r["g"] == pytest.approx(-K * -0.03, rel=1e-6)
 
@@ -144,7 +144,7 @@ def test_calculix_deck_round_trip(name, gravity):
     s, u = _system(gravity), units.get(name)
     out = output_interval(s.period, 500.0)
     dt = timestep.choose(s.omega_n, 20.0, out)
-    text = calculix.deck(s, u, 20.0, dt, out)
+    text = calculix.deck(s, u, (20.0, dt, out))
     r = calculix.read_deck(text)
     f = units.factor
     assert r["mass"] / f("mass", u) == pytest.approx(M, rel=1e-12)
@@ -181,7 +181,7 @@ def test_exported_opensees_script_runs_and_matches_the_closed_form(tmp_path, nam
     out = output_interval(s.period, 500.0)
     dt = timestep.choose(s.omega_n, duration, out)
     path = tmp_path / "model.py"
-    path.write_text(opensees.script(s, u, duration, dt, out, name=path.name))
+    path.write_text(opensees.script(s, u, (duration, dt, out), name=path.name))
     run = subprocess.run([sys.executable, str(path), str(tmp_path / "h.csv")], capture_output=True,
                          text=True, timeout=120, check=False)
     assert run.returncode == 0, run.stderr
@@ -198,8 +198,8 @@ def test_exported_opensees_script_runs_and_matches_the_closed_form(tmp_path, nam
 
 
 def test_build_reads_the_requested_quantile(result):
-    _, lo = build(result, "lsdyna", quantile=0.05)
-    _, hi = build(result, "lsdyna", quantile=0.95)
+    _, lo = build(result, "lsdyna", Deck(quantile=0.05))
+    _, hi = build(result, "lsdyna", Deck(quantile=0.95))
     assert lo["c"] == pytest.approx(0.99 * C) and hi["k"] == pytest.approx(1.01 * K)
     assert lo["duration"] == pytest.approx(10.0)   # the analysed window
     assert lo["output_dt"] == pytest.approx(0.002)
@@ -211,7 +211,7 @@ def test_other_quantiles_come_from_the_posterior(result):
     rng = np.random.default_rng(0)
     draws = {n: v * (1 + 0.01 * rng.standard_normal((4, 200))) for n, v in (("c", C), ("k", K), ("u0", U0))}
     az.from_dict(posterior=draws).to_netcdf(str(result / "posterior.nc"), engine="h5netcdf")
-    _, info = build(result, "calculix", quantile=0.3)
+    _, info = build(result, "calculix", Deck(quantile=0.3))
     for name in ("c", "k", "u0"):
         assert info[name] == pytest.approx(np.quantile(draws[name], 0.3), rel=1e-12)
 

@@ -26,7 +26,7 @@ from dampfit.fem import (
     units,
     verify,
 )
-from dampfit.fem.export import build, output_interval
+from dampfit.fem.export import Deck, build, output_interval
 from tests._support.fem import (
     MODES,
     U0,
@@ -74,7 +74,7 @@ def test_one_mode_decks_are_byte_identical_to_before(fmt, unit):
     out = output_interval(s.period, 500.0)
     dt = timestep.choose(s.omega_n, 10.0, out)
     write = {"lsdyna": lsdyna.deck, "calculix": calculix.deck, "opensees": opensees.script}[fmt]
-    text = write(s, units.get(unit), 10.0, dt, out)
+    text = write(s, units.get(unit), (10.0, dt, out))
     assert hashlib.sha256(text.encode()).hexdigest() == BEFORE[fmt, unit]
 
 
@@ -137,7 +137,7 @@ def test_lsdyna_and_calculix_decks_carry_the_modal_cards(tmp_path, unit):
     folder = write_modal_summary(tmp_path / "r")
     md = modal.modal_damping(_summary(folder))
     ff, ft = units.factor("frequency", unit), units.factor("time", unit)
-    text, _ = build(folder, "lsdyna", units=unit)
+    text, _ = build(folder, "lsdyna", Deck(units=unit))
     assert all(len(line) <= 80 for line in text.splitlines()) and text.endswith("\n*END\n")
     got = modal.read_lsdyna(text)
     assert got["alpha"] == pytest.approx(md["alpha"]["q50"] * ff, rel=1e-15)
@@ -149,7 +149,7 @@ def test_lsdyna_and_calculix_decks_carry_the_modal_cards(tmp_path, unit):
     for needle in ("*DAMPING_PART_MASS", "*DAMPING_PART_STIFFNESS", "zeta = 0.004",
                    "Misfit: exact: two modes determine alpha and beta"):
         assert needle in text
-    text, _ = build(folder, "calculix", units=unit)
+    text, _ = build(folder, "calculix", Deck(units=unit))
     got = modal.read_calculix(text)
     assert got["alpha"] == pytest.approx(md["alpha"]["q50"] * ff, rel=1e-15)
     assert got["beta"] == pytest.approx(md["beta"]["q50"] * ft, rel=1e-15)
@@ -180,7 +180,7 @@ def _constants(text):
 def test_opensees_script_carries_the_rayleigh_coefficients(tmp_path, unit):
     folder = write_modal_summary(tmp_path / "r")
     md = modal.modal_damping(_summary(folder))
-    text, _ = build(folder, "opensees", units=unit)
+    text, _ = build(folder, "opensees", Deck(units=unit))
     v = _constants(text)
     ff, ft = units.factor("frequency", unit), units.factor("time", unit)
     assert v["alphaM"] == md["alpha"]["q50"] * ff and v["betaK"] == md["beta"]["q50"] * ft

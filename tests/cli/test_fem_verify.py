@@ -298,7 +298,7 @@ def test_the_scripts_options_are_checked(tmp_path):
     reason on the last line, decided before OpenSees is imported (no exit noise after it)."""
     s = sdof.Sdof(M, K, C, U0)
     path = tmp_path / "model.py"
-    path.write_text(opensees.script(s, units.get("SI"), 1.0, 0.001, 0.002, name=path.name))
+    path.write_text(opensees.script(s, units.get("SI"), (1.0, 0.001, 0.002), name=path.name))
     for args, message in ((["--steps", "5", "--every", "2"], "non-negative multiple of --every"),
                           (["--dt", "0"], "--dt must be positive"),
                           (["--u-start", "nan"], "all numbers finite"),

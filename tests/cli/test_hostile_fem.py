@@ -35,7 +35,7 @@ import pytest
 
 from dampfit.fem import calculix, keyword, lsdyna, opensees, sanitize, sdof, units
 from dampfit.errors import shown
-from dampfit.fem.export import build
+from dampfit.fem.export import Deck, build
 from tests._support.hostile import assert_one_line_error, assert_unchanged, run, run_subprocess, snapshot
 from tests._support.hostile import LONG, fails
 from tests._support.fem import write_summary
@@ -132,7 +132,7 @@ def test_opensees_script_from_a_hostile_folder_runs_no_injected_code(hostile_res
     assert code == 0, err
     assert_unchanged(before, snapshot(tmp_path, exclude=[out.parent]))
     text = out.read_text(encoding="utf-8")
-    clean, _ = build(write_summary(tmp_path / "clean"), "opensees", duration=2.0, name="m.py")
+    clean, _ = build(write_summary(tmp_path / "clean"), "opensees", Deck(duration=2.0), name="m.py")
     # the module does exactly what the clean script does; the hostile text is only in strings
     assert _module_shape(text) == _module_shape(clean)
     assert _assigned(text, "SOURCE_FOLDER") == str(hostile_result.resolve())
@@ -174,8 +174,8 @@ def test_verify_of_a_hostile_folder_runs_the_exported_script(tmp_path, capsys):
 @pytest.mark.parametrize("units", ["SI", "mm-ms-kg"])
 def test_lsdyna_deck_from_a_hostile_folder_has_exactly_the_clean_cards(hostile_result, tmp_path,
                                                                         units):
-    text, _ = build(hostile_result, "lsdyna", units=units, gravity=True)
-    clean, _ = build(write_summary(tmp_path / "clean"), "lsdyna", units=units, gravity=True)
+    text, _ = build(hostile_result, "lsdyna", Deck(units=units, gravity=True))
+    clean, _ = build(write_summary(tmp_path / "clean"), "lsdyna", Deck(units=units, gravity=True))
     assert [(name, len(data)) for name, data in keyword.parse_deck(text)] == \
            [(name, len(data)) for name, data in keyword.parse_deck(clean)]
     lines = text.splitlines()
@@ -191,8 +191,8 @@ def test_lsdyna_deck_from_a_hostile_folder_has_exactly_the_clean_cards(hostile_r
 @pytest.mark.parametrize("units", ["SI", "mm-s-t"])
 def test_calculix_deck_from_a_hostile_folder_has_exactly_the_clean_cards(hostile_result, tmp_path,
                                                                           units):
-    text, _ = build(hostile_result, "calculix", units=units, gravity=True)
-    clean, _ = build(write_summary(tmp_path / "clean"), "calculix", units=units, gravity=True)
+    text, _ = build(hostile_result, "calculix", Deck(units=units, gravity=True))
+    clean, _ = build(write_summary(tmp_path / "clean"), "calculix", Deck(units=units, gravity=True))
     cards = lambda t: [x for x in t.splitlines() if not x.startswith("**")]  # noqa: E731
     assert cards(text) == cards(clean)  # every keyword and data line identical
     assert calculix.read_deck(text) == calculix.read_deck(clean)
@@ -202,7 +202,7 @@ def test_calculix_deck_from_a_hostile_folder_has_exactly_the_clean_cards(hostile
 
 
 def test_lsdyna_title_cannot_start_a_card():
-    text = lsdyna.deck(sdof.Sdof(5.3, 619.0, 0.2, 0.04), units.get("SI"), 5.0, 1e-3, 2e-3,
+    text = lsdyna.deck(sdof.Sdof(5.3, 619.0, 0.2, 0.04), units.get("SI"), (5.0, 1e-3, 2e-3),
                        title="*END\n*INCLUDE\nx" + "y" * 200)
     title = text.splitlines()[text.splitlines().index("*TITLE") + 1]
     assert not title.startswith(("*", "$")) and len(title) <= 80

@@ -28,6 +28,7 @@ from dampfit.inference import noise
 from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.damping import assess, checks
+from dampfit.damping import Settings
 from tests._support.reference_sim import noisy_recording, reference_decay
 from dampfit.errors import InputError
 
@@ -181,7 +182,7 @@ def verdict_of(rec):
         prep = preprocess.prepare(rec)
         fd = preprocess.fit_data(prep)
         ls = fit.least_squares(fd, float("nan"), prep.f0)
-        return assess(prep, fd, ls, None, posterior="laplace"), prep
+        return assess(prep, fd, ls, None, settings=Settings("laplace")), prep
 
 
 # ----------------------------------------------------------------------------- the rule
@@ -201,7 +202,9 @@ def rule(**kw):
                 p_viscous=0.9, best_nonlinear="power", viscous=CLEAN, best=CLEAN,
                 best_model="power", pipeline=CLEAN)
     base.update(kw)
-    return checks.adequacy(**base)
+    laws = checks.LawEvidence(*(base.pop(k, None) for k in checks.LawEvidence._fields))
+    fits = checks.FitChecks(*(base.pop(k) for k in checks.FitChecks._fields))
+    return checks.adequacy(**base, laws=laws, fits=fits)
 
 
 def test_clean_viscous_evidence_is_adequate():

@@ -12,6 +12,7 @@ from dampfit.inference import least_squares as fit
 from dampfit.signal import prepare as preprocess
 from dampfit.output import text as render
 from dampfit.damping.assessment import assess
+from dampfit.damping import Settings
 from tests._support.reference_sim import noisy_recording
 
 F0, ZETA = 1.5, 0.004
@@ -36,7 +37,7 @@ def summary_of(rec) -> dict:
         prep = preprocess.prepare(rec)
         fd = preprocess.fit_data(prep)
         ls = fit.least_squares(fd, float("nan"), prep.f0)
-        return assess(prep, fd, ls, None, mass=1.0, posterior="laplace").summary()
+        return assess(prep, fd, ls, None, mass=1.0, settings=Settings("laplace")).summary()
 
 
 @pytest.mark.parametrize("seed", [0, 1])

@@ -22,10 +22,12 @@ from dampfit.output import figures as plots
 from dampfit.signal import prepare as preprocess
 from dampfit import simulate as sim
 from dampfit.damping import assess, checks
+from dampfit.damping import Settings
 from dampfit.model import laws as models
 from tests._support.reference_sim import noisy_recording, reference_decay
 from dampfit.inference.law_sampler import sample_emcee, sample_laplace
 from dampfit.errors import InputError
+from dampfit.physics import Mass
 
 from tests._support.requirements import REAL
 
@@ -61,7 +63,7 @@ def cases():
     for law in ("coulomb", "quadratic", "viscous"):
         t, a = clean_accel(law)
         prep, fd = prepared(t, a, seed=1)
-        out[law] = (prep, fd, assess(prep, fd, None, None, mass=M, posterior="laplace"))
+        out[law] = (prep, fd, assess(prep, fd, None, None, mass=M, settings=Settings("laplace")))
     return out
 
 
@@ -140,7 +142,7 @@ def test_summary_is_plain_json_with_a_comparison_table(cases):
 
 def test_a_requested_law_is_reported_with_a_warning(cases):
     prep, fd, _ = cases["quadratic"]
-    res = assess(prep, fd, None, None, mass=M, model="viscous", posterior="laplace", amplitude=0.01)
+    res = assess(prep, fd, None, None, mass=M, model="viscous", settings=Settings("laplace"), amplitude=0.01)
     assert res.chosen == "viscous" and res.preferred == "quadratic"
     assert any("viscous damping law was requested" in w for w in res.warnings)
     rep = res.c_report()
@@ -180,13 +182,13 @@ def test_an_amplitude_outside_the_recorded_range_is_an_extrapolation(cases):
     prep, fd, res = cases["quadratic"]
     lo, hi = res.recorded_amplitudes
     assert 0 < lo < hi <= 1.01 * U0
-    far = assess(prep, fd, None, None, mass=M, posterior="laplace", amplitude=50 * hi)
+    far = assess(prep, fd, None, None, mass=M, settings=Settings("laplace"), amplitude=50 * hi)
     rep = far.c_report()
     assert rep["extrapolated"] is True and rep["recorded_amplitude_range_m"] == [lo, hi]
     assert "extrapolated" in rep["note"]
     warn = next(w for w in far.warnings if w.startswith("--amplitude"))
     assert f"outside the recorded displacement amplitudes {lo:.3g}–{hi:.3g} m" in warn
-    near = assess(prep, fd, None, None, mass=M, posterior="laplace", amplitude=(lo * hi) ** 0.5)
+    near = assess(prep, fd, None, None, mass=M, settings=Settings("laplace"), amplitude=(lo * hi) ** 0.5)
     assert near.c_report()["extrapolated"] is False
     assert not any(w.startswith("--amplitude") for w in near.warnings)
 
@@ -267,6 +269,12 @@ def test_input_errors(cases):
                     (dict(posterior="nuts"), "posterior must be"),
                     (dict(window_cycles=1.0), "at least 2 cycles")):
         with pytest.raises(InputError, match=msg):
+            if "mass_sd" in kw:  # a mass and its sd are one Mass, checked where it is made
+                kw = {**kw, "mass": Mass(kw["mass"], kw.pop("mass_sd"))}
+            if "posterior" in kw or "window_cycles" in kw:  # how it runs: one Settings
+                kw = {**kw}
+                kw["settings"] = Settings(kw.pop("posterior", "chosen"),
+                                          kw.pop("window_cycles", None))
             assess(prep, fd, None, None, **kw)
 
 
@@ -320,7 +328,7 @@ def test_false_alarm_rate_on_viscous_recordings():
             warnings.simplefilter("ignore")
             prep = preprocess.prepare(rec)
             fd = preprocess.fit_data(prep)
-            res = assess(prep, fd, None, None, posterior="laplace")
+            res = assess(prep, fd, None, None, settings=Settings("laplace"))
         alarms += res.amplitude_dependent
         sl = res.slope
         window_alarms += bool(sl and (sl["s_q05"] > 0 or sl["s_q95"] < 0))
@@ -338,7 +346,7 @@ def test_interval_coverage_over_replicates(law):
     n, hits, right = 40, {k: 0 for k in KEYS[law]}, 0
     for seed in range(n):
         prep, fd = prepared(t, a, seed=100 + seed, noise_frac=0.04)
-        res = assess(prep, fd, None, None, mass=M, posterior="laplace")
+        res = assess(prep, fd, None, None, mass=M, settings=Settings("laplace"))
         right += res.preferred == law
         params = res.summary()["damping_models"]["models"][law]["parameters"]
         for key in KEYS[law]:
@@ -367,7 +375,7 @@ def test_real_recordings_show_amplitude_dependence(path):
         warnings.simplefilter("ignore")
         prep = preprocess.prepare(rec)
         fd = preprocess.fit_data(prep)
-        res = assess(prep, fd, None, None, posterior="laplace")
+        res = assess(prep, fd, None, None, settings=Settings("laplace"))
     s = res.summary()["model_checks"]
     z = s["amplitude_dependence"]["zeta_at_start_and_end"]
     print(path.name, res.preferred, res.verdict["p_viscous"], z["zeta_eq_start"]["q50"],

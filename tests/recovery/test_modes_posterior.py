@@ -9,6 +9,7 @@ import pytest
 
 from dampfit import physics_modal as pm
 from dampfit import stages
+from dampfit._options import SamplerSettings
 from dampfit._json import jsonable
 from dampfit.errors import InputError
 from dampfit.estimators.subspace import subspace_modes
@@ -24,7 +25,8 @@ MASS = 0.8
 def two_mode_posterior():
     rec, truth = two_mode_recording(MASS)
     prep = pp.prepare(rec)
-    stage = stages.modes_stage(prep, max_modes=2, mass=MASS, seed=2, min_ess=400)
+    stage = stages.modes_stage(prep, max_modes=2, mass=MASS,
+                               sampler=SamplerSettings(seed=2, min_ess=400))
     return prep, truth, stage.selection, stage.posterior, stage
 
 

@@ -11,6 +11,7 @@ import math
 import pytest
 
 from dampfit import stages
+from dampfit._options import SamplerSettings
 from dampfit.signal import prepare
 from dampfit.simulate import structure as S
 
@@ -20,8 +21,9 @@ MASS = 0.5  # [kg]
 def _modes(rec, verdict=None):
     prep = prepare.prepare(rec, axis="auto")
     ls = stages.fit_stages(prep, MASS).least_squares
-    return stages.modes_stage(prep, max_modes=4, mass=MASS, seed=0, min_ess=300,
-                              one_mode=(ls.p, ls.omega_d), verdict=verdict)
+    return stages.modes_stage(prep, max_modes=4, mass=MASS,
+                              sampler=SamplerSettings(seed=0, min_ess=300),
+                              one_mode=stages.OneMode(ls.p, ls.omega_d, verdict))
 
 
 @pytest.mark.slow

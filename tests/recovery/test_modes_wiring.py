@@ -17,6 +17,7 @@ from dampfit.pipeline import analyze
 from dampfit.inference import modes_gate
 from dampfit.signal import prepare as pp
 from dampfit import stages
+from dampfit._options import SamplerSettings
 
 from tests._support.modes import two_mode_recording
 
@@ -71,7 +72,8 @@ def test_a_modal_posterior_that_did_not_converge_points_to_the_least_squares():
     """Stopped long before convergence (60 steps), the modal posterior's quantiles are not to
     be read: the warnings list each mode's least-squares optimum and Laplace interval."""
     rec, _ = two_mode_recording(MASS)
-    st = stages.modes_stage(pp.prepare(rec), max_modes=2, n_modes=2, max_steps=60, seed=1)
+    st = stages.modes_stage(pp.prepare(rec), max_modes=2, n_modes=2,
+                            sampler=SamplerSettings(max_steps=60, seed=1))
     out = st.summary
     assert out["sampling"]["posterior_converged"] is False
     (note,) = [w for w in out["warnings"] if "least-squares optima" in w]

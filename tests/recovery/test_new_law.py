@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from dampfit.damping import assess, damper
+from dampfit.damping import Settings
 from dampfit.model import laws, registry
 from dampfit.model.laws import Coefficient, lam
 from dampfit.output.report.checks import model_checks
@@ -104,7 +105,7 @@ def test_the_command_line_offers_a_registered_law(half_power):
 
 def test_a_registered_law_is_fitted_compared_reported_and_recommended(half_power, recording):
     prep, fd = recording
-    res = assess(prep, fd, None, None, mass=M, posterior="laplace")
+    res = assess(prep, fd, None, None, mass=M, settings=Settings("laplace"))
     assert "half-power" in res.fits and res.fits["half-power"].converged
     s = res.summary()
     table = {r["model"]: r for r in s["damping_models"]["comparison"]}

@@ -17,6 +17,7 @@ import pytest
 from dampfit import physics_modal as pm
 from dampfit import simulate as sim
 from dampfit import stages
+from dampfit._options import SamplerSettings
 from dampfit.signal import prepare as pp
 
 MASS, F1 = 0.8, 3.3  # [kg], [Hz]
@@ -28,8 +29,8 @@ def _replicate(rep: int, zetas=(0.006, 0.03), ratio=2.7, amp=0.5, max_modes=3, m
                          noise_density=300.0, jitter=0.05, seed=int(rng.integers(2**31)),
                          modes=[(ratio * F1, zetas[1], amp, float(rng.uniform(0, 2 * np.pi)))])
     rec, truth = sim.recording(cfg)
-    stage = stages.modes_stage(pp.prepare(rec), max_modes=max_modes, mass=MASS, seed=rep,
-                               min_ess=min_ess)
+    stage = stages.modes_stage(pp.prepare(rec), max_modes=max_modes, mass=MASS,
+                               sampler=SamplerSettings(seed=rep, min_ess=min_ess))
     return truth, stage.summary
 
 

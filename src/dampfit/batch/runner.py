@@ -26,7 +26,7 @@ import threading
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Callable, Sequence, TextIO
+from typing import Any, Callable, NamedTuple, Sequence, TextIO
 
 from dampfit._options import (DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED, AnalysisOptions,
                               SamplerSettings)
@@ -74,12 +74,21 @@ def execute(todo: Sequence[tuple[Job, str]], options: dict[str, Any], outputs: d
         on_row(row)
 
 
+class Workers(NamedTuple):
+    """Where a batch runs: this process (``count`` 1, no ``scheduler``, no ``client``), a
+    local cluster of ``count`` worker processes, the Dask ``scheduler`` at that address, or
+    the given Dask ``client``."""
+
+    count: int = 1
+    scheduler: str | None = None
+    client: Any = None
+
+
 def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
-              outputs: dict[str, bool], workers: int = 1, scheduler: str | None = None,
-              client=None, force: bool = False, quiet: bool = False,
-              stderr: TextIO | None = None):
-    """Run (or resume) the batch of ``jobs`` into folder ``out``; return the results table
-    (one row per job, in order). Raises :class:`~dampfit.errors.InputError` for a folder
+              outputs: dict[str, bool], workers: Workers = Workers(), force: bool = False,
+              quiet: bool = False, stderr: TextIO | None = None):
+    """Run (or resume) the batch of ``jobs`` into folder ``out`` on ``workers``
+    (:class:`Workers`); return the results table (one row per job, in order). Raises :class:`~dampfit.errors.InputError` for a folder
     holding something else, another batch's options (unless ``force``) or a busy lock;
     ``KeyboardInterrupt`` passes through after the finished rows' tables are written."""
     from dampfit._meta import __version__
@@ -93,10 +102,11 @@ def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
         keys = [j.key(cfg.as_dict()) for j in jobs]
         stored = {r["key"]: r for r in store.records() if r["status"] != "failed"}
         todo = [(j, k) for j, k in zip(jobs, keys) if k not in stored]
+        count, scheduler, client = workers
         if not quiet:
-            where = ("this process" if client is None and scheduler is None and workers <= 1
+            where = ("this process" if client is None and scheduler is None and count <= 1
                      else scheduler or ("the given Dask client" if client is not None else
-                                        f"a local cluster of {workers} worker process(es)"))
+                                        f"a local cluster of {count} worker process(es)"))
             print(f"dampfit batch: {len(jobs)} recording(s), {len(jobs) - len(todo)} already "
                   f"done in {store.root}; {len(todo)} to analyse in {where}", file=err)
         rows = dict(stored)
@@ -115,7 +125,7 @@ def run_batch(jobs: Sequence[Job], out: str | Path, *, options: dict[str, Any],
                 bar.update(1)
 
             try:
-                _run(todo, cfg, runs, on_row, ready, client, workers, scheduler, err)
+                _run(todo, cfg, runs, on_row, ready, workers, err)
             finally:  # also on an interrupt: the tables of what is done
                 if store.started:
                     done = [rows[k] for k in keys if k in rows]
@@ -145,12 +155,13 @@ def _signals_held():
         mask(signal.SIG_SETMASK, old)
 
 
-def _run(todo, cfg: BatchConfig, runs: Path, on_row, ready, client, workers: int,
-         scheduler: str | None, err: TextIO) -> None:
-    """Analyse ``todo`` where :func:`run_batch` says; ``ready()`` before the first row."""
+def _run(todo, cfg: BatchConfig, runs: Path, on_row, ready, workers: Workers,
+         err: TextIO) -> None:
+    """Analyse ``todo`` on ``workers`` (:func:`run_batch`); ``ready()`` before the first row."""
     if not todo:
         return
-    if client is None and scheduler is None and workers <= 1:
+    count, scheduler, client = workers
+    if client is None and scheduler is None and count <= 1:
         ready()
         execute(todo, cfg.options, cfg.outputs, runs, on_row)
         return
@@ -161,7 +172,7 @@ def _run(todo, cfg: BatchConfig, runs: Path, on_row, ready, client, workers: int
     from dampfit._meta import __version__
     from dampfit.cluster import check_workers, client as dask_client
 
-    with dask_client(max(1, min(workers, len(todo))), scheduler) as c:
+    with dask_client(max(1, min(count, len(todo))), scheduler) as c:
         check_workers(c, scheduler, __version__, err)
         ready()
         execute(todo, cfg.options, cfg.outputs, runs, on_row, c)
@@ -235,8 +246,8 @@ def analyze_many(paths: str | Sequence[str], mass: float | None = None,
     jobs = make_jobs([str(p) for p in paths], mass=mass, mass_sd=mass_sd, masses=masses,
                      read_options=check_read_options(read_options))
     if out is not None:
-        return run_batch(jobs, out, options=options, outputs=outputs, client=client,
-                         force=force, quiet=not progress)
+        return run_batch(jobs, out, options=options, outputs=outputs,
+                         workers=Workers(client=client), force=force, quiet=not progress)
     from dampfit._progress import progress_bar
 
     rows: dict[str, dict] = {}

@@ -52,25 +52,26 @@ def _entry(st, f_pooled: float, max_modes: int) -> dict[str, Any]:
             "warnings": list(st.warnings), "reason": None}
 
 
-def per_test_modes(fits, max_modes: int, *, seed: int, min_ess: float, max_steps: int,
-                   progress: bool = False) -> list[str]:
+def per_test_modes(fits, max_modes: int, sampler) -> list[str]:
     """Run the modes stage on every test of ``fits`` (:class:`~dampfit.campaign.tests.TestFit`,
     their ``modes`` set in place to the plain-data entry of this module) and return the
     campaign warnings it raises (a test that cannot support several modes, a modal
-    posterior that did not converge, a close pair that may be the pooled mode split)."""
+    posterior that did not converge, a close pair that may be the pooled mode split);
+    ``sampler`` the run's :class:`~dampfit._options.SamplerSettings`."""
     import numpy as np
 
     from dampfit import stages
     from dampfit._progress import progress_bar
 
     warns: list[str] = []
-    with progress_bar(len(fits), "modes per test", unit="test", enabled=progress) as bar:
+    with progress_bar(len(fits), "modes per test", unit="test",
+                      enabled=sampler.progress) as bar:
         for t in fits:
             label = f"test {t.index + 1} ({t.name})"
-            st = stages.modes_stage(t.prepared, max_modes=max_modes, seed=seed,
-                                    min_ess=min_ess, max_steps=max_steps,
-                                    one_mode=(t.least_squares.p, t.least_squares.omega_d),
-                                    verdict=t.damping_verdict)
+            st = stages.modes_stage(t.prepared, max_modes=max_modes, sampler=sampler,
+                                    one_mode=stages.OneMode(t.least_squares.p,
+                                                            t.least_squares.omega_d,
+                                                            t.damping_verdict))
             if st.n_modes is None:
                 reason = str(st.evidence.get("reason"))
                 t.modes = {"max_modes": max_modes, "n_modes": None, "pooled_mode": None,

@@ -103,9 +103,7 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     warns.extend(sampled.warnings)
     found = verdict.assess_sampled(fits, sampled.idata.posterior, dm is not None, dm_sd)
     if opts.max_modes > 1:
-        warns.extend(modes.per_test_modes(fits, opts.max_modes, seed=s.seed,
-                                          min_ess=s.min_ess, max_steps=s.max_steps,
-                                          progress=s.progress))
+        warns.extend(modes.per_test_modes(fits, opts.max_modes, s))
     return CampaignAnalysis(tests=fits, sampling=sampled, checks=found, warnings=warns, mass=m,
                             mass_sd=sd, added_mass=dm, added_mass_sd=dm_sd, seed=s.seed,
                             options=opts.to_dict(campaign=True, reading=_reading_options(recs)))

@@ -121,7 +121,7 @@ def _damping_verdict(prep, fd, ls, nm, mass, warns: list[str]) -> str | None:
     from dampfit import damping
 
     try:
-        res = damping.assess(prep, fd, ls, nm, mass, 0.0, posterior="laplace")
+        res = damping.assess(prep, fd, ls, nm, mass, settings=damping.Settings("laplace"))
     except InputError as exc:
         warns.append(f"damping-law check not made: {exc}")
         return None

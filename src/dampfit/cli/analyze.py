@@ -36,6 +36,7 @@ from dampfit.cli.options import real_arg, seed_arg
 from dampfit.physics import MAX_MASS
 from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
+from dampfit.files.folder import Free
 from dampfit.errors import InputError
 
 DEMO_MASS_SD = 0.02  # [kg] mass uncertainty used by the demo (a kitchen scale)
@@ -87,20 +88,14 @@ def print_result(an, out: Path, as_json: bool) -> None:
     """The summary table (or summary.json) on stdout; a non-converged result warns on stderr."""
     from dampfit.output import text as render
 
-    s = an.summary()
-    if as_json:
-        import json
-
-        print(json.dumps(s, indent=2))
-    else:
-        print(render.text(s))
+    def written() -> str:
         extras = "".join(f", {name}" for name, there in (
             ("figures", (out / "fit.png").exists()), ("report.html", (out / "report.html").exists()))
             if there)
-        print(f"\n  written to {out}/ (summary.json, posterior.nc, signals.npz{extras})")
-    if not an.converged:
-        print("dampfit: WARNING: the result did NOT converge; see diagnostics.warnings in "
-              "summary.json before using these numbers", file=sys.stderr)
+        return f"\n  written to {out}/ (summary.json, posterior.nc, signals.npz{extras})"
+
+    s = an.summary()
+    _show(s, as_json, render.text, written, an.converged)
     modal = (s.get("modes_evidence") or {}).get("sampling") or {}
     if modal.get("converged") is False:
         print(f"dampfit: WARNING: the modal posterior did NOT converge ({modal.get('stop_reason')}"
@@ -254,17 +249,25 @@ def _print_campaign(an, out: Path, as_json: bool) -> None:
     """The campaign table (or its summary.json) on stdout; not converged: a warning on stderr."""
     from dampfit.output import text_campaign
 
-    s = an.summary()
+    def written() -> str:
+        extras = "".join(f", {name}" for name in ("forest.png", "added_mass.png", "report.html")
+                         if (out / name).exists())
+        return f"\n  written to {out}/ (summary.json, posterior.nc{extras})"
+
+    _show(an.summary(), as_json, text_campaign.text, written, an.converged)
+
+
+def _show(s: dict, as_json: bool, table, written, converged: bool) -> None:
+    """summary.json ``s`` as JSON, or ``table(s)`` and the ``written()`` line, on stdout; a
+    warning on stderr when the result did not converge (one recording's or a campaign's)."""
     if as_json:
         import json
 
         print(json.dumps(s, indent=2))
     else:
-        print(text_campaign.text(s))
-        extras = "".join(f", {name}" for name in ("forest.png", "added_mass.png", "report.html")
-                         if (out / name).exists())
-        print(f"\n  written to {out}/ (summary.json, posterior.nc{extras})")
-    if not an.converged:
+        print(table(s))
+        print(written())
+    if not converged:
         print("dampfit: WARNING: the result did NOT converge; see diagnostics.warnings in "
               "summary.json before using these numbers", file=sys.stderr)
 
@@ -312,8 +315,9 @@ def demo(args) -> int:
     # a previous demo's own folder (marker of kind "demo", or an old one recognised by its
     # files) is regenerated freely; an analyze result only with --force; anything else never
     with figure_process(args) as figs, \
-            result_folder(out, "demo", args.force, free_kinds=("demo",),
-                          legacy=old_demo_folder) as folder, contextlib.closing(figs):
+            result_folder(out, "demo", args.force,
+                          free=Free(("demo",), old_demo_folder)) as folder, \
+            contextlib.closing(figs):
         figs.target(folder.stage)
         print(f"dampfit demo: simulating the seed paper's set-up (m = {cfg.mass} kg, "
               f"k = {cfg.k:.1f} N/m, c = {cfg.c} N s/m, {cfg.duration:g} s at "

@@ -59,10 +59,12 @@ def add_arguments(a: argparse.ArgumentParser) -> None:
                                    "options")
 
 
-def _options(args) -> tuple[dict, dict, dict]:
+def _options(args, analysis) -> tuple[dict, dict, dict]:
+    """The batch's analysis keywords (of ``analysis``, the run's
+    :class:`~dampfit._options.AnalysisOptions`), outputs and reading options."""
     from dampfit.cli.analyze import read_options
 
-    options = analysis_options(args).to_keywords()
+    options = analysis.to_keywords()
     outputs = {"figures": args.figures and not args.summaries_only,
                "report": args.report and not args.summaries_only,
                "summaries_only": args.summaries_only}
@@ -102,7 +104,7 @@ def command(args) -> int:
     from dampfit.batch.inputs import jobs
     from dampfit.errors import InputError
 
-    analysis_options(args)  # checked before any work (built again, as keywords, by _options)
+    analysis = analysis_options(args)  # built (and checked) once, before any work
     if args.figures and args.no_figures:
         raise InputError("give either --figures or --no-figures, not both (a batch draws no "
                          "per-recording figures unless --figures)")
@@ -114,15 +116,15 @@ def command(args) -> int:
         if importlib.util.find_spec("distributed") is None:
             raise InputError("dampfit batch on several workers runs on Dask: install it with "
                              "pip install 'dask[distributed]', or give --workers 1")
-    options, outputs, reading = _options(args)
+    options, outputs, reading = _options(args, analysis)
     todo = jobs(args.paths, list_file=args.list_file, mass=args.mass, mass_sd=args.mass_sd,
                 masses=args.masses, read_options=reading)
     out = Path(args.out)
-    from dampfit.batch.runner import run_batch
+    from dampfit.batch.runner import Workers, run_batch
 
     try:
         table = run_batch(todo, out, options=options, outputs=outputs,
-                          workers=args.workers or os.cpu_count() or 1, scheduler=args.scheduler,
+                          workers=Workers(args.workers or os.cpu_count() or 1, args.scheduler),
                           force=args.force, quiet=args.quiet)
     except KeyboardInterrupt as exc:  # the CLI's one line says what is kept
         exc.dampfit_kept = (f"finished rows are kept in {out}/rows.jsonl and {out}/results.csv; "

@@ -50,12 +50,12 @@ def command(args: argparse.Namespace) -> int:
     import numpy as np
 
     from dampfit.cli import messages
-    from dampfit.fem.export import export
+    from dampfit.fem.export import Deck, export
 
-    out, info = export(args.folder, args.format, args.out, units=args.units,
-                       quantile=args.quantile, gravity=args.gravity, duration=args.duration,
-                       force=args.force, law=getattr(args, "law", None),
-                       force_law=getattr(args, "force_law", None),
+    deck = Deck(units=args.units, quantile=args.quantile, gravity=args.gravity,
+                duration=args.duration, law=getattr(args, "law", None),
+                force_law=getattr(args, "force_law", None))
+    out, info = export(args.folder, args.format, args.out, deck=deck, force=args.force,
                        draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     dmp = info["damper"]
     for warning in dmp.warnings:  # also in the deck; printed once the command has succeeded

@@ -84,7 +84,8 @@ def _experiment(args) -> int:
     return 0
 
 
-def _check(args) -> str:
+def _check(args):
+    """The phyphox URL and the run's AnalysisOptions, both checked before recording."""
     from dampfit.record.phyphox import check_url
 
     if args.url is None:
@@ -94,8 +95,7 @@ def _check(args) -> str:
         raise InputError("argument --out is required: the folder for the recording and its "
                          "analysis")
     url = check_url(args.url)
-    analysis_options(args)  # checked before recording; built again for the analysis
-    return url
+    return url, analysis_options(args)  # checked before recording, carried to the analysis
 
 
 def command(args) -> int:
@@ -105,7 +105,7 @@ def command(args) -> int:
             raise InputError("give either URL (record) or --experiment FILE (write the "
                              "experiment), not both")
         return _experiment(args)
-    url = _check(args)
+    url, options = _check(args)
     from dampfit.files.swap import signals_deferred
     from dampfit.cli.staging import result_folder
     from dampfit.record.live import LiveLine
@@ -153,7 +153,7 @@ def command(args) -> int:
         # the line is written once everything succeeded: a failure stays one line
         live.status(f"{final}; analysing (Ctrl-C aborts the analysis, the recording stays)")
         try:
-            an = _analyse(args, folder, out, rec.notes, (CSV, JSON))
+            an = _analyse(args, options, folder, out, rec.notes, (CSV, JSON))
         except BaseException as exc:
             live.finish_quietly()
             _kept(exc, f"the analysis was stopped; the recording stays: {kept} (analyse it "
@@ -183,8 +183,10 @@ def _kept(exc: BaseException, what: str) -> BaseException:
     return exc
 
 
-def _analyse(args, folder, out: Path, notes, names):
-    """Step 2: the analysis into a new staging folder beside copies of the recording files."""
+def _analyse(args, options, folder, out: Path, notes, names):
+    """Step 2: the analysis (under ``options``, the run's
+    :class:`~dampfit._options.AnalysisOptions`) into a new staging folder beside copies of the
+    recording files."""
     from dampfit.cli.analyze import figure_process, analyse_into
     from dampfit.output.report import write_report
 
@@ -195,7 +197,7 @@ def _analyse(args, folder, out: Path, notes, names):
     try:
         with figure_process(args) as figs, contextlib.closing(figs):
             an = analyse_into(args, folder, figs, stage / names[0],
-                              options=analysis_options(args),
+                              options=options,
                               shown_path=folder.target / names[0], notes=tuple(notes))
             folder.publish()
     except DampfitError as exc:

@@ -27,6 +27,7 @@ from dampfit.damping.assessment import choices as choices
 from dampfit.damping.assessment import POSTERIORS as POSTERIORS
 from dampfit.damping.assessment import DampingAssessment as DampingAssessment
 from dampfit.damping.assessment import assess as assess
+from dampfit.damping.assessment import Settings as Settings
 from dampfit.damping.assessment import from_analysis as from_analysis
 from dampfit.model.laws import names as names
 from dampfit.model.laws import c_equivalent as c_equivalent

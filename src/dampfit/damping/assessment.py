@@ -24,7 +24,7 @@ the largest and smallest recorded displacement amplitudes), with the amplitude s
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -34,11 +34,23 @@ from dampfit.errors import InputError
 from dampfit.damping import checks, curve, quantities
 from dampfit.damping import evidence
 from dampfit._options import SamplerSettings
-from dampfit.physics import check_mass
+from dampfit.physics import Mass
 from dampfit.model import laws
 from dampfit.damping.summary import summary as _summary
 from dampfit.inference import law_fit
 from dampfit.inference import law_sampler as dsample
+
+
+class Settings(NamedTuple):
+    """How :func:`assess` runs: ``posterior`` (:data:`POSTERIORS`), ``window_cycles``
+    [cycles] of the ζ(amplitude) windows (None: automatic), ``sampler`` the
+    :class:`~dampfit._options.SamplerSettings` of the emcee runs (None: default ones) and
+    ``budget`` their step budget (:class:`dampfit.inference.law_sampler.Budget`, None: none)."""
+
+    posterior: str = "chosen"
+    window_cycles: float | None = None
+    sampler: SamplerSettings | None = None
+    budget: Any = None
 
 
 def choices() -> tuple[str, ...]:
@@ -176,43 +188,45 @@ class DampingAssessment:
         return out
 
 
-def _check_inputs(model: str, amplitude, mass, mass_sd, posterior: str, window_cycles) -> None:
+def _check_inputs(model: str, amplitude, posterior: str, window_cycles) -> None:
     if model not in choices():
         raise InputError(f"unknown damping model {model!r}; choose one of "
                          f"{', '.join(choices())}")
     if amplitude is not None and not (np.isfinite(amplitude) and amplitude > 0):
         raise InputError("the reference amplitude must be a positive displacement in m, "
                          f"got {amplitude!r}")
-    if mass is not None:
-        check_mass(mass, mass_sd)
     if posterior not in POSTERIORS:
         raise InputError(f"posterior must be one of {', '.join(POSTERIORS)}, got {posterior!r}")
     if window_cycles is not None and not (np.isfinite(window_cycles) and window_cycles >= 2):
         raise InputError(f"amplitude windows must span at least 2 cycles, got {window_cycles!r}")
 
 
-def assess(prep, fd, ls, noise_model, mass: float | None = None, mass_sd: float = 0.0, *,
-           model: str = "auto", amplitude: float | None = None, posterior: str = "chosen",
-           window_cycles: float | None = None, sampler: SamplerSettings | None = None,
-           budget=None) -> DampingAssessment:
+def assess(prep, fd, ls, noise_model, mass: Mass | float | None = None, *,
+           model: str = "auto", amplitude: float | None = None,
+           settings: Settings = Settings()) -> DampingAssessment:
     """Compare damping laws on a prepared recording (see the module docstring).
 
     ``prep`` :class:`~dampfit.signal.prepare.Prepared`, ``fd`` :class:`~dampfit.signal.prepare.FitData`,
     ``ls`` the viscous :class:`~dampfit.inference.least_squares.LeastSquaresResult` (start values; None: from the
     envelope), ``noise_model`` its :class:`~dampfit.inference.noise.NoiseModel` or None (its r is
-    reported; the comparison re-measures r on the best law's residuals). ``mass``, ``mass_sd``
-    [kg]; ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
-    the reference displacement amplitude for c_eq; ``posterior`` (:data:`POSTERIORS`):
+    reported; the comparison re-measures r on the best law's residuals). ``mass`` the
+    :class:`~dampfit.physics.Mass` (value and sd [kg], checked when it was made; a bare number
+    [kg] is ``Mass(number)``); ``model`` one of :func:`choices` (``auto`` = the preferred law); ``amplitude`` [m]
+    the reference displacement amplitude for c_eq; ``settings`` (:class:`Settings`): its
+    ``posterior`` (:data:`POSTERIORS`):
     ``"chosen"`` = emcee for the chosen law and the Laplace approximation for the others,
     ``"chosen-nonviscous"`` the same except when the chosen law is viscous (whose emcee
     posterior :func:`dampfit.analyze` has already), ``"emcee"`` for all, ``"laplace"`` for
     none (fast; what the false-alarm study uses); ``window_cycles`` [cycles] of the
     ζ(amplitude) windows (automatic if None); ``sampler`` the
-    :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None).
+    :class:`~dampfit._options.SamplerSettings` of the emcee runs (default ones if None) and
+    their ``budget``.
     """
-    _check_inputs(model, amplitude, mass, mass_sd, posterior, window_cycles)
+    posterior, window_cycles, sampler, budget = settings
+    _check_inputs(model, amplitude, posterior, window_cycles)
+    checked = mass if isinstance(mass, Mass) else Mass(mass)
+    mass, mass_sd = checked.value, checked.sd
     sampler = SamplerSettings() if sampler is None else sampler
-    mass_sd = float(mass_sd or 0.0)
     data = law_fit.Data.from_fit_data(fd)
     f0 = float(prep.f0)
     p_start, w_start = (ls.p, ls.omega_d) if ls is not None else _initial_guess(prep)
@@ -350,10 +364,12 @@ def _request_warnings(out: DampingAssessment, model: str, amplitude: float | Non
     return warns
 
 
-def from_analysis(an, **kw) -> DampingAssessment:
-    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed)."""
-    kw.setdefault("sampler", SamplerSettings(seed=an.seed))
-    return assess(an.prepared, an.fit_data, an.least_squares, an.noise, an.mass, an.mass_sd, **kw)
+def from_analysis(an, posterior: str = "chosen", **kw) -> DampingAssessment:
+    """:func:`assess` on the stages of a :class:`dampfit.analysis.Analysis` (same mass, seed),
+    with ``posterior`` (:class:`Settings`) and :func:`assess`'s ``model`` and ``amplitude``."""
+    kw["settings"] = Settings(posterior, sampler=SamplerSettings(seed=an.seed))
+    return assess(an.prepared, an.fit_data, an.least_squares, an.noise, Mass(an.mass, an.mass_sd),
+                  **kw)
 
 
 def _viscous_with_drift(fd, data, p_start, w_start, ratio) -> law_fit.ModelFit:
@@ -472,11 +488,11 @@ def _adequacy(a: DampingAssessment, prep, fd, data, n_cyc: float, noise_of,
     if not usability.get("power", {}).get("issue") and q is not None and len(q):
         q05, q50, q95 = np.quantile(np.asarray(q) - 1.0, [0.05, 0.5, 0.95])
         power = {"q05": float(q05), "q50": float(q50), "q95": float(q95)}
-    out = checks.adequacy(n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
-                          p_viscous=a.verdict["p_viscous"], best_nonlinear=best_nl,
-                          viscous=fc.get("viscous"), best=fc.get(best_model),
-                          best_model=best_model, pipeline=pipe, laws=usability,
-                          power_slope=power, decay=a.decay)
+    out = checks.adequacy(
+        n_cycles=n_cyc, slope=a.slope, amplitude_span=span, freq=freq,
+        laws=checks.LawEvidence(a.verdict["p_viscous"], best_nl, usability, power),
+        fits=checks.FitChecks(fc.get("viscous"), fc.get(best_model), best_model, pipe),
+        decay=a.decay)
     out["fit_checks"] = fc
     out["frequency_trend"] = freq
     out["laws"] = usability
@@ -521,5 +537,5 @@ def _warning(a: DampingAssessment, law: str | None = None) -> str | None:
         zeta_hi, zeta_lo = _q50(q, "zeta_eq_start"), _q50(q, "zeta_eq_end")
         a_hi, a_lo = a.amplitudes["start"], a.amplitudes["end"]
         source = f"{m} law"
-    return checks.warning_text(m, a.verdict["p_viscous"], zeta_hi, zeta_lo, a_hi, a_lo, c_ref,
-                               a.amplitudes["ref"], source)
+    return checks.warning_text(m, a.verdict["p_viscous"], (zeta_hi, a_hi), (zeta_lo, a_lo),
+                               c_ref, a.amplitudes["ref"], source)

@@ -98,6 +98,8 @@ much ζ changes over the recorded amplitudes, which law fits and what to put in 
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from scipy import stats
 
@@ -175,15 +177,16 @@ def _fmt(x: float) -> str:
     return f"{x:.3g}"
 
 
-def warning_text(preferred: str, p_viscous: float, zeta_hi: float, zeta_lo: float,
-                 a_hi: float, a_lo: float, c_ref: float | None, a_ref: float,
+def warning_text(preferred: str, p_viscous: float, high: tuple[float, float],
+                 low: tuple[float, float], c_ref: float | None, a_ref: float,
                  source: str = "windowed fits") -> str:
     """The warning a user sees when one viscous c does not describe the decay.
 
-    ζ [1] at the largest and smallest displacement amplitude ``a_hi``, ``a_lo`` [m] (from
-    ``source``); ``c_ref`` [N·s/m] (None without mass) the preferred law's equivalent viscous
-    c at ``a_ref`` [m].
+    ``high``, ``low`` = (ζ [1], displacement amplitude [m]) at the largest and smallest
+    amplitude (from ``source``); ``c_ref`` [N·s/m] (None without mass) the preferred law's
+    equivalent viscous c at ``a_ref`` [m].
     """
+    (zeta_hi, a_hi), (zeta_lo, a_lo) = high, low
     at = (f"c_eq = {_fmt(c_ref)} N·s/m at {_fmt(a_ref)} m amplitude" if c_ref is not None
           else f"ζ_eq is given at {_fmt(a_ref)} m amplitude (no mass: no c)")
     verb = "falls" if zeta_lo < zeta_hi else "rises"
@@ -321,25 +324,41 @@ def _misfits(viscous: dict | None, best: dict | None, best_model: str,
     return v_mis, b_mis, p_mis, phase
 
 
+class LawEvidence(NamedTuple):
+    """The damping laws' evidence :func:`adequacy` weighs: ``p_viscous`` P(viscous | data)
+    [1]; ``best_nonlinear`` the most probable non-viscous law; ``laws`` per non-viscous law
+    ``{"weight" [1], "issue": why it cannot carry a verdict (on a prior bound,
+    ill-conditioned, not converged) or None, "zeta_ratio": ζ at a_max over ζ at a_min [1] or
+    None}`` (None: every law usable); ``power_slope`` ``{"q05", "q50", "q95"}`` of the power
+    law's α − 1 when that law is usable (else None)."""
+
+    p_viscous: float
+    best_nonlinear: str | None
+    laws: dict | None = None
+    power_slope: dict | None = None
+
+
+class FitChecks(NamedTuple):
+    """The per-fit checks :func:`adequacy` weighs, each ``{"ljung_box_p", "r_excess",
+    "resid_fraction", "noise_excess"}`` or None: of the ``viscous`` fit, of the best-fitting
+    law ``best_model`` (``best``) and of the constant-frequency viscous least squares whose c
+    :func:`dampfit.analyze` reports (``pipeline``; None when not available)."""
+
+    viscous: dict | None
+    best: dict | None
+    best_model: str = "viscous"
+    pipeline: dict | None = None
+
+
 def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
-             freq: dict | None, p_viscous: float, best_nonlinear: str | None,
-             viscous: dict | None, best: dict | None, best_model: str = "viscous",
-             pipeline: dict | None = None, laws: dict | None = None,
-             power_slope: dict | None = None, decay: dict | None = None) -> dict:
+             freq: dict | None, laws: LawEvidence, fits: FitChecks,
+             decay: dict | None = None) -> dict:
     """The adequacy verdict of the module docstring.
 
     ``n_cycles`` [cycles] in the window; ``slope`` the windowed d ln p/d ln a
     (:func:`~dampfit.damping.curve.slope`, None with < 4 windows); ``amplitude_span``
     a_max/a_min [1] of the windows; ``freq`` :func:`~dampfit.damping.curve.frequency_trend`;
-    ``p_viscous`` P(viscous | data) [1]; ``best_nonlinear`` the most probable non-viscous law;
-    ``viscous``, ``best`` per-fit checks ``{"ljung_box_p", "r_excess", "resid_fraction",
-    "noise_excess"}`` of the viscous fit and of the best-fitting law ``best_model``;
-    ``pipeline`` the same for the constant-frequency viscous least squares whose c
-    :func:`dampfit.analyze` reports (None when not available). ``laws`` per non-viscous law
-    ``{"weight" [1], "issue": why it cannot carry a verdict (on a prior bound,
-    ill-conditioned, not converged) or None, "zeta_ratio": ζ at a_max over ζ at a_min [1] or
-    None}`` (None: every law usable); ``power_slope`` ``{"q05", "q50", "q95"}`` of the power
-    law's α − 1 when that law is usable (else None); ``decay`` the
+    ``laws`` the laws' :class:`LawEvidence`; ``fits`` the :class:`FitChecks`; ``decay`` the
     :func:`~dampfit.inference.law_fit.decay_test` of the viscous fit (None: not tested).
 
     Returns ``{"verdict", "reasons", "law", "criteria", "bound"}``: ``verdict`` one of
@@ -348,6 +367,8 @@ def adequacy(*, n_cycles: float, slope: dict | None, amplitude_span: float,
     ``{"factor": the largest change of ζ [1] over the recorded amplitudes the slope's 90 %
     interval allows (inf: no slope), "source"}``.
     """
+    p_viscous, best_nonlinear, laws, power_slope = laws
+    viscous, best, best_model, pipeline = fits
     span = float(amplitude_span) if np.isfinite(amplitude_span) and amplitude_span > 1 else 1.0
     sc = _slope_criteria(slope, span, power_slope)
     reasons: list[str] = list(sc["reasons"])

@@ -255,19 +255,21 @@ def _empty(verdict: str, reason: str, tip: str) -> Damper:
 
 
 def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
-              draws: LawDraws | None, measured: tuple[float, float], amplitude: float | None,
-              mass: float | None, mass_sd: float, context: dict[str, Any] | None = None,
+              draws: LawDraws | None, amplitudes: tuple[tuple[float, float], float | None],
+              mass: tuple[float | None, float], context: dict[str, Any] | None = None,
               seed: int = 0) -> Damper:
     """The damper of the module docstring.
 
     ``verdict`` the adequacy verdict and ``reasons`` its reasons; ``law`` the law the verdict
     names (amplitude-dependent) — viscous is used for "adequate" and "inconclusive" whatever
     ``law`` is; ``draws`` that law's posterior draws (:class:`LawDraws`, None: none);
-    ``measured`` (lo, hi) displacement amplitudes [m] of the analysed window; ``amplitude``
-    [m] the user's design amplitude or None; ``mass``, ``mass_sd`` [kg]; ``context`` the
+    ``amplitudes`` = (measured, amplitude): the (lo, hi) displacement amplitudes [m] of the
+    analysed window and the user's design amplitude [m] or None; ``mass`` = (mass, sd) [kg]
+    (as checked: :class:`dampfit.physics.Mass`); ``context`` the
     evidence :func:`not_ruled_out` and :func:`misfit_advice` read (``criteria`` …, ``weight``
     the law's posterior probability); ``seed`` thins the draws reproducibly.
     """
+    (measured, amplitude), (mass, mass_sd) = amplitudes, mass
     ctx = context or {}
     first = reasons[0] if reasons else "no reason recorded"
     v = verdict or "none"
@@ -358,6 +360,6 @@ def from_assessment(a: Any, viscous: LawDraws | None, *, amplitude: float | None
            "best_nonlinear": best, "best_weight": weights.get(best),
            "p_viscous": a.verdict.get("p_viscous"), "weight": weights.get(name)}
     return recommend(verdict=verdict, reasons=list(ad.get("reasons") or []), law=law,
-                     draws=draws, measured=a.recorded_amplitudes, amplitude=amplitude,
-                     mass=a.mass, mass_sd=float(getattr(a, "mass_sd", 0.0) or 0.0),
+                     draws=draws, amplitudes=(a.recorded_amplitudes, amplitude),
+                     mass=(a.mass, float(getattr(a, "mass_sd", 0.0) or 0.0)),
                      context=ctx, seed=seed)

@@ -233,7 +233,7 @@ def log_decrement(
         "f_d_regression": float(f_reg),
         "peak_sigma": sigma_a,
     }
-    return _result("log_decrement", p, zeta, delta, f_d, phys, n, details, **support)
+    return _result("log_decrement", p, zeta, delta, f_d, phys, details, n_cycles=n, **support)
 
 
 def _inner_peaks(y: np.ndarray, fs: float, band: tuple[float, float], t: np.ndarray):
@@ -352,8 +352,8 @@ def envelope_pipeline(
         "p_unweighted": -float(slope_u),
     }
     return _result(
-        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, None,
-        details, **support,
+        "envelope_pipeline", p, float(phys["zeta"]), float(phys["delta"]), f_d, phys, details,
+        n_cycles=None, **support,
     )
 
 
@@ -457,12 +457,12 @@ def _result(
     delta: float,
     f_d: float,
     phys: dict[str, np.ndarray],
-    n_cycles: int | None,
     details: dict[str, Any],
     **support: Any,
 ) -> BaselineResult:
     """The :class:`BaselineResult` of ``method``; c and k where ``phys``
-    (:func:`dampfit.physics.quantities`) has them (a mass was given)."""
+    (:func:`dampfit.physics.quantities`) has them (a mass was given); ``support`` the
+    result's other fields (``n_cycles`` …)."""
     c = float(phys["c"]) if "c" in phys else None
     k = float(phys["k"]) if "k" in phys else None
     return BaselineResult(
@@ -473,7 +473,6 @@ def _result(
         f_d=float(f_d),
         c=c,
         k=k,
-        n_cycles=n_cycles,
         details=details,
         **support,
     )

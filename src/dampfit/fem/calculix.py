@@ -44,9 +44,10 @@ def real(x: float) -> str:
     return text
 
 
-def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
+def deck(sdof: Sdof, units: UnitSystem, times: tuple[float, float, float], *,
          damper: Any = None, header: tuple[str, ...] | list[str] = ()) -> str:
-    """The .inp text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+    """The .inp text for ``sdof`` in ``units``; ``times`` = (duration, dt, output_dt) [s]
+    (SI).
 
     CalculiX's *DASHPOT is linear: its constant may depend on the frequency (steady-state
     dynamics) and the temperature, never on the velocity (ccx ``dashpots.f``). A nonlinear
@@ -57,6 +58,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     Outside text (source folder, dampfit version) is sanitised (:mod:`dampfit.fem.sanitize`):
     it only appears inside ``**`` comment lines, never starts a keyword card.
     """
+    duration, dt, output_dt = times
     L, T = factor("length", units), factor("time", units)
     m = sdof.mass * factor("mass", units)
     k = sdof.k * factor("stiffness", units)

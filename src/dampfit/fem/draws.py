@@ -116,26 +116,25 @@ def _variant(draws: dict[str, Any], i: int, n: int, seed: int, design_m: float |
     return apply
 
 
-def write(build, folder: Path, fmt: str, ext: str, n: int, seed: int,
-          out: str | Path | None, force: bool, **options) -> tuple[Path, dict[str, Any]]:
+def write(one_deck, folder: Path, fmt: str, ext: str, n_seed: tuple[int, int],
+          out: str | Path | None, force: bool) -> tuple[Path, dict[str, Any]]:
     """Write the draws' table and decks (module docstring) into the folder ``out`` (default
     ``folder/sdof_FORMAT_draws``): staged in a hidden sibling folder and moved in at the end;
     an existing folder is replaced only with ``force`` and only if it holds nothing but a
-    previous draws export (draws.csv, draw_*). ``build`` is
-    :func:`dampfit.fem.export.build` (handed in: export calls this module). Returns (folder,
-    description)."""
-    n, seed = check_count(n), check_seed(seed)
+    previous draws export (draws.csv, draw_*). ``n_seed`` = (N, seed); ``one_deck(name,
+    variant=None)`` is :func:`dampfit.fem.export.build` of the export's folder, format and
+    options (handed in: export calls this module). Returns (folder, description)."""
+    n, seed = check_count(n_seed[0]), check_seed(n_seed[1])
     target = Path(out) if out else folder / f"sdof_{fmt}_draws"
     _check_target(target, force)
-    text, info = build(folder, fmt, name=f"draw_0001.{ext}", **options)
+    text, info = one_deck(f"draw_0001.{ext}")
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
     texts, rows = {}, []
     for i in range(n):
         name = f"draw_{i + 1:04d}.{ext}"
-        t, inf = build(folder, fmt, name=name, **options,
-                                  variant=_variant(draws, i, n, seed, design))
+        t, inf = one_deck(name, _variant(draws, i, n, seed, design))
         texts[name] = t
         rows.append(_row(i, draws, inf, design, name))
     texts["draws.csv"] = _csv(rows)
@@ -210,30 +209,29 @@ def _publish(target: Path, texts: dict[str, str], force: bool) -> None:
         raise InputError(f"cannot write {shown(target)}: {exc.strerror or exc}") from None
 
 
-def verify_band(build, folder: Path, summary: dict[str, Any], n: int, seed: int,
-                start: dict[str, float], dt: float, n_steps: int, t: np.ndarray,
-                u_meas: np.ndarray, interior: tuple[float, float],
-                omega_n: float) -> dict[str, Any]:
-    """Run the OpenSees script of each of ``n`` draws (seeded as export's) from the start
-    state ``start`` for ``n_steps`` of ``dt`` and compare the band of their envelopes with the
-    measured envelope's trend over ``interior``: the 5 % and 95 % quantiles of the draws'
-    |a|/ω_n² at each measured peak time (ln-interpolated between each run's own peaks; the
-    measured ``u_meas`` is |a|/ω_n² as well, :func:`dampfit.fem.verify_damper.damper_runs`);
-    ``build`` is :func:`dampfit.fem.export.build`."""
+def verify_band(one_deck, folder: Path, n_seed: tuple[int, int], run, measured,
+                interior: tuple[float, float], omega_n: float) -> dict[str, Any]:
+    """Run the OpenSees script of each of N draws (``n_seed`` = (N, seed), seeded as
+    export's) from the start state of ``run`` = (start, dt, n_steps) for ``n_steps`` of ``dt``
+    and compare the band of their envelopes with the measured envelope's trend over
+    ``interior``: the 5 % and 95 % quantiles of the draws' |a|/ω_n² at each measured peak
+    time (ln-interpolated between each run's own peaks; ``measured`` = (t, u_meas) with
+    u_meas |a|/ω_n² as well, :func:`dampfit.fem.verify_damper.damper_runs`);
+    ``one_deck(name=None, variant=None)`` is :func:`dampfit.fem.export.build` of ``folder``'s
+    OpenSees script (SI, the medians, no gravity, ``n_steps × dt`` long)."""
     from scipy.signal import savgol_filter
 
     from dampfit.fem import opensees, response
 
-    _, info = build(folder, "opensees", "SI", 0.5, False, n_steps * dt)
+    (n, seed), (start, dt, n_steps), (t, u_meas) = n_seed, run, measured
+    _, info = one_deck()
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
     tm, am = response.envelope(t, u_meas, *interior)
     curves = []
     for i in range(n):
-        text, _ = build(folder, "opensees", "SI", 0.5, False, n_steps * dt,
-                                   name=opensees.SCRIPT_NAME,
-                                   variant=_variant(draws, i, n, seed, design))
+        text, _ = one_deck(opensees.SCRIPT_NAME, _variant(draws, i, n, seed, design))
         res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)
         ts, as_ = response.envelope(t[0] + start.get("offset_s", 0.0) + res["t"],
                                     res["a"] / omega_n ** 2)

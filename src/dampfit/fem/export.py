@@ -51,6 +51,7 @@ the link is replaced, never its target) is replaced only with ``--force``.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -70,6 +71,22 @@ FORMATS: dict[str, tuple[str, str]] = {
     "opensees": ("OpenSeesPy script", "sdof_opensees.py"),
     "calculix": ("CalculiX input deck", "sdof_calculix.inp"),
 }
+
+
+@dataclass(frozen=True)
+class Deck:
+    """What a deck is of, beside its format: ``units`` (:mod:`dampfit.fem.units`), the
+    posterior ``quantile``, ``gravity`` (the mass hangs under g), ``duration`` [s] (None: the
+    analysed window), ``law`` (``"viscous"`` or ``"measured"``) and ``force_law`` (any law):
+    ``dampfit export``'s options, which travel together from the command line to the deck and
+    back into its header (:func:`canonical_command`)."""
+
+    units: str = "SI"
+    quantile: float = 0.5
+    gravity: bool = False
+    duration: float | None = None
+    law: str | None = None
+    force_law: str | None = None
 
 
 def output_interval(period: float, sample_rate: float | None) -> float:
@@ -132,33 +149,31 @@ def _sample_rate(summary: dict[str, Any], path: Path) -> float | None:
     return None if fs is None else number(fs, "input.sample_rate_hz", path, positive=True)
 
 
-def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float = 0.5,
-          gravity: bool = False, duration: float | None = None,
-          name: str | None = None, law: str | None = None, force_law: str | None = None,
+def build(folder: str | Path | Any, fmt: str, deck: Deck = Deck(), *, name: str | None = None,
           command: str | None = None, variant=None) -> tuple[str, dict[str, Any]]:
     """Text of the ``fmt`` deck for result ``folder`` (or an analysis :func:`dampfit.load` read
-    from one) and a plain-data description of it.
+    from one) and a plain-data description of it, under the options ``deck`` (:class:`Deck`).
 
-    ``duration`` [s] (default: the analysed window); ``name`` is the script's file name
+    ``deck.duration`` [s] (default: the analysed window); ``name`` is the script's file name
     (OpenSees only, used in its help text). Raises :class:`InputError` for bad input: every
     summary.json field the deck uses is checked first (type, finite, range; see
     :func:`dampfit.result.schema.number`), so a bad value is one error line and no deck.
 
-    The damper is the summary's recommendation, ``law="viscous"`` a linear dashpot,
-    ``force_law`` any law (:func:`dampfit.fem.damper.choose`); ``command`` (the command line
+    The damper is the summary's recommendation, ``deck.law="viscous"`` a linear dashpot,
+    ``deck.force_law`` any law (:func:`dampfit.fem.damper.choose`); ``command`` (the command line
     that asked for the deck) is written into its header with the damper's sentences.
     ``variant(sdof, damper) -> (sdof, damper, header lines)`` replaces the system and damper
     before the deck is written (one posterior draw: :mod:`dampfit.fem.draws`).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    units, quantile, gravity, duration = deck.units, deck.quantile, deck.gravity, deck.duration
     system = units_mod.get(units)
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
-    dmp, sdof = _damper(summary, path, sdof, law, force_law, quantile)
-    header = damper_mod.describe(dmp, command or canonical_command(
-        folder, fmt, units, quantile, gravity, duration, law, force_law))
+    dmp, sdof = _damper(summary, path, sdof, deck)
+    header = damper_mod.describe(dmp, command or canonical_command(folder, fmt, deck))
     if variant is not None:
         sdof, dmp, extra = variant(sdof, dmp)
         header = list(extra) + header
@@ -174,16 +189,16 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     if fmt == "lsdyna":
         from dampfit.fem.lsdyna import deck
 
-        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
+        text = deck(sdof, system, (dur, dt, output_dt), damper=dmp, header=header)
     elif fmt == "opensees":
         from dampfit.fem.opensees import script
 
-        text = script(sdof, system, dur, dt, output_dt, name=name or FORMATS[fmt][1],
+        text = script(sdof, system, (dur, dt, output_dt), name=name or FORMATS[fmt][1],
                       modal=modal, damper=dmp, header=header)
     else:
         from dampfit.fem.calculix import deck
 
-        text = deck(sdof, system, dur, dt, output_dt, damper=dmp, header=header)
+        text = deck(sdof, system, (dur, dt, output_dt), damper=dmp, header=header)
     if modal is not None and fmt != "opensees":
         text = _with_modal(text, fmt, modal, system)
     note = sdof.source.get("campaign")
@@ -201,28 +216,27 @@ def build(folder: str | Path | Any, fmt: str, units: str = "SI", quantile: float
     return text, info
 
 
-def canonical_command(folder: Path, fmt: str, units: str = "SI", quantile: float = 0.5,
-                      gravity: bool = False, duration: float | None = None,
-                      law: str | None = None, force_law: str | None = None,
+def canonical_command(folder: Path, fmt: str, deck: Deck = Deck(),
                       extra: tuple[str, ...] = ()) -> str:
     """The ``dampfit export`` command that writes this deck, as a shell runs it: the resolved
-    folder and every option that differs from its default (``--out`` aside: the file name is
+    folder and every option of ``deck`` that differs from its default (``--out`` aside: the file name is
     not part of the deck), the same whether the deck was asked for on the command line or
     from Python. ``dampfit verify`` records the same string (``script.export_command``)."""
     import shlex
 
     words = ["dampfit", "export", str(Path(folder).resolve()), "--format", fmt]
-    for option, value, default in (("--units", units, "SI"), ("--quantile", quantile, 0.5),
-                                   ("--duration", duration, None), ("--law", law, None),
-                                   ("--force-law", force_law, None)):
+    for option, value, default in (("--units", deck.units, "SI"),
+                                   ("--quantile", deck.quantile, 0.5),
+                                   ("--duration", deck.duration, None), ("--law", deck.law, None),
+                                   ("--force-law", deck.force_law, None)):
         if value != default:
             words += [option, repr(value) if isinstance(value, float) else str(value)]
-    if gravity:
+    if deck.gravity:
         words.append("--gravity")
     return shlex.join(words + list(extra))
 
 
-def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile):
+def _damper(summary: dict[str, Any], path: Path, sdof, deck: Deck):
     """(damper, system): the damper the deck writes and the system with its linear c — the
     dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
     (``damper.c_linear``, else c_eq at u0), which the decks only report.
@@ -234,6 +248,7 @@ def _damper(summary: dict[str, Any], path: Path, sdof, law, force_law, quantile)
     section and the report."""
     import dataclasses
 
+    law, force_law, quantile = deck.law, deck.force_law, deck.quantile
     curve = law == damper_mod.MEASURED
     if curve and force_law is not None:
         raise InputError("give --law measured or --force-law, not both")
@@ -288,12 +303,12 @@ def _with_note(text: str, fmt: str, note: str) -> str:
 
 
 def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
-           units: str = "SI", quantile: float = 0.5, gravity: bool = False,
-           duration: float | None = None, force: bool = False, law: str | None = None,
-           force_law: str | None = None, command: str | None = None,
+           deck: Deck = Deck(), force: bool = False, command: str | None = None,
            draws: int | None = None, seed: int = 0) -> tuple[Path, dict[str, Any]]:
     """Write the ``fmt`` deck of ``result`` (a result folder, or an analysis :func:`dampfit.load`
-    read from one) to ``out`` (default: ``FOLDER/sdof_FORMAT.EXT``); return (path, description).
+    read from one) under the options ``deck`` (:class:`Deck`) to ``out`` (default:
+    ``FOLDER/sdof_FORMAT.EXT``); return (path, description). ``draws`` N writes N posterior
+    draws' decks instead (:mod:`dampfit.fem.draws`, seeded by ``seed``).
 
     Before anything is written: an existing ``out`` (a dangling link too) is replaced only with
     ``force`` (a link is then replaced itself, never its target); a directory, a special file
@@ -306,23 +321,23 @@ def export(result: str | Path | Any, fmt: str, out: str | Path | None = None, *,
     if draws is not None:  # N posterior draws: a folder of decks and draws.csv
         from dampfit.fem import draws as draws_mod
 
-        if law == damper_mod.MEASURED:
+        if deck.law == damper_mod.MEASURED:
             raise InputError("--law measured has no posterior draws (its interval is a "
                              "bootstrap, stated in the deck); drop --draws or --law measured")
 
         draws_mod.check_count(draws)
-        command = command or canonical_command(folder, fmt, units, quantile, gravity, duration,
-                                               law, force_law, ("--draws", str(draws),
-                                                                "--seed", str(seed)))
-        return draws_mod.write(build, folder, fmt, FORMATS[fmt][1].rsplit(".", 1)[1], draws,
-                               seed, out, force, units=units,
-                               quantile=quantile, gravity=gravity, duration=duration, law=law,
-                               force_law=force_law, command=command)
+        command = command or canonical_command(folder, fmt, deck, ("--draws", str(draws),
+                                                                   "--seed", str(seed)))
+
+        def one_deck(name: str, variant=None):
+            return build(folder, fmt, deck, name=name, command=command, variant=variant)
+
+        return draws_mod.write(one_deck, folder, fmt, FORMATS[fmt][1].rsplit(".", 1)[1],
+                               (draws, seed), out, force)
     path = Path(out) if out else folder / FORMATS[fmt][1]
     if out:
         check_output_file(path, force)
-    text, info = build(folder, fmt, units, quantile, gravity, duration, name=path.name,
-                       law=law, force_law=force_law, command=command)
+    text, info = build(folder, fmt, deck, name=path.name, command=command)
     if not out:
         check_output_file(path, force)
     atomic_write_text(path, text)

@@ -58,10 +58,11 @@ def _comment(text: str) -> list[str]:
     return lsdyna_comment(text, limit=None)
 
 
-def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
+def deck(sdof: Sdof, units: UnitSystem, times: tuple[float, float, float], *,
          title: str = "dampfit SDOF free decay", damper: Any = None,
          header: tuple[str, ...] | list[str] = ()) -> str:
-    """The .k deck text for ``sdof`` in ``units``; ``duration``, ``dt``, ``output_dt`` [s] (SI).
+    """The .k deck text for ``sdof`` in ``units``; ``times`` = (duration, dt, output_dt) [s]
+    (SI).
 
     ``damper`` (:class:`dampfit.fem.damper.Damper`) with a nonlinear law replaces
     *MAT_DAMPER_VISCOUS by *MAT_DAMPER_NONLINEAR_VISCOUS (MID, LCDR) and its force–velocity
@@ -72,6 +73,7 @@ def deck(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: f
     (:mod:`dampfit.fem.sanitize`): it can only appear inside ``$`` comments or as the
     ``*TITLE`` line, never start a card.
     """
+    duration, dt, output_dt = times
     from dampfit.fem.units import factor
 
     L, T, M = (factor(q, units) for q in ("length", "time", "mass"))

@@ -362,10 +362,11 @@ def modal_step(omega_max: float, output_dt: float) -> float:
     return output_dt / math.ceil(output_dt / dt_max * (1.0 - 1e-12))
 
 
-def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt: float,
+def script(sdof: Sdof, units: UnitSystem, times: tuple[float, float, float], *,
            name: str = SCRIPT_NAME, modal: dict[str, Any] | None = None,
            damper: Any = None, header: Sequence[str] = ()) -> str:
-    """Standalone OpenSeesPy script for ``sdof`` in ``units``; times [s] are SI.
+    """Standalone OpenSeesPy script for ``sdof`` in ``units``; ``times`` = (duration, dt,
+    output_dt) [s] are SI.
 
     ``modal`` (:func:`dampfit.fem.modal.modal_damping` of a summary with several modes) adds
     the ``--modal`` run of the measured modes with Rayleigh damping (:data:`_MODAL_RUN`);
@@ -379,6 +380,7 @@ def script(sdof: Sdof, units: UnitSystem, duration: float, dt: float, output_dt:
     kept exactly as ``repr`` literals (SOURCE_FOLDER, DAMPFIT_VERSION): nothing a folder name
     or an edited summary.json holds can become code.
     """
+    duration, dt, output_dt = times
     src = sdof.source
     folder = str(src.get("folder", "?"))
     version = src.get("dampfit_version") or ""
@@ -552,7 +554,7 @@ def free_decay(mass: float, k: float, c: float, u_init: float, v_init: float, dt
         raise InputError(f"force must be a finite weight <= 0 [N], got {force!r}")
     n_steps = int(n_steps)
     sdof = Sdof(mass=mass, k=k, c=c, u0=u_init - force / k, g=-force / mass if force else 0.0)
-    text = script(sdof, get_units("SI"), n_steps * dt, dt, dt)
+    text = script(sdof, get_units("SI"), (n_steps * dt, dt, dt))
     res = run_steps(text, u_init, v_init, dt, n_steps)
     return {key: res[key] for key in ("t", "u", "v", "a")}
 

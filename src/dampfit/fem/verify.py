@@ -175,9 +175,11 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     arrays = {"t": t, "u_fem": u_fem, "a_fem": a_fem, "u_meas": sig["displacement"],
               "a_meas": sig["accel"], "period": ident.period}
     w2 = ident.omega_n ** 2  # envelopes from the accelerations (verify_damper.damper_runs)
-    damper_runs(folder, summary, script, start, (dt, n_steps), (t, sig["accel"] / w2),
-                (t_fem, fem["a"] / w2), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed),
-                report, arrays)
+    more_report, more_arrays = damper_runs(
+        (folder, summary), script, (start, dt, n_steps), (t, sig["accel"] / w2),
+        (t_fem, fem["a"] / w2), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed))
+    report.update(more_report)
+    arrays.update(more_arrays)
     return {"report": report, "arrays": arrays}
 
 
@@ -278,10 +280,9 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
     sec = summary.get("damper")
     # a misfit exports nothing by default: verify then runs the viscous posterior dashpot
     forced = "viscous" if isinstance(sec, dict) and sec.get("status") == "none" else None
-    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, duration, name=SCRIPT_NAME,
-                                  force_law=forced)
-    command = fem_export.canonical_command(folder, "opensees", duration=duration,
-                                           force_law=forced)
+    deck = fem_export.Deck(duration=duration, force_law=forced)
+    text, info = fem_export.build(folder, "opensees", deck, name=SCRIPT_NAME)
+    command = fem_export.canonical_command(folder, "opensees", deck)
     record = {"name": SCRIPT_NAME, "format": "opensees", "units": info["units"],
               "quantile": info["quantile"], "gravity": info["gravity"],
               "duration_s": info["duration"],

@@ -16,11 +16,13 @@ from dampfit.errors import InputError
 from dampfit.fem import response
 
 
-def damper_runs(folder, summary, script, start, steps, measured, exported, omega_n, interior,
-                draws, report, arrays) -> None:
-    """The damper's part of :func:`dampfit.fem.verify.run`, added to ``report`` and
-    ``arrays``: the linear dashpot's run beside a nonlinear export, :func:`damper_check` and
-    the draws' band.
+def damper_runs(source, script, run, measured, exported, omega_n, interior,
+                draws) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The damper's part of :func:`dampfit.fem.verify.run`, the entries it adds to the
+    report and the arrays: the linear dashpot's run beside a nonlinear export,
+    :func:`damper_check` and the draws' band. ``source`` = (folder, summary), ``run`` =
+    (start state, dt [s], n_steps), ``measured`` and ``exported`` = (t [s], |a|/ω_n² [m]),
+    ``interior`` (start, end) [s], ``draws`` = (N or None, seed).
 
     The envelopes compared are displacement amplitudes from the accelerations, |a|/ω_n²
     (``measured`` and ``exported`` are handed in so): the measured acceleration is what the
@@ -30,7 +32,10 @@ def damper_runs(folder, summary, script, start, steps, measured, exported, omega
     simulated runs alike."""
     from dampfit.fem import opensees
 
-    (dt, n_steps), (t, u_meas), (t_fem, _), (n_draws, seed) = steps, measured, exported, draws
+    (folder, summary), (start, dt, n_steps) = source, run
+    (t, u_meas), (t_fem, _), (n_draws, seed) = measured, exported, draws
+    report: dict[str, Any] = {}
+    arrays: dict[str, Any] = {}
     runs = {"exported": exported}
     if script["damper"]["law"] != "viscous":  # the linear dashpot and the measured curve
         for key, law in (("linear", "viscous"), ("measured", "measured")):
@@ -51,11 +56,16 @@ def damper_runs(folder, summary, script, start, steps, measured, exported, omega
                                     script["damper"])
     if n_draws:
         from dampfit.fem import draws as draws_mod
-        from dampfit.fem.export import build
+        from dampfit.fem.export import Deck, build
 
-        band = draws_mod.verify_band(build, folder, summary, n_draws, seed, start, dt, n_steps,
-                                     t, u_meas, interior, omega_n)
+        def one_deck(name=None, variant=None):
+            return build(folder, "opensees", Deck(duration=n_steps * dt), name=name,
+                         variant=variant)
+
+        band = draws_mod.verify_band(one_deck, folder, (n_draws, seed), run, measured,
+                                     interior, omega_n)
         report["draws"], arrays["band"] = band["report"], band["arrays"]
+    return report, arrays
 
 
 #: Periods of the measured acceleration a nonlinear damper's start state is fitted to (they
@@ -166,8 +176,9 @@ def linear_script(folder: Path, script: dict[str, Any],
     from dampfit.fem import export as fem_export
 
     name = "sdof_opensees_linear.py" if law == "viscous" else f"sdof_opensees_{law}.py"
-    text, info = fem_export.build(folder, "opensees", "SI", 0.5, False, script["duration_s"],
-                                  name=name, law=law)
+    text, info = fem_export.build(folder, "opensees",
+                                  fem_export.Deck(duration=script["duration_s"], law=law),
+                                  name=name)
     return text, {"name": name, "law": law, "c": info["sdof"].c,
                   "coefficients": info["damper"].coefficients,
                   "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),

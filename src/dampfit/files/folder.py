@@ -17,6 +17,7 @@ import shutil
 import stat
 import tempfile
 from collections.abc import Callable, Sequence
+from typing import NamedTuple
 from pathlib import Path
 
 from dampfit.errors import InputError
@@ -53,6 +54,14 @@ def read_marker(folder: str | os.PathLike) -> dict | None:
     return data if isinstance(data, dict) and "kind" in data else None
 
 
+class Free(NamedTuple):
+    """What an existing ``out`` may be replaced without ``force``: a result whose marker's
+    kind is in ``kinds``, or any folder ``legacy(out)`` says is dampfit's."""
+
+    kinds: Sequence[str] = ()
+    legacy: Callable[[Path], bool] | None = None
+
+
 class ResultFolder:
     """Write a result folder so that nothing is deleted by mistake and nothing is half-written.
 
@@ -69,7 +78,7 @@ class ResultFolder:
     be the current folder or one of its parents, nor the folder of (or a folder above) any
     path in ``protect`` (the input); an existing ``out`` is replaced only if it is a real
     directory (not a symbolic link) holding dampfit's :data:`MARKER` and ``force`` is set (or
-    its marker's kind is in ``free_kinds``, or ``legacy(out)`` is true). A non-blocking
+    it is ``free``: its marker's kind is in ``free.kinds``, or ``free.legacy(out)`` is true). A non-blocking
     exclusive lock (``.NAME.dampfit-lock`` beside ``out``) keeps a second dampfit process
     writing the same ``out`` away until this one is finished; what dead processes left is dealt
     with (:meth:`_recover`: a previous result a kill left hidden is restored, dampfit's other
@@ -81,7 +90,7 @@ class ResultFolder:
 
     def __init__(self, target: str | os.PathLike, *, kind: str, force: bool = False,
                  protect: Sequence[str | os.PathLike] = (), need_bytes: int = MIN_FREE,
-                 free_kinds: Sequence[str] = (), legacy=None, version: str = "unknown",
+                 free: Free = Free(), version: str = "unknown",
                  note: Callable[[str], object] | None = None) -> None:
         try:
             absolute = Path(os.path.abspath(target))
@@ -98,7 +107,7 @@ class ResultFolder:
         self.kind, self.force, self.version = kind, force, version
         self.protect = [Path(p) for p in protect]
         self.need_bytes = int(need_bytes)
-        self.free_kinds, self.legacy = tuple(free_kinds), legacy
+        self.free_kinds, self.legacy = tuple(free.kinds), free.legacy
         self.note = note if note is not None else (lambda text: None)
         self.stage: Path | None = None
         self.published = False

@@ -261,7 +261,8 @@ def bound(
     """CRLB standard deviations of p, ω_d, ζ, f_n, u₀ and, with ``mass`` [kg], c and k.
 
     Arguments as for :func:`fisher`; ``mass_sd`` [kg] ≥ 0 the standard uncertainty of the
-    mass (both checked by :func:`dampfit.physics.check_mass`: at most half the mass). Values
+    mass (both checked by :func:`dampfit.physics.check_mass`: at most half the mass; or
+    ``mass`` a :class:`dampfit.physics.Mass`, checked when it was made, with its sd). Values
     and gradients come from :func:`dampfit.physics.quantities`. Returns a plain dict: for each quantity ``{"value": g(φ), "sd": √(∇gᵀF⁻¹∇g)}``;
     ``c`` and ``k`` (only with mass) also carry ``"sd_with_mass"`` =
     √(sd² + (∂g/∂m)²·mass_sd²) (equal to ``sd`` when mass_sd = 0). ``"units"`` maps each
@@ -270,7 +271,10 @@ def bound(
     """
     import jax
 
-    mass, mass_sd = physics.check_mass(mass, mass_sd)
+    if isinstance(mass, physics.Mass):  # checked when it was made (the analysis's mass)
+        mass, mass_sd = mass.value, mass.sd
+    else:
+        mass, mass_sd = physics.check_mass(mass, mass_sd)
     f = fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
     cov = _inverse(f)[:4, :4]
     out: dict = {}

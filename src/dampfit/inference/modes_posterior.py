@@ -249,13 +249,12 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
     """Sample the posterior of the chosen K of ``sel`` (a
     :class:`~dampfit.inference.modes_select.ModeSelection`); see the module docstring.
 
-    ``mass``, ``mass_sd`` [kg] (checked by :func:`dampfit.physics.check_mass`);
+    ``mass``, ``mass_sd`` [kg] (checked where they were given: :class:`dampfit.physics.Mass`);
     ``mode_of_mass`` the 1-based mode the mass belongs to (None: the dominant one;
     :class:`~dampfit.errors.InputError` if out of range); ``seed`` makes the run reproducible.
     ``budget`` (:func:`budget`; None: none) bounds the run together with ``max_steps``
     [steps]; a run it stops has ``converged`` False, its ``stop_reason`` and a warning.
     """
-    mass, mass_sd = physics.check_mass(mass, mass_sd)
     res, fd = sel.chosen, sel.fit_data
     k = res.n_modes
     i_mass = check_mode_of_mass(mode_of_mass, k)

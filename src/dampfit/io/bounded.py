@@ -22,6 +22,7 @@ import os
 import stat
 from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
@@ -77,9 +78,18 @@ def size_text(n: int) -> str:
     return f"{n / 2**20:.0f} MB" if n >= 2**20 else f"{n / 1024:.0f} kB"
 
 
+class Refusal(NamedTuple):
+    """How :func:`open_regular` words a refusal: ``error(message)`` makes the exception,
+    ``describe(mode)`` names a file that is not a regular one (None: regular), ``what`` says
+    why the size limit."""
+
+    error: Callable[[str], Exception] = InputError
+    describe: Callable[[int], str | None] = file_kind
+    what: str = ""
+
+
 def open_regular(path: str | os.PathLike, limit: int, *, missing: Exception,
-                 follow_links: bool = False, refuse: Callable[[str], Exception] = InputError,
-                 describe: Callable[[int], str | None] = file_kind, what: str = "",
+                 follow_links: bool = False, refusal: Refusal = Refusal(),
                  check: Callable[[os.stat_result], None] | None = None,
                  dir_fd: int | None = None) -> int:
     """A read-only descriptor of the regular file ``path`` of at most ``limit`` bytes — the one
@@ -90,9 +100,10 @@ def open_regular(path: str | os.PathLike, limit: int, *, missing: Exception,
     a result folder may not), then checked with ``fstat`` on the open descriptor, so the file
     checked is the file read. ``missing`` is raised when there is no such file; a link (when
     not followed), FIFO, socket, device, directory or a file larger than ``limit`` raises
-    ``refuse("PATH is WHAT")`` (``describe(mode)`` names the kind, ``what`` says why the limit);
-    ``check(stat)`` may refuse more (owner, mode). ``dir_fd`` opens ``path`` relative to an
-    open folder."""
+    ``refusal.error("PATH is WHAT")`` (``refusal.describe(mode)`` names the kind,
+    ``refusal.what`` says why the limit; :class:`Refusal`); ``check(stat)`` may refuse more
+    (owner, mode). ``dir_fd`` opens ``path`` relative to an open folder."""
+    refuse, describe, what = refusal
     flags = _BASE_FLAGS | (0 if follow_links else os.O_NOFOLLOW)
     try:
         fd = os.open(path, flags, dir_fd=dir_fd)
@@ -137,10 +148,11 @@ def read_fd(fd: int, limit: int) -> bytes:
 
 def read_regular(path: str | os.PathLike, limit: int, *, missing: Exception,
                  refuse: Callable[[str], Exception] = InputError, what: str = "",
-                 **kw) -> bytes:
+                 describe: Callable[[int], str | None] = file_kind, **kw) -> bytes:
     """The bytes of the regular file ``path`` (:func:`open_regular`, same options), at most
     ``limit``; a file that grew past the limit while it was read is refused too."""
-    fd = open_regular(path, limit, missing=missing, refuse=refuse, what=what, **kw)
+    fd = open_regular(path, limit, missing=missing, refusal=Refusal(refuse, describe, what),
+                      **kw)
     try:
         data = read_fd(fd, limit)
     except OSError as exc:

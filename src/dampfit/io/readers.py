@@ -208,8 +208,8 @@ def read(
     """
     p = Path(path)
     try:
-        opts = _Options.make(time_column, accel_columns, time_unit, accel_unit, sheet, variable,
-                             row, run, rate, group, channel)
+        opts = _Options(time_column, accel_columns, time_unit, accel_unit, sheet, variable,
+                        row, run, rate, group, channel)
         data = _read_input(p)
         table = _load_table(p, data, opts, nrows=None)
         return _to_recording(table, opts, p, hashlib.sha256(data).hexdigest(), _window(window))
@@ -232,7 +232,8 @@ def detect_format(path: str | Path) -> str:
 
 @dataclass(frozen=True)
 class _Options:
-    """Validated user options of :func:`read` (units canonical: s/ms/us/ns, m/s2/g/mg)."""
+    """Validated user options of :func:`read` (units canonical: s/ms/us/ns, m/s2/g/mg),
+    checked and normalised once, on construction."""
 
     time_column: Column | None = None
     accel_columns: tuple[Column, ...] | None = None
@@ -246,9 +247,10 @@ class _Options:
     group: str | None = None
     channel: str | None = None
 
-    @classmethod
-    def make(cls, time_column, accel_columns, time_unit, accel_unit, sheet, variable=None,
-             row=None, run=None, rate=None, group=None, channel=None) -> _Options:
+    def __post_init__(self) -> None:
+        row, run, accel_columns = self.row, self.run, self.accel_columns
+        time_unit, accel_unit, group, channel = (self.time_unit, self.accel_unit, self.group,
+                                                 self.channel)
         if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
             raise InputError(f"row must be a 0-based row number, got {row!r}")
         if run is not None and (isinstance(run, bool) or not isinstance(run, (str, int))
@@ -261,19 +263,18 @@ class _Options:
             accel_columns = tuple(accel_columns)
             if not accel_columns:
                 raise InputError("accel_columns is empty; give at least one acceleration column")
-        return cls(
-            time_column=time_column,
-            accel_columns=accel_columns,
-            time_unit=None if time_unit is None else canonical_unit(time_unit, TIME_ALIASES, "time"),
-            accel_unit=None if accel_unit is None else canonical_unit(accel_unit, ACCEL_ALIASES, "acceleration"),
-            sheet=sheet,
-            variable=variable,
-            row=row,
-            run=run,
-            rate=_rate(rate),
-            group=None if group is None else str(group),
-            channel=None if channel is None else str(channel),
-        )
+        normal = {
+            "accel_columns": accel_columns,
+            "time_unit": None if time_unit is None else canonical_unit(time_unit, TIME_ALIASES,
+                                                                       "time"),
+            "accel_unit": None if accel_unit is None else canonical_unit(accel_unit, ACCEL_ALIASES,
+                                                                         "acceleration"),
+            "rate": _rate(self.rate),
+            "group": None if group is None else str(group),
+            "channel": None if channel is None else str(channel),
+        }
+        for name, value in normal.items():
+            object.__setattr__(self, name, value)
 
     def recorded(self) -> dict:
         """Every reading option (:data:`READ_OPTIONS`) as JSON-safe data, None where not given."""

@@ -232,9 +232,7 @@ class _Session:
         if t.size == 0:
             raise self.error or InputError(f"phyphox sent no samples before the recording "
                                            f"stopped ({self.stopped_by})")
-        info = _info(client, self.config, self.phone, self.sensor, t, self.start_time,
-                     self.started_wall, self.clock, self.stopped_by, self.detector,
-                     self.samples.dropped, final, self.duration)
+        info = _info(self, client, t, final)
         notes = [f"recorded from phyphox at {client.url} with dampfit record ({self.stopped_by})"]
         note = quantisation_note(self.sensor.get("resolution"), self.detector.noise or None,
                                  self.accel.sensor)
@@ -326,14 +324,19 @@ class _Session:
         return t, a, "full buffers fetched after the stop"
 
 
-def _info(client, config, phone, sensor, t, start_time, started_wall, clock, stopped_by,
-          detector, dropped, final, duration) -> dict:
-    """The content of recording.json (JSON-safe; strings from the phone cleaned)."""
+def _info(session: _Session, client, t, final) -> dict:
+    """The content of recording.json (JSON-safe; strings from the phone cleaned) of the
+    ``session`` that recorded the times ``t`` [s] from ``client`` (``final``: how the last
+    data were fetched)."""
     from dampfit._meta import __version__
+
+    config, phone, sensor, detector = session.config, session.phone, session.sensor, \
+        session.detector
+    start_time, clock, duration = session.start_time, session.clock, session.duration
 
     rate = float(1.0 / np.median(np.diff(t))) if t.size > 1 else None
     if start_time is None:  # no START event: this computer's clock at cmd=start
-        start_time = time.time() - (clock() - started_wall)
+        start_time = time.time() - (clock() - session.started_wall)
         source = "this computer's clock when dampfit sent cmd=start"
     else:
         source = "phyphox /time (the phone's clock at the start)"
@@ -354,14 +357,14 @@ def _info(client, config, phone, sensor, t, start_time, started_wall, clock, sto
         "max_duration_s": duration,
         "start_time": when.isoformat(timespec="milliseconds"),
         "start_time_source": source,
-        "stopped_by": stopped_by,
+        "stopped_by": session.stopped_by,
         "release_time_s": detector.release_time,
         "decay_end_time_s": detector.end_time,
         "noise_floor_m_s2": detector.noise or None,
         "clock_gaps": {"count": detector.gaps, "largest_s": detector.largest_gap or None,
                        "longer_than_s": GAP_S},
         "data": final,
-        "dropped": dict(dropped),
+        "dropped": dict(session.samples.dropped),
     }
 
 

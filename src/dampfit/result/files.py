@@ -77,8 +77,8 @@ def open_regular(path: Path, limit: int, *, missing: Exception,
                else InputError(message))
         return exc if refuse is None else refuse(str(exc))
 
-    return bounded.open_regular(path, limit, missing=missing, refuse=unusable, describe=_kind,
-                                what=what)
+    return bounded.open_regular(path, limit, missing=missing,
+                                refusal=bounded.Refusal(unusable, _kind, what))
 
 
 def read_regular(path: Path, limit: int, missing: Exception | str,
@@ -171,7 +171,8 @@ def file_digests(folder: Path, names=DIGESTED) -> dict[str, dict[str, object]]:
     out = {}
     for name in names:
         fd = bounded.open_regular(folder / name, 2**40, missing=InputError(
-            f"{shown(folder / name)} was not written"), what="a result file")
+            f"{shown(folder / name)} was not written"),
+            refusal=bounded.Refusal(what="a result file"))
         try:
             out[name] = digest_fd(fd)
         finally:

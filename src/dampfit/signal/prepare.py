@@ -341,8 +341,8 @@ def prepare(
             f"({f0:.3g} Hz) is not clearly above the noise; check the axis, band or file"
         )
     if window is None:
-        w0, w1, end_reason = _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor,
-                                              bnd, notes)
+        w0, w1, end_reason = _detected_window(rec, t, y, usable, clipped,
+                                              (grid, env, f0, floor), bnd, notes)
     else:
         w0, w1 = _given_window(window, t, grid, env, f0, floor, warnings)
         end_reason = "given"
@@ -463,10 +463,12 @@ def _usable(y: np.ndarray, fs: float, f0: float, clipped: np.ndarray, gross: np.
     return usable, n_clipped, n_spikes
 
 
-def _detected_window(rec, t, y, usable, clipped, grid, env, f0, floor, bnd, notes):
-    """Step 8, automatic: the free-decay window (start, end) [s] of the envelope ``env``
+def _detected_window(rec, t, y, usable, clipped, envelope, bnd, notes):
+    """Step 8, automatic: the free-decay window (start, end) [s] of the envelope
+    ``envelope`` = (grid [s], env, f0 [Hz], noise floor)
     (:func:`~dampfit.signal.window.detect_window`), its start moved past the band-pass
     filter's settling, and why it ends; too few cycles left is an :class:`InputError`."""
+    grid, env, f0, floor = envelope
     spikes = ~usable & ~clipped
     events = impacts(t, y, usable, spikes, f0)
     w0, w1, wnotes, end_reason = detect_window(grid, env, f0, floor, events)

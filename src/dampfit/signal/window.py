@@ -271,18 +271,22 @@ def detect_window(
     return float(grid[i_pk]), float(grid[max(i_end, i_pk)]), notes, reason
 
 
+#: How many later windows :func:`later_decay` tries.
+LATER_TRIES = 8
+
+
 def later_decay(grid: np.ndarray, env: np.ndarray, f0: float, floor: float, events,
-                after: float, guard: float, min_cycles: float, tries: int = 8):
+                after: float, guard: float, min_cycles: float):
     """The longest free decay that starts after ``after`` [s] (a handheld start: the first
     "release" was the hand's motion, cut short where the real release made the envelope rise
     again): :func:`detect_window` on the rest of the recording, again after each window it
-    finds, up to ``tries`` times. Returns ``(start, end, notes, end_reason)`` of the window with
+    finds, up to :data:`LATER_TRIES` times. Returns ``(start, end, notes, end_reason)`` of the window with
     the most cycles of ``f0`` [Hz] past ``guard`` [s], if it has at least ``min_cycles``;
     else None."""
     ev_t, ev_a = events
     best, best_cycles = None, min_cycles
     per_s = 1.0 / f0
-    for _ in range(tries):
+    for _ in range(LATER_TRIES):
         i = int(np.searchsorted(grid, after))
         if grid.size - i < 8 * max(1, int(round(1.0 / (f0 * (grid[1] - grid[0]))))):
             break

@@ -226,8 +226,8 @@ def initial_decay_rate(base: dict) -> float:
     return float("nan")
 
 
-def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: float | None,
-                   mass_sd: float, options: AnalysisOptions):
+def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: physics.Mass,
+                   options: AnalysisOptions):
     """Damping-law comparison, ζ(amplitude) and model checks (:mod:`dampfit.damping`) after
     the viscous stages ``run``, under ``options`` (its model, amplitude and sampler); the
     warnings are the result's ``warnings``.
@@ -239,12 +239,13 @@ def assess_damping(prep: prepare.Prepared, run: ViscousStages, mass: float | Non
     from dampfit.inference.law_sampler import Budget
 
     budget = Budget.from_viscous(run.sampling.n_steps, run.posterior_seconds)
-    return damping.assess(prep, run.fit_data, run.least_squares, run.noise, mass, mass_sd,
-                          posterior="chosen-nonviscous", model=options.model,
-                          amplitude=options.amplitude, sampler=options.sampler, budget=budget)
+    return damping.assess(prep, run.fit_data, run.least_squares, run.noise, mass,
+                          model=options.model, amplitude=options.amplitude,
+                          settings=damping.Settings("chosen-nonviscous",
+                                                    sampler=options.sampler, budget=budget))
 
 
-def crlb_stage(prep, fd, ls, nm, mass, mass_sd) -> tuple[dict[str, Any] | None, list[str]]:
+def crlb_stage(prep, fd, ls, nm, mass: physics.Mass) -> tuple[dict[str, Any] | None, list[str]]:
     """Cramér–Rao bound of this recording's design (:mod:`dampfit.inference.crlb`) and the
     stage's warnings (the bound, None and why when it cannot be computed).
 
@@ -261,7 +262,7 @@ def crlb_stage(prep, fd, ls, nm, mass, mass_sd) -> tuple[dict[str, Any] | None, 
     a_cos, a_sin = ls.true_quadratures()
     try:
         out = crlb.bound(prep.time[sel] - fd.t0, sigma, p=ls.p, omega_d=ls.omega_d,
-                         a_cos=a_cos, a_sin=a_sin, mass=mass, mass_sd=mass_sd,
+                         a_cos=a_cos, a_sin=a_sin, mass=mass,
                          drift_degree=fd.drift_degree)
     except (InputError, np.linalg.LinAlgError, ValueError) as exc:
         return None, [f"Cramér–Rao bound not computed: {exc}"]
@@ -506,4 +507,4 @@ def _number(x) -> np.float64:
 
 
 from dampfit.stages.modes import (  # noqa: E402 (the modes stage)
-    ModesStage, modes_disagreement, modes_stage, one_mode_values)
+    ModesStage, OneMode, modes_disagreement, modes_stage, one_mode_values)

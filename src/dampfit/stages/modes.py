@@ -32,13 +32,13 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from dampfit import physics
 from dampfit._json import jsonable
-from dampfit._options import DEFAULT_MAX_MODES, DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, DEFAULT_SEED
+from dampfit._options import DEFAULT_MAX_MODES, SamplerSettings
 from dampfit.errors import InputError
 from dampfit.signal import prepare
 
@@ -78,29 +78,38 @@ class ModesStage:
     seen: tuple[dict, ...] = ()
 
 
+class OneMode(NamedTuple):
+    """The one-mode analysis the modes stage follows: its least squares' ``p`` [1/s] and
+    ``omega_d`` [rad/s], its damping-law ``verdict`` and ``law`` = (FitData, LawFit) of that
+    verdict's preferred law (the four travel together; a plain ``(p, omega_d)`` pair is one
+    with neither)."""
+
+    p: float
+    omega_d: float
+    verdict: str | None = None
+    law: Any = None
+
+
 def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
-                n_modes: int | None = None,
-                band: tuple[float, float] | None = None, mass: float | None = None,
-                mass_sd: float = 0.0, mode_of_mass: int | None = None, seed: int = DEFAULT_SEED,
-                min_ess: float = DEFAULT_MIN_ESS, max_steps: int = DEFAULT_MAX_STEPS,
-                viscous_seconds: float | None = None,
-                one_mode: tuple[float, float] | None = None,
-                verdict: str | None = None, law=None) -> ModesStage:
+                n_modes: int | None = None, band: tuple[float, float] | None = None,
+                mass: physics.Mass | float | None = None, mode_of_mass: int | None = None,
+                sampler: SamplerSettings = SamplerSettings(),
+                one_mode: OneMode | tuple[float, float] | None = None) -> ModesStage:
     """Several modes in the window of ``prep`` (see the module docstring).
 
     ``max_modes`` the most modes looked for (1: nothing is done, "not looked for"), or
-    ``n_modes`` a fixed K; ``band`` [Hz] the modal band (MS1 by default); ``mass``,
-    ``mass_sd`` [kg] give c [N·s/m] and k [N/m] of the mode ``mode_of_mass`` (1-based; the
-    fundamental at the one-mode frequency by default); ``viscous_seconds`` a one-mode
-    posterior's wall time [s]: accepted from the callers but no longer a budget (the budget
-    is counted in steps, :func:`dampfit.inference.modes_posterior.budget`, so the numbers do
-    not depend on the machine's load); ``one_mode`` the
-    one-mode least squares' (p [1/s], ω_d [rad/s]): screens the residual first, makes K = 1
-    that analysis, and names the mode a split pair would be; ``verdict`` its damping-law
-    verdict (amplitude-dependent or misfit: any close pair there is explained); ``law`` the
-    one-mode fit samples and that verdict's preferred law fit, ``(FitData, LawFit)``: when
-    the stage ends with one mode under such a verdict, a pair inside the fundamental's
-    resolution cell that fits better (:func:`unresolved_pair_note`) is flagged.
+    ``n_modes`` a fixed K; ``band`` [Hz] the modal band (MS1 by default); ``mass``
+    (:class:`~dampfit.physics.Mass`, checked when it was made; a bare number [kg] is
+    ``Mass(number)``) gives c [N·s/m] and k [N/m] of the mode ``mode_of_mass`` (1-based; the
+    fundamental at the one-mode frequency by default); ``sampler`` the
+    :class:`~dampfit._options.SamplerSettings` of the modal posterior (its budget is counted
+    in steps, :func:`dampfit.inference.modes_posterior.budget`, so the numbers do not depend
+    on the machine's load); ``one_mode`` the one-mode analysis (:class:`OneMode`): its least
+    squares' (p, ω_d) screen the residual first, make K = 1 that analysis, and name the mode
+    a split pair would be; its ``verdict`` (amplitude-dependent or misfit: any close pair
+    there is explained) and ``law``: when the stage ends with one mode under such a verdict,
+    a pair inside the fundamental's resolution cell that fits better
+    (:func:`unresolved_pair_note`) is flagged.
     """
     from dampfit.inference import modes_close, modes_gate, modes_posterior, modes_select
     from dampfit.inference.modes import check_max_modes, check_mode_of_mass
@@ -108,13 +117,18 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
     start = time.perf_counter()
     limit = check_max_modes(max_modes if n_modes is None else n_modes)
     check_mode_of_mass(mode_of_mass, limit)
-    mass, mass_sd = physics.check_mass(mass, mass_sd)
+    if not isinstance(mass, physics.Mass):
+        mass = physics.Mass(mass)
+    if one_mode is not None:
+        one_mode = OneMode(*one_mode)
+    verdict = None if one_mode is None else one_mode.verdict
 
     def done(k: int | None, evidence: dict, warnings=(), **kw) -> ModesStage:
         # against the components found (not analysed: one mode, as reported)
         check_mode_of_mass(mode_of_mass, evidence.get("n_components") or k or 1)
-        if k == 1 and one_mode is not None and verdict in SPLIT_VERDICTS and law is not None:
-            pair, note = unresolved_pair_note(law, one_mode, verdict)
+        if k == 1 and one_mode is not None and verdict in SPLIT_VERDICTS and \
+                one_mode.law is not None:
+            pair, note = unresolved_pair_note(one_mode.law, one_mode, verdict)
             if pair is not None:
                 evidence["unresolved_pair"] = pair
                 warnings = (*warnings, note)
@@ -150,7 +164,8 @@ def modes_stage(prep: prepare.Prepared, *, max_modes: int = DEFAULT_MAX_MODES,
         dominant = fundamental(sel, one_mode[1] / (2 * math.pi))
         partners = split_partners(sel, dominant, verdict)
     post = modes_posterior.sample(
-        sel, mass=mass, mass_sd=mass_sd, seed=seed, min_ess=min_ess, max_steps=max_steps,
+        sel, mass=mass.value, mass_sd=mass.sd, seed=sampler.seed, min_ess=sampler.min_ess,
+        max_steps=sampler.max_steps,
         mode_of_mass=mode_of_mass if mode_of_mass is not None or dominant is None
         else dominant + 1, budget=modes_posterior.budget(sel.n_modes))
     out = modes_posterior.modal_summary(sel, post, keep=dominant, split=partners or ())

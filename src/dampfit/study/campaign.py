@@ -41,13 +41,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from dampfit.errors import InputError
 from dampfit._json import finite
-from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
+from dampfit._options import SamplerSettings
 
 #: The coverage flags of a row (``covers_<name>``), in table order.
 CHECKS = ("c", "k", "m0", "zeta", "predictive_c", "predictive_zeta", "spread")
@@ -188,25 +188,40 @@ def score(summary: dict[str, Any], row: dict[str, Any]) -> dict[str, Any]:
     return row
 
 
-def run(base, *, n_tests: int, c_spread: float = 0.0, added_mass: list[float] | None = None,
-        amplitudes: list[float] | None = None, mass_known: bool = True, mass_sd: float = 0.0,
-        added_mass_sd: float = 0.0, sim_seed: int = 0, analysis_seed: int = 0,
-        z_new: float = 0.0, max_steps: int = DEFAULT_MAX_STEPS,
-        min_ess: float = DEFAULT_MIN_ESS) -> dict[str, Any]:
-    """Simulate one campaign around ``base`` (:class:`~dampfit.simulate.SimulationConfig`, its
-    mass the bare m₀ [kg]), analyse it jointly and score it: one JSON-safe row.
+class Design(NamedTuple):
+    """The campaign one study run simulates (:func:`dampfit.simulate.campaign`): ``n_tests``
+    recordings, the between-test sd ``c_spread`` of ln c [1], the ``added_mass`` of each test
+    [kg] (None: none) with the scale error ``added_mass_sd`` [kg] (also the sd the analysis
+    is given), and each test's release ``amplitudes`` u0 [m] (None: the base's)."""
 
-    Without ``added_mass`` the analysis gets the mass (``mass_known``; sd ``mass_sd`` [kg]),
-    with it the added masses [kg] (sd ``added_mass_sd`` [kg]) and estimates m₀ itself; the
-    masses simulated are the stated ones plus a normal error of that sd (the bare system's 0
-    exact), as the analysis assumes.
-    ``sim_seed`` seeds the recordings, ``analysis_seed`` the sampler, ``z_new`` is the new
-    test's draw (:func:`streams`). A refusal (:class:`InputError` of the simulator or the
-    analysis) is a row with ``refused`` set and ``ok`` False; other exceptions propagate.
+    n_tests: int
+    c_spread: float = 0.0
+    added_mass: list[float] | None = None
+    amplitudes: list[float] | None = None
+    added_mass_sd: float = 0.0
+
+
+def run(base, design: Design, *, mass_known: bool = True, mass_sd: float = 0.0,
+        sim_seed: int = 0, z_new: float = 0.0,
+        sampler: SamplerSettings = SamplerSettings()) -> dict[str, Any]:
+    """Simulate one campaign ``design`` (:class:`Design`) around ``base``
+    (:class:`~dampfit.simulate.SimulationConfig`, its mass the bare m₀ [kg]), analyse it
+    jointly and score it: one JSON-safe row.
+
+    Without added masses the analysis gets the mass (``mass_known``; sd ``mass_sd`` [kg]),
+    with them the added masses [kg] (sd ``design.added_mass_sd`` [kg]) and estimates m₀
+    itself; the masses simulated are the stated ones plus a normal error of that sd (the bare
+    system's 0 exact), as the analysis assumes.
+    ``sim_seed`` seeds the recordings, ``sampler`` (its seed: the analysis seed) the joint
+    analysis, ``z_new`` is the new test's draw (:func:`streams`). A refusal
+    (:class:`InputError` of the simulator or the analysis) is a row with ``refused`` set and
+    ``ok`` False; other exceptions propagate.
     """
     from dampfit import simulate as sim
     from dampfit.campaign import analyze_campaign
 
+    n_tests, c_spread, added_mass, amplitudes, added_mass_sd = design
+    analysis_seed, max_steps, min_ess = sampler.seed, sampler.max_steps, sampler.min_ess
     added = added_mass is not None
     row = empty_row(n_tests, added, truth(base, mass_known, added), c_spread, z_new)
     try:

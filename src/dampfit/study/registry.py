@@ -46,7 +46,7 @@ from dampfit import physics
 from dampfit.signal.prepare import Prepared
 from dampfit.io.recording import Recording
 
-#: Bulk ESS the "bayes" estimator asks for (the CLI default is 1000; 400 keeps studies fast).
+#: Bulk ESS the "bayes" estimator asks for (below the CLI's DEFAULT_MIN_ESS; 400 keeps studies fast).
 BAYES_MIN_ESS = 400.0
 #: Two-sided 90 % normal quantile.
 Z90 = 1.6448536269514722
@@ -143,7 +143,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     :func:`dampfit.pipeline.analyze` after the preparation): medians, 90 % credible intervals.
 
     It runs on ``prep`` itself — the samples every other estimator sees — with
-    ``min_ess`` = :data:`BAYES_MIN_ESS` (400, the CLI asks 1000); the mass is taken as exact
+    ``min_ess`` = :data:`BAYES_MIN_ESS` (400, below the CLI's DEFAULT_MIN_ESS); the mass is taken as exact
     (``mass_sd`` = 0). No damping-law comparison is made. ``ok`` is False when the least
     squares or the chain did not converge (the numbers are still reported).
     """

@@ -76,8 +76,9 @@ def _finished(store: Store, tasks: list[Task]) -> dict[tuple[str, int], dict[str
 
 def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler: str | None = None,
               force: bool = False, quiet: bool = False, figures: bool = True,
-              stdout: TextIO | None = None, stderr: TextIO | None = None) -> dict[str, Any]:
+              streams: tuple[TextIO, TextIO] | None = None) -> dict[str, Any]:
     """Run (or resume) the study ``cfg`` into folder ``out``; return what was done.
+    ``streams`` = (stdout, stderr) to print to (default: the process's).
 
     Raises :class:`InputError` for a folder holding another study (unless ``force``), an
     unreachable scheduler or unusable workers, and :class:`StudyIncomplete` if some runs did
@@ -85,8 +86,7 @@ def run_study(cfg: StudyConfig, out: str | Path, *, workers: int = 1, scheduler:
     """
     from dampfit._meta import __version__
 
-    stdout = stdout or sys.stdout
-    stderr = stderr or sys.stderr
+    stdout, stderr = streams or (sys.stdout, sys.stderr)
     if importlib.util.find_spec("distributed") is None:
         raise InputError("dampfit study runs on Dask: install it with "
                          "pip install 'dask[distributed]'")
@@ -200,10 +200,9 @@ def _summary_md(cfg: StudyConfig, runs, agg, rank, version: str, figures: bool) 
          "whose cost shows as RMSE/CRLB > 1. With n runs, RMSE/CRLB has a sampling scatter of "
          "about 1/√(2n) and coverage one of about √(0.09/n).\n"),
     ]
-    if figures:
-        parts.append("![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n")
-    parts += _configuration_md(cfg)
-    return "\n".join(parts)
+    return _closing_md(parts, figures and
+                       "![RMSE/CRLB per estimator](ranking.png)\n\n![coverage](coverage.png)\n",
+                       cfg)
 
 
 def _modes_md(cfg: StudyConfig) -> list[str]:
@@ -264,7 +263,13 @@ def _campaign_summary_md(cfg: StudyConfig, runs, agg, pooled, version: str, figu
          "aggregate.csv (per scenario), ranking.csv (pooled), runs.csv (one row per "
          "campaign).\n"),
     ]
-    if figures:
-        parts.append("![coverage](coverage.png)\n")
+    return _closing_md(parts, figures and "![coverage](coverage.png)\n", cfg)
+
+
+def _closing_md(parts: list[str], images: str | bool, cfg) -> str:
+    """The Markdown of ``parts``, the ``images`` line (none when False) and the study's
+    configuration (:func:`_configuration_md`)."""
+    if images:
+        parts.append(images)
     parts += _configuration_md(cfg)
     return "\n".join(parts)

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from dampfit._json import finite
-from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS
+from dampfit._options import DEFAULT_MAX_STEPS, DEFAULT_MIN_ESS, SamplerSettings
 from dampfit.study.config import Task, sim_config
 
 #: Quantities compared with the truth, with the bound's key for each.
@@ -317,12 +317,13 @@ def run_campaign_task(task: Task) -> dict[str, Any]:
     analysis_seed, z_new = campaign.streams(task.seed)
     base = sim_config(task.params, task.mass, seed=0)  # validated with the configuration
     try:
-        row = campaign.run(base, n_tests=n, c_spread=spread, added_mass=dm, amplitudes=u0,
-                           mass_known=task.mass_known, mass_sd=settings.get("mass_sd", 0.0),
-                           added_mass_sd=settings.get("added_mass_sd", 0.0), sim_seed=task.seed,
-                           analysis_seed=analysis_seed, z_new=z_new,
-                           max_steps=settings.get("max_steps", DEFAULT_MAX_STEPS),
-                           min_ess=settings.get("min_ess", DEFAULT_MIN_ESS))
+        design = campaign.Design(n, spread, dm, u0, settings.get("added_mass_sd", 0.0))
+        row = campaign.run(base, design, mass_known=task.mass_known,
+                           mass_sd=settings.get("mass_sd", 0.0), sim_seed=task.seed, z_new=z_new,
+                           sampler=SamplerSettings(
+                               seed=analysis_seed,
+                               max_steps=settings.get("max_steps", DEFAULT_MAX_STEPS),
+                               min_ess=settings.get("min_ess", DEFAULT_MIN_ESS)))
     except Exception as exc:  # noqa: BLE001 - one unusable run must not stop a study
         true = campaign.truth(base, task.mass_known, dm is not None)
         row = {**campaign.empty_row(n, dm is not None, true, spread, z_new),

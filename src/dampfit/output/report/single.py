@@ -344,7 +344,7 @@ def _truth(s: dict, directory: Path) -> dict | None:
 
 
 def _options(opts: Any) -> str:
-    """The analysis options as command-line flags (``--max-steps 20000``); unset ones omitted."""
+    """The analysis options as command-line flags (``--max-steps N``); unset ones omitted."""
     if not isinstance(opts, dict):
         return number(opts)
     out = []

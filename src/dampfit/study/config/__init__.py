@@ -38,8 +38,8 @@ the tables then hold the coverage of its intervals (:mod:`dampfit.study.campaign
     # amplitudes = [0.02, 0.04, 0.06, 0.08]   # release displacement u0 of each test [m]
     added_mass_sd = 0.002       # sd [kg] of the added masses given to the analysis (default 0)
     # mass_sd = 0.05            # sd [kg] of the [study] mass given to it (no added masses)
-    max_steps = 20000           # sampler bounds of analyze_campaign (its defaults)
-    min_ess = 1000
+    # max_steps = N             # sampler bounds of analyze_campaign (default: its own,
+    # min_ess = N               # dampfit._options.DEFAULT_MAX_STEPS and DEFAULT_MIN_ESS)
 
 A campaign study has no ``estimators`` or ``max_replicates`` in [study] (its one "estimator"
 is ``campaign``, the joint analysis). Without added masses the analysis gets ``[study] mass``
