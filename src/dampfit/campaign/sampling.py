@@ -260,8 +260,7 @@ def _convergence(weighed) -> tuple[Stop, list[str]]:
     for label, r in weighed:
         if not r.run.converged:
             stop = r.run.stop if stop is Stop.CONVERGED else stop
-            warns.append(f"campaign posterior ({label} model) NOT converged after "
-                         f"{r.run.n_steps} steps: {r.run.unmet}")
+            warns.append(r.run.not_converged(f"campaign posterior ({label} model)"))
         if r.ess_fraction < MIN_IMPORTANCE_FRACTION:
             stop = Stop.WEIGHTS if stop is Stop.CONVERGED else stop
             warns.append(f"the exact per-test likelihoods differ from their Laplace forms "

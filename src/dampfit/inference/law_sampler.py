@@ -271,9 +271,7 @@ def sample_emcee(mf: law_fit.ModelFit, data: law_fit.Data, band: tuple[float, fl
                       enabled=progress) as bar:
         run = run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps, bar=bar,
                            budget=budget)
-    warns = () if run.converged else (
-        f"{model} posterior NOT converged after {run.n_steps} steps: {run.stop_reason}"
-        + (f"; {run.unmet}" if run.unmet else ""),)
+    warns = () if run.converged else (run.not_converged(f"{model} posterior"),)
     rhat, ess = diagnose(run.draws)
     th = run.draws.reshape(-1, k)
     a0 = _amplitudes(mf, th, data, rng)

@@ -271,10 +271,8 @@ def sample(sel, *, mass: float | None = None, mass_sd: float = 0.0,
     with stage_bar(steps_allowed, f"modes: K = {k}, posterior") as bar:
         run = _post.run_adaptive(sampler, start, min_ess=min_ess, max_steps=max_steps,
                                  x64=True, bar=bar, budget=budget)
-    warns = [] if run.converged else [
-        f"modal posterior NOT converged after {run.n_steps} steps ({run.stop_reason}"
-        + (f"; {run.unmet}" if run.unmet else "") + "): the intervals of the "
-        f"{k} modes are not reliable"]
+    warns = [] if run.converged else [run.not_converged(
+        "modal posterior", f"the intervals of the {k} modes are not reliable")]
     idata = _to_idata(run, fd, res.fit, i_mass, (mass, mass_sd), temper, rng)
     return ModalPosterior(run=run.finish(idata, warns), n_modes=k, mode_of_mass=i_mass,
                           temper=temper)

@@ -209,8 +209,7 @@ def sample(target: Target, ls: LeastSquaresResult, *, mass: float | None = None,
                            x64=True)
     finally:
         bar.close()
-    warns = [] if run.converged else [
-        f"posterior NOT converged after {run.n_steps} steps: {run.unmet}"]
+    warns = [] if run.converged else [run.not_converged("posterior")]
     idata = _to_idata(run, ls, target.temper, (mass, mass_sd), rng)
     return run.finish(idata, warns, names=PARAMETERS)
 

@@ -100,6 +100,15 @@ class SamplerRun:
     def remedy(self) -> str:
         return self.stop.remedy
 
+    def not_converged(self, what: str, consequence: str = "") -> str:
+        """The one warning of a run that did not converge: ``what`` ("posterior", "modal
+        posterior", …), the steps, why it stopped (``stop_reason``; the criterion unmet),
+        the ``consequence`` for the results, and what to do (:attr:`remedy`)."""
+        why = (self.stop_reason + (f"; {self.unmet}" if self.unmet else "")
+               + (f"; what to do: {self.remedy}" if self.remedy else ""))
+        return (f"{what} NOT converged after {self.n_steps} steps ({why})"
+                + (f": {consequence}" if consequence else ""))
+
     def finish(self, idata, warnings=(), names=None, **kw) -> "SamplerRun":
         """This run with its ``idata``, the :func:`diagnostics` of it, the worst R-hat and ESS
         over ``names`` (None: every quantity; :func:`worst`) and the sampler's ``warnings``;
