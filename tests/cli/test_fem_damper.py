@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import ast
 import json
 import math
 
@@ -256,33 +257,42 @@ def test_verify_law_and_measured_curve_beat_the_linear_dashpot_within_the_scatte
 
 
 def test_law_measured_writes_the_fitted_curve_in_each_format(tmp_path, capsys):
-    """--law measured: LS-DYNA's curve read back is the fitted F(v) (a sum of c_a |v|^a
-    terms, c_a >= 0), OpenSees a Parallel of Viscous terms with the same coefficients,
-    CalculiX its c_eq at the design amplitude; each deck says it is the measured curve, not
-    the recommended law, its fitted range and that outside it the curve is extrapolated.
-    Its c_eq at the design amplitude is the law's (the decay is the law's) within 2 %."""
+    """--law measured: LS-DYNA's curve read back is the fitted F(v) (piecewise linear through
+    0 and its points, slopes >= 0, every point of the table among the curve's), OpenSees a
+    Damper material wrapping an ElasticMultiLinear of the same points, mirrored, CalculiX its
+    c_eq at the design amplitude; each deck says it is the measured curve, not the
+    recommended law, its fitted range and how it is extrapolated outside it. Its c_eq at the
+    design amplitude is the law's (the decay is the law's) within 2 %."""
     from tests._support.fem import write_damper_result
 
     folder = write_damper_result(tmp_path / "q", "quadratic", span=20.0)
     text, info = build(folder, "lsdyna", law="measured")
     dmp = info["damper"]
-    assert dmp.law == "measured" and dmp.coefficients and all(
-        v > 0 for v in dmp.coefficients.values())
+    assert dmp.law == "measured" and len(dmp.coefficients) >= 8
+    pv, pf = damper.points(dmp.coefficients)  # checked: monotone, passive
     back = lsdyna.read_deck(text)
     v = np.array([p[0] for p in back["damper_curve"]])
-    np.testing.assert_allclose([p[1] for p in back["damper_curve"]], dmp.force(v), rtol=1e-6,
-                               atol=1e-12)
+    f = np.array([p[1] for p in back["damper_curve"]])
+    np.testing.assert_allclose(f, dmp.force(v), rtol=1e-6, atol=1e-12)
+    assert np.all(np.diff(f) >= 0) and np.all(f * v >= 0) and f[v == 0] == 0
+    assert all(np.isclose(v, x, rtol=1e-6).any() for x in pv)  # the knots are in the table
+    np.testing.assert_allclose(np.interp(pv, v, f), pf, rtol=1e-6)
     flat = " ".join(line[2:] for line in text.splitlines() if line.startswith("$"))
     for words in ("Measured damper curve (--law measured), not the recommended quadratic law",
-                  "outside it the curve is extrapolated", "--law measured", "90 % ["):
+                  "its last slope continued (extrapolated, not measured)", "--law measured",
+                  "90 % [", "slopes >= 0 (monotone, passive)"):
         assert words in flat
     a_d = dmp.design["displacement_m"]
     truth = damper.c_equivalent("quadratic", LAW_CASES["quadratic"], math.sqrt(K / M), a_d)
     assert dmp.c_linear["q50"] == pytest.approx(truth, rel=0.02)
     assert dmp.c_linear["q05"] < dmp.c_linear["q50"] < dmp.c_linear["q95"]
     script, _ = build(folder, "opensees", law="measured")
-    assert script.count('ops.uniaxialMaterial("Viscous", 1') == len(dmp.coefficients)
-    assert 'ops.uniaxialMaterial("Parallel", 2, 11' in script
+    ns = {line.split(" = ")[0]: ast.literal_eval(line.split(" = ", 1)[1].split("  #")[0])
+          for line in script.splitlines() if line.startswith(("law_v = ", "law_F = "))}
+    np.testing.assert_allclose(ns["law_v"], pv, rtol=1e-12)
+    np.testing.assert_allclose(ns["law_F"], pf, rtol=1e-12)
+    assert 'ops.uniaxialMaterial("ElasticMultiLinear", 3, "-strain"' in script
+    assert 'ops.uniaxialMaterial("Damper", 2, 3)' in script and '"Viscous", 2' not in script
     inp, _ = build(folder, "calculix", law="measured")
     assert calculix.read_deck(inp)["c"] == pytest.approx(dmp.c_linear["q50"], rel=1e-6)
     assert build(folder, "lsdyna", law="measured")[0] == text  # seeded: the same deck
