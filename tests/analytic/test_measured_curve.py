@@ -119,3 +119,17 @@ def test_the_table_is_monotone_and_passive_and_its_closed_form_is_the_quadrature
 def test_too_few_peaks_is_a_value_error():
     with pytest.raises(ValueError, match="at least"):
         measured.fit(np.arange(10.0), np.geomspace(1, 0.5, 10), W, M)
+
+
+@pytest.mark.parametrize("coeffs", [
+    {"v_1": 0.1, "F_1": 0.2, "v_2": 0.05, "F_2": 0.3},  # v not increasing
+    {"v_1": 0.1, "F_1": 0.2, "v_2": 0.2, "F_2": 0.1},  # F falls: not monotone
+    {"v_1": 0.1, "F_1": -0.1},  # negative force at positive v: not passive
+    {"v_1": float("nan"), "F_1": 0.1}, {"v_1": 0.1, "F_1": float("inf")},
+    {"v_1": 0.0, "F_1": 0.1}, {"v_1": 0.1}, {"v_1": 0.1, "G_1": 0.1}, {}])
+def test_a_curve_that_is_not_a_monotone_passive_damper_is_refused(coeffs):
+    from dampfit.errors import InputError
+    from dampfit.fem.damper import points
+
+    with pytest.raises(InputError, match="measured curve's points"):
+        points(coeffs)
