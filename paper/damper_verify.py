@@ -93,6 +93,16 @@ def _pct(x) -> str:
     return "n/a" if x is None else f"{100 * x:.2f} %"
 
 
+def _shortfall(r: dict) -> str:
+    """The sentence of a recording whose measured curve is not within its scatter ('' else)."""
+    m, sc = (r.get("measured") or {}).get("rms_vs_trend"), r.get("scatter")
+    if m is None or sc is None or m <= sc:
+        return ""
+    return (f"- {r['recording']}: the measured curve misses the scatter by "
+            f"{100 * (m - sc):.3f} percentage points ({_pct(m)} against {_pct(sc)}, "
+            f"{m / sc:.2f}x).")
+
+
 def table(rows: list[dict]) -> str:
     """The markdown table of the rows (log-envelope rms errors in percent)."""
     out = ["# Exported nonlinear damper vs linear dashpot vs the measurement (issue 32)", "",
@@ -103,8 +113,10 @@ def table(rows: list[dict]) -> str:
            "Every run starts from the measured state three periods into the window (where "
            "the comparison starts; its amplitude the trend's). law deck: the recommended law "
            "(the headline); measured curve: `dampfit export DIR --law measured`, the "
-           "force-velocity curve sum_j c_a |v|^a sgn v (c_a >= 0) fitted to the measured "
-           "envelope.", "", "| recording | verdict | law | law deck | measured curve | linear "
+           "force-velocity table F(v) fitted to the measured envelope (piecewise linear in "
+           "|v| through 0, slopes >= 0 on knots at the quantiles of the measured velocity "
+           "amplitudes, last slope continued; OpenSees runs it as a Damper material wrapping "
+           "an ElasticMultiLinear of its points).", "", "| recording | verdict | law | law deck | measured curve | linear "
            "dashpot | measured scatter | zeta(A) law / curve / linear | both below linear | "
            "law within scatter | curve within scatter |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
@@ -117,19 +129,15 @@ def table(rows: list[dict]) -> str:
         out.append(f"| {r['recording']} | {r['verdict']} | {r['law']} | {_pct(a)} | {_pct(m)} | "
                    f"{_pct(b)} | {_pct(r.get('scatter'))} | {zs} | {better} | {within[0]} | "
                    f"{within[1]} |")
-    out += ["", "Where the measured curve is not within the scatter: its c_eq(A) = sum_j "
-            "beta_j A^(a_j - 1) with beta_j >= 0 is log-convex in ln A (a sum of log-convex "
-            "functions), so a zeta(A) that rises steeply and then levels off or falls (the "
-            "phone spring's windows: 0.0011 below 0.1 m, 0.0023 at 0.16 m, 0.0021 at 0.26 m) "
-            "is beyond it; a tabulated F(v) with a plateau would follow it in LS-DYNA, but "
-            "OpenSees has no tabulated viscous material to run and verify it "
-            "(dampfit.damping.measured).", "", "Coefficients (SI, posterior medians):", ""]
+    out += [""] + [_shortfall(r) for r in rows if _shortfall(r)] + ["",
+            "Coefficients (SI, posterior medians):", ""]
     out += [f"- {r['recording']}: " + ", ".join(f"{k} = {v:.5g}" for k, v in
                                                 r["coefficients"].items()) for r in rows]
-    out += ["", "Measured curves (SI, c_a in N (s/m)^a):", ""]
-    out += [f"- {r['recording']}: " + ", ".join(f"{k} = {v:.5g}" for k, v in
-                                                r.get("measured_coefficients", {}).items())
-            for r in rows]
+    out += ["", "Measured curves (SI: points v_j [m/s], F_j [N], through (0, 0)):", ""]
+    for r in rows:
+        c = r.get("measured_coefficients", {})
+        pts = [f"({c[f'v_{j}']:.4g}, {c[f'F_{j}']:.4g})" for j in range(1, len(c) // 2 + 1)]
+        out.append(f"- {r['recording']}: " + " ".join(pts))
     return "\n".join(out) + "\n"
 
 

@@ -167,12 +167,16 @@ def write_damper_summary(folder, law, coeffs=None, status=None, **kw):
     return folder
 
 
-def simulate_law(law, coeffs, t, mass=M, k=K, u0=U0):
+def simulate_law(law, coeffs, t, mass=M, k=K, u0=U0, force_fn=None):
     """Free decay m·ü + F(u̇) + k·u = 0 from rest at ``u0`` (DOP853, rtol 1e-10) at times
-    ``t`` [s] from 0: (u [m], v [m/s], a [m/s²]); the damper force of :mod:`dampfit.fem.damper`."""
+    ``t`` [s] from 0: (u [m], v [m/s], a [m/s²]); the damper force of :mod:`dampfit.fem.damper`
+    (or ``force_fn(v)`` [N], a law defined by a test)."""
     from scipy.integrate import solve_ivp
 
-    from dampfit.fem.damper import force
+    from dampfit.fem.damper import force as law_force
+
+    def force(_law, _coeffs, v):
+        return law_force(law, coeffs, v) if force_fn is None else force_fn(np.asarray(v, float))
 
     def rhs(_, y):
         return [y[1], -(k * y[0] + float(force(law, coeffs, y[1]))) / mass]
@@ -184,18 +188,32 @@ def simulate_law(law, coeffs, t, mass=M, k=K, u0=U0):
     return u, v, a
 
 
-def write_damper_result(folder, law, span=20.0, fs=200.0, coeffs=None, noise=0.0):
+def c_eq_of(force_fn, omega, amplitude):
+    """Energy-equivalent linear c [N·s/m] of the force law ``force_fn(v)`` [N] at displacement
+    ``amplitude`` [m]: (4/(π·V))·∫₀^{π/2} F(V sin θ) sin θ dθ, V = ω·A, by quadrature."""
+    th = np.linspace(0.0, math.pi / 2, 4001)
+    V = omega * amplitude
+    return 4 / (math.pi * V) * float(np.trapezoid(force_fn(V * np.sin(th)) * np.sin(th), th))
+
+
+def write_damper_result(folder, law, span=20.0, fs=200.0, coeffs=None, noise=0.0,
+                        force_fn=None):
     """A result folder of a free decay damped by ``law`` (released at rest at U0 at the window
     start T0): signals.npz of the true motion, summary.json with the viscous fit of the start
-    rate, the damper section and an amplitude_curve of the law's ζ(A) (sd 3 %)."""
+    rate, the damper section and an amplitude_curve of the law's ζ(A) (sd 3 %). With
+    ``force_fn(v)`` [N] the decay, its start rate and ζ(A) are that force's (the damper
+    section still names ``law``: the headline a recording of it got)."""
     from dampfit.fem.damper import c_equivalent, theta
     from dampfit.model.laws import get
 
     coeffs = LAW_CASES[law] if coeffs is None else coeffs
     tau = np.arange(int(span * fs) + 1) / fs
-    u, _, a = simulate_law(law, coeffs, tau)
+    u, _, a = simulate_law(law, coeffs, tau, force_fn=force_fn)
     w = math.sqrt(K / M)
     p0 = float(np.exp(theta(law, coeffs, M, w, U0)[0]))
+    if force_fn is not None:
+        c_equivalent = lambda _l, _c, om, A: c_eq_of(force_fn, om, A)  # noqa: E731
+        p0 = c_equivalent(law, coeffs, w, U0) / (2 * M)
     rng = np.random.default_rng(2)
     sig = {"t": T0 + tau, "accel": a + noise * rng.standard_normal(tau.size), "accel_model": a,
            "displacement": u, "displacement_model": u, "fs": np.float64(fs),
@@ -203,6 +221,8 @@ def write_damper_result(folder, law, span=20.0, fs=200.0, coeffs=None, noise=0.0
     folder.mkdir(parents=True, exist_ok=True)
     np.savez(folder / "signals.npz", **sig)
     e_end = float(get(law).envelope(theta(law, coeffs, M, w, U0), np.array([span]), xp=np)[0][0])
+    if force_fn is not None:  # the simulated decay's own amplitude over its last period
+        e_end = float(np.max(np.abs(u[tau > span - 2 * math.pi / w]))) / U0
     entry = lambda unit, v: stats(v, unit, 0.0)  # noqa: E731
     c_start = c_equivalent(law, coeffs, w, U0)
     crit = 2 * math.sqrt(K * M)

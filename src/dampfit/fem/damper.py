@@ -56,9 +56,11 @@ COEFFICIENTS: dict[str, dict[str, str]] = {
 #: The force laws in plain ASCII (deck comments).
 FORCE_TEXT = {"viscous": "F = c*v", "coulomb": "F = c*v + F_c*sgn(v)",
               "quadratic": "F = c*v + c2*v*|v|", "power": "F = c_alpha*|v|^alpha*sgn(v)",
-              "measured": "F = sum_j c_a*|v|^a*sgn(v) over the exponents a"}
+              "measured": "F = sgn(v)*T(|v|), T piecewise linear through (0, 0) and the points "
+                          "(v_j, F_j), its last slope continued"}
 #: ``--law measured``: the curve fitted to the measured envelope (:mod:`dampfit.fem.measured`);
-#: its coefficients are named ``c_<a>`` by exponent a (unit N (s/m)^a).
+#: its coefficients are its points ``v_j`` [m/s], ``F_j`` [N] (j = 1, 2, …), checked by
+#: :func:`points` (increasing v > 0, non-decreasing F ≥ 0: a monotone, passive damper).
 MEASURED = "measured"
 #: Allowed range of each coefficient (``number`` rules); α ∈ (0, 3] as the law's prior.
 _RULES = {"c": {"nonnegative": True}, "F_c": {"nonnegative": True}, "c2": {"nonnegative": True},
@@ -103,21 +105,37 @@ class Damper:
         return force(self.law, self.coefficients, v)
 
 
-def terms(coeffs: dict[str, float]) -> list[tuple[float, float]]:
-    """(b, a) of each term b·|v|^a·sgn(v) of a measured curve's ``coeffs`` (``c_<a>``)."""
-    return [(float(b), float(name[2:])) for name, b in coeffs.items()]
+def points(coeffs: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """(v [m/s], F [N]) of a measured curve's ``coeffs`` (``v_1``, ``F_1``, …); InputError
+    unless finite, v increasing from above 0 and F non-decreasing from 0 (monotone, passive)."""
+    n = len(coeffs) // 2
+    try:
+        v = np.array([float(coeffs[f"v_{j}"]) for j in range(1, n + 1)])
+        F = np.array([float(coeffs[f"F_{j}"]) for j in range(1, n + 1)])
+    except (KeyError, TypeError, ValueError):
+        raise InputError("the measured curve's points must be v_1, F_1, ..., v_n, F_n") from None
+    ok = (n >= 1 and 2 * n == len(coeffs) and np.all(np.isfinite(v) & np.isfinite(F))
+          and v[0] > 0 and np.all(np.diff(v) > 0) and F[0] >= 0 and np.all(np.diff(F) >= 0))
+    if not ok:
+        raise InputError("the measured curve's points are not a monotone, passive damper "
+                         "(v increasing from above 0, F non-decreasing from 0, all finite)")
+    return v, F
 
 
 def unit(law: str, name: str) -> str:
     """The SI unit of coefficient ``name`` of ``law``."""
-    return f"N (s/m)^{name[2:]}" if law == MEASURED else COEFFICIENTS[law][name]
+    if law == MEASURED:
+        return "m/s" if name.startswith("v_") else "N"
+    return COEFFICIENTS[law][name]
 
 
 def force(law: str, coeffs: dict[str, float], v):
     """The damping force [N] of ``law`` with ``coeffs`` (SI) at velocity ``v`` [m/s]."""
     v = np.asarray(v, dtype=float)
     if law == MEASURED:
-        return sum(b * np.abs(v) ** a * np.sign(v) for b, a in terms(coeffs))
+        from dampfit.damping.measured import table_force
+
+        return table_force(v, *points(coeffs))
     if law == "viscous":
         return coeffs["c"] * v
     if law == "coulomb":
@@ -157,7 +175,9 @@ def c_equivalent(law: str, coeffs: dict[str, float], omega: float, amplitude: fl
 
     v = omega * amplitude
     if law == MEASURED:
-        return float(sum(b * v ** (a - 1.0) * float(lam(a)) / math.pi for b, a in terms(coeffs)))
+        from dampfit.damping.measured import table_c_eq
+
+        return float(table_c_eq(v, *points(coeffs))[0])
     if law == "viscous":
         return coeffs["c"]
     if law == "coulomb":
@@ -391,13 +411,14 @@ def table(dmp: Damper, v_range: tuple[float, float], slope_max: float) -> dict[s
     side spaced geometrically from v₁ (:func:`zero_slope_velocity`: the secant F(v₁)/v₁ ≤
     ``slope_max`` [N·s/m], so the segment through zero, a linear ramp, is a damping the
     deck's time step carries; for Coulomb friction it is the regularised jump) and holding
-    the measured ends v_lo, v_hi exactly.
+    the measured ends v_lo, v_hi (and a measured curve's points) exactly.
 
     Returns ``{"v", "F"`` (arrays, increasing v), ``"v1"``, ``"v_top"``, ``"measured"``}``."""
     v_lo, v_hi = v_range
     v1 = zero_slope_velocity(dmp, v_lo, slope_max)
     top = TABLE_REACH * v_hi
-    ends = [x for x in (v_lo, v_hi) if x > v1]
+    knots = list(points(dmp.coefficients)[0]) if dmp.law == MEASURED else []
+    ends = [x for x in (v_lo, v_hi, *knots) if x > v1]
     pos = np.unique(np.concatenate([np.geomspace(v1, top, TABLE_POINTS - len(ends)), ends]))
     v = np.concatenate([-pos[::-1], [0.0], pos])
     return {"v": v, "F": dmp.force(v), "v1": float(v1), "v_top": float(top),
@@ -420,8 +441,7 @@ def deck_coefficients(dmp: Damper, units) -> dict[str, float]:
     alpha = dmp.coefficients.get("alpha", 1.0)
     conv = {"c": F / V, "F_c": F, "c2": F / V**2, "c_alpha": F / V**alpha, "alpha": 1.0}
     if dmp.law == MEASURED:
-        conv = {name: F / V ** a for name, (_, a) in zip(dmp.coefficients,
-                                                          terms(dmp.coefficients))}
+        conv = {name: V if name.startswith("v_") else F for name in dmp.coefficients}
     out = {k: float(v * conv[k]) for k, v in dmp.coefficients.items()}
     for k, v in out.items():
         if not math.isfinite(v):
@@ -489,21 +509,30 @@ def opensees_fields(dmp: Damper | None, units, k: float) -> dict[str, str]:
 
 
 def _measured_fields(dmp: Damper, vals: dict[str, float]) -> dict[str, str]:
-    """:func:`opensees_fields` of a measured curve: a ``Parallel`` of one ``Viscous b_j a_j``
-    per term (ViscousMaterial: σ = C·|ε̇|^α·sgn ε̇), their sum the tabulated law."""
-    pairs = [(v, a) for v, (_, a) in zip(vals.values(), terms(dmp.coefficients))]
-    values = "".join(f"law_b{j} = {v!r}  # c_{a:g} of the measured curve: |v|**{a!r} term\n"
-                     for j, (v, a) in enumerate(pairs))
-    mats = "".join(f'ops.uniaxialMaterial("Viscous", {11 + j}, law_b{j}, {a!r})  '
-                   f"# law_b{j} * |v|**{a!r} * sgn(v)\n" for j, (_, a) in enumerate(pairs))
-    tags = ", ".join(str(11 + j) for j in range(len(pairs)))
-    mats += f'ops.uniaxialMaterial("Parallel", 2, {tags})  # their sum\n'
-    expr = " + ".join(f"law_b{j} * abs(v) ** {a!r}" for j, (_, a) in enumerate(pairs))
+    """:func:`opensees_fields` of a measured curve: ``uniaxialMaterial Damper 2 3`` wrapping
+    ``ElasticMultiLinear 3`` of its points, mirrored through (0, 0) (OpenSees' DamperMaterial
+    hands the strain rate to the wrapped material as its strain and uses its tangent as the
+    damping tangent; ElasticMultiLinear interpolates its points and continues its end
+    segments: the table's last slope, as in the fit)."""
+    n = len(vals) // 2
+    v = [vals[f"v_{j}"] for j in range(1, n + 1)]
+    F = [vals[f"F_{j}"] for j in range(1, n + 1)]
+    values = (f"law_v = {v!r}  # velocities of the measured curve's points\n"
+              f"law_F = {F!r}  # its force at those velocities (through 0; last slope continued)\n")
+    mats = ('ops.uniaxialMaterial("ElasticMultiLinear", 3, "-strain", '
+            '*[-x for x in reversed(law_v)], 0.0, *law_v, "-stress", '
+            '*[-f for f in reversed(law_F)], 0.0, *law_F)  # F(v): the table, mirrored\n'
+            'ops.uniaxialMaterial("Damper", 2, 3)  # material 3 of the strain rate: a damper\n')
+    body = ("    u, pv, pf = abs(v), [0.0] + law_v, [0.0] + law_F\n"
+            "    j = 0\n"
+            "    while j < len(pv) - 2 and u >= pv[j + 1]:  # the segment of u (the last beyond)\n"
+            "        j += 1\n"
+            "    f = pf[j] + (pf[j + 1] - pf[j]) / (pv[j + 1] - pv[j]) * (u - pv[j])\n"
+            "    return f * ((v > 0) - (v < 0))\n")
     return {"damper_doc": "", "damper_values": values, "damper_materials": mats,
-            "damper_model": f"a Parallel material of {len(pairs)} Viscous (b_j, a_j) terms "
-                            "(the curve fitted to the measured envelope)",
+            "damper_model": f"a Damper material wrapping an ElasticMultiLinear of the {n} "
+                            "points of the curve fitted to the measured envelope (mirrored)",
             "c_comment": "equivalent linear c at the design amplitude (not in the model)",
             "force_at_start": "damper_force(args.v_start)",
             "force_def": (f"\n\ndef damper_force(v):\n    \"\"\"The damper's force at velocity v "
-                          f"(script units): {FORCE_TEXT[MEASURED]}.\"\"\"\n    return "
-                          f"({expr}) * ((v > 0) - (v < 0))\n\n")}
+                          f"(script units): {FORCE_TEXT[MEASURED]}.\"\"\"\n{body}\n")}

@@ -28,8 +28,9 @@ linear c at the design amplitude with that limitation stated. Every deck's heade
 verdict, the law and its coefficients, the measured amplitude range, the notes and the
 command that writes it (:func:`canonical_command`). ``law="measured"`` (``--law measured``) writes
 instead the force–velocity curve fitted to the measured envelope (:mod:`dampfit.fem.measured`:
-Σ c_a·|v|^a·sgn v, LS-DYNA its table, OpenSees a Parallel of Viscous terms, CalculiX its c_eq
-at the design amplitude), said in the deck; ``law="viscous"`` (``--law viscous``)
+a table F(v) piecewise linear in |v| with slopes ≥ 0; LS-DYNA its *DEFINE_CURVE, OpenSees a
+Damper material wrapping an ElasticMultiLinear of its points, CalculiX its c_eq at the design
+amplitude), said in the deck; ``law="viscous"`` (``--law viscous``)
 writes a linear dashpot: under a non-viscous verdict the equivalent linear c at the design
 amplitude (``damper.c_linear``), with a warning (stderr and deck); ``force_law``
 (``--force-law LAW``) any law, and is needed when no damper is recommended (a misfit). A

@@ -4,14 +4,17 @@ The recommended law (summary.json's ``damper``: the headline, with its coefficie
 posterior) has two coefficients; where the recording's ζ(A) has more shape than that, its
 deck's envelope misses the measured one by more than the measurement's scatter (verify says
 by how much). ``--law measured`` writes instead the force–velocity curve fitted to the
-measured envelope of the result folder's ``signals.npz`` (its peaks without the three
-periods at each end where the band-pass filters settle, the interior verify compares) (:mod:`dampfit.damping.measured`:
-F(v) = Σ b_j·|v|^a_j·sgn v, b_j ≥ 0, the averaged decay least squares against the peaks of
-|a|/ω_n², the envelope verify compares): LS-DYNA its ``*DEFINE_CURVE`` table, OpenSees a
-``Parallel`` of ``Viscous b_j a_j``, CalculiX its equivalent linear c at the design
-amplitude. The deck states that it is the measured curve, not the recommended law, its fit
-over the measured range (extrapolated outside it), the fit's rms against the peaks and the
-equivalent linear c at the design amplitude with the bootstrap's 90 % interval.
+measured envelope of the result folder's ``signals.npz`` (its peaks of |a|/ω_n² without the
+three periods at each end where the band-pass filters settle: the interior verify compares)
+— :mod:`dampfit.damping.measured`'s table: F(v) piecewise linear in |v| through (0, 0) with
+non-negative slopes on knots at the quantiles of the measured velocity amplitudes, below the
+slowest one a linear slope and above the fastest knot the last slope continued (monotone and
+passive at every velocity). LS-DYNA gets its ``*DEFINE_CURVE`` table, OpenSees a ``Damper``
+material wrapping an ``ElasticMultiLinear`` of its points, CalculiX its equivalent linear c
+at the design amplitude. The deck states that it is the measured curve, not the recommended
+law, its fit over the measured range (and how it is extrapolated outside it), the fit's rms
+against the peaks and the equivalent linear c at the design amplitude with the bootstrap's
+90 % interval.
 
 ω_n is the damper section's (its k and the weighed mass), the same as the deck's spring.
 """
@@ -26,10 +29,6 @@ from typing import Any
 from dampfit.errors import InputError, shown
 from dampfit.fem import damper as damper_mod
 from dampfit.fem.response import EDGE_PERIODS
-
-#: A term is written when it carries at least this part of c_eq at an end of the range [1]
-#: (the bounded least squares leaves vanishing ones, ~1e-12 of the others, inside its bounds).
-MIN_SHARE = 1e-4
 
 
 def measured_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Damper, sdof,
@@ -55,25 +54,26 @@ def measured_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Damp
                              seed=seed)
     except ValueError as exc:
         raise InputError(f"--law measured: {exc}") from None
-    import numpy as np
-
-    share = measured.term_rates(np.array(curve.amplitude_range), w, sdof.mass,
-                                curve.exponents) * curve.b  # each term's part of ρ at lo, hi
-    keep = np.max(share / share.sum(axis=1, keepdims=True), axis=0) >= MIN_SHARE
-    coeffs = {f"c_{a:g}": float(b) for a, b, k in zip(curve.exponents, curve.b, keep) if k}
-    if not coeffs:
-        raise InputError("--law measured: the fit left no damping term (the envelope does not "
+    v, F = curve.basis.points(curve.b)
+    if not F[-1] > 0:
+        raise InputError("--law measured: the fit left no damping (the envelope does not "
                          "decay)")
+    coeffs = {}
+    for j, (vj, fj) in enumerate(zip(v, F), start=1):
+        coeffs[f"v_{j}"], coeffs[f"F_{j}"] = float(vj), float(fj)
+    damper_mod.points(coeffs)  # monotone and passive by construction: checked all the same
     a_d = (base.design or {}).get("displacement_m") or math.sqrt(
         curve.amplitude_range[0] * curve.amplitude_range[1])
     ci = curve.interval(a_d)
     lo, hi = curve.amplitude_range
     note = (f"Measured damper curve (--law measured), not the recommended {base.recommended} "
-            f"law: F(v) = sum of {len(coeffs)} terms c_a*|v|^a*sgn(v), b >= 0, fitted to the "
-            f"measured envelope (averaged decay, {tp.size} peaks; rms {100 * curve.rms:.3g} % "
-            f"of ln|u| against the peaks) over displacement amplitudes {lo:.4g} to {hi:.4g} m "
-            f"(velocities {curve.velocity_range[0]:.4g} to {curve.velocity_range[1]:.4g} m/s); "
-            "outside it the curve is extrapolated. Equivalent linear c at the design "
+            f"law: F(v) piecewise linear in |v| through (0, 0) and {len(v)} points, slopes "
+            f">= 0 (monotone, passive), fitted to the measured envelope (averaged decay, "
+            f"{tp.size} peaks; rms {100 * curve.rms:.3g} % of ln|u| against the peaks) over "
+            f"displacement amplitudes {lo:.4g} to {hi:.4g} m (velocities "
+            f"{curve.velocity_range[0]:.4g} to {curve.velocity_range[1]:.4g} m/s); below "
+            f"{v[0]:.4g} m/s it is one linear slope, above {v[-1]:.4g} m/s its last slope "
+            "continued (extrapolated, not measured). Equivalent linear c at the design "
             f"amplitude {a_d:.4g} m: {ci['q50']:.6g} N*s/m, 90 % [{ci['q05']:.6g}, "
             f"{ci['q95']:.6g}] (moving-block bootstrap of the peaks' residuals and the mass).")
     return dataclasses.replace(

@@ -120,7 +120,8 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     span = float(t[-1] - t[0])
     dt, n_steps, period_error = _step(ident, span, spacing, dt)
     text, script = exported_script(folder, summary, span)
-    start = start_state(tau, sig, ident.period, script["damper"]["law"])
+    start = start_state(tau, sig, ident.period, script["damper"]["law"],
+                        script["omega_n"])  # the deck's ω_n (the damper section's k)
     offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
     n_steps -= round(offset / dt)
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
@@ -285,7 +286,7 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
     command = fem_export.canonical_command(folder, "opensees", deck)
     record = {"name": SCRIPT_NAME, "format": "opensees", "units": info["units"],
               "quantile": info["quantile"], "gravity": info["gravity"],
-              "duration_s": info["duration"],
+              "duration_s": info["duration"], "omega_n": info["sdof"].omega_n,
               "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
               "export_command": command,
               "output": f"CSV '{CSV_HEADER}' [s, m, m/s, m/s^2], a row per step",
