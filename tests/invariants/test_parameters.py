@@ -18,7 +18,15 @@ import importlib
 import inspect
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[2] / "src" / "dampfit"
+def _package_root() -> Path:
+    """The folder of the dampfit that is imported: src/dampfit of a checkout, or site-packages'
+    copy after ``pip install .`` (CI, a user), whose sources are the same files."""
+    import dampfit
+
+    return Path(dampfit.__file__).resolve().parent
+
+
+SRC = _package_root()
 MAX = 8
 #: Modules the face hands out whole: their public top-level functions are face functions.
 FACE_MODULES = ("inference/crlb.py", "simulate/")
