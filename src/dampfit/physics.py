@@ -201,6 +201,12 @@ class Mass:
         object.__setattr__(self, "sd", sd)
 
 
+def as_mass(mass, mass_sd=None) -> Mass:
+    """``mass`` itself when it is a :class:`Mass` (checked when it was made, so not again;
+    ``mass_sd`` is then ignored), else ``Mass(mass, mass_sd)``, checked now."""
+    return mass if isinstance(mass, Mass) else Mass(mass, mass_sd)
+
+
 def check_mass(mass, mass_sd=None) -> tuple[float | None, float]:
     """The one check of an oscillating mass ``mass`` [kg] and its standard uncertainty
     ``mass_sd`` [kg] (:class:`Mass`); returns ``(mass, mass_sd)`` as floats (``(None, 0.0)``

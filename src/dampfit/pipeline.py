@@ -103,7 +103,7 @@ def _analyze(recording: Recording, mass: physics.Mass, opts: AnalysisOptions,
     warns.extend(stages.unit_plausibility(recording, prep, m))
 
     fitted: list[dict] = []  # the figure signals and fit summary, once, at the fit stage
-    run = stages.viscous_stages(prep, m, sd, sampler=opts.sampler,
+    run = stages.viscous_stages(prep, mass, sampler=opts.sampler,
                                 on_fit=_on_fit(on_stage, recording, prep, m, sd, fitted))
     if on_stage is not None:
         on_stage("posterior", {"posterior": run.sampling.idata,

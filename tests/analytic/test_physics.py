@@ -121,7 +121,7 @@ def test_every_mass_check_is_the_physics_one():
     for mod in (pipeline, simulate_config, baselines, registry, crlb):
         src = inspect.getsource(mod)
         # physics.Mass is the check (issue 37: built once and carried); check_mass wraps it
-        assert "check_mass(" in src or "Mass(" in src, mod.__name__
+        assert "check_mass(" in src or "Mass(" in src or "as_mass(" in src, mod.__name__
         assert "positive number of kilograms" not in src, mod.__name__
 
 
@@ -203,3 +203,37 @@ def test_mass_is_checked_once_on_construction_and_kept_as_floats():
                         ((None, 0.1), "without mass"), ((1.0, float("nan")), "must be ≥ 0 kg")):
         with pytest.raises(InputError, match=match):
             Mass(*args)
+
+
+def test_a_checked_mass_is_carried_not_checked_again(monkeypatch):
+    """Issue 37: the analysis builds its Mass once; the stages it passes it to (the baselines,
+    the least squares, both CRLBs) take it as it is, and a plain number is still checked at
+    those public functions' edge."""
+    from dampfit import physics, simulate as sim, stages
+    from dampfit.errors import InputError
+    from dampfit.estimators import baselines
+    from dampfit.inference import crlb
+    from dampfit.signal import prepare
+
+    rec, _ = sim.recording(sim.from_modal(0.8, 3.3, 0.006, duration=10.0, sample_rate=100.0,
+                                          noise_density=150.0, u0=0.004, seed=3))
+    prep = prepare.prepare(rec)
+    checked = physics.Mass(0.8, 0.01)
+    built = []
+    original = physics.Mass.__post_init__
+    monkeypatch.setattr(physics.Mass, "__post_init__",
+                        lambda self: (built.append(self.value), original(self))[1])
+    st = stages.fit_stages(prep, checked)
+    ls = st.least_squares
+    bound = crlb.bound(st.fit_data.tau, st.noise.sigma, p=ls.p, omega_d=ls.omega_d, a_cos=1.0,
+                       a_sin=0.0, mass=checked)
+    modes = crlb.bound_modes(st.fit_data.tau, st.noise.sigma, [[ls.p, ls.omega_d, 1.0, 0.0]],
+                             mass=checked, mode_of_mass=0)
+    assert built == []  # nothing along the path made (checked) a mass again
+    assert bound["mass"] == 0.8 and bound["mass_sd"] == 0.01 and "c" in modes[0]
+    grid = prep.grid[prep.grid_in_window], prep.grid_signal[prep.grid_in_window]
+    by_object = baselines.log_decrement(*grid, prep.fs, prep.band, mass=checked)
+    by_number = baselines.log_decrement(*grid, prep.fs, prep.band, mass=0.8)
+    assert by_object.c == by_number.c and built == [0.8]  # the number was checked, once
+    with pytest.raises(InputError, match="mass must be positive"):
+        baselines.envelope_pipeline(*grid, prep.fs, prep.band, mass=-1.0)

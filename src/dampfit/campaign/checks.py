@@ -80,8 +80,9 @@ OUTLIER_LEVEL = 0.99
 
 
 def check_design(recordings: Any, mass, mass_sd, added_mass, added_mass_sd):
-    """Validate the campaign's inputs. Returns (recordings list, mass [kg] | None,
-    mass_sd [kg], Δm array [kg] | None, s_Δm [kg])."""
+    """Validate the campaign's inputs. Returns (recordings list, the checked
+    :class:`~dampfit.physics.Mass` [kg] (no value under the added-mass method), Δm array [kg]
+    | None, s_Δm [kg])."""
     from dampfit.io.recording import Recording
 
     recs = list(recordings) if isinstance(recordings, (list, tuple)) else None
@@ -95,8 +96,7 @@ def check_design(recordings: Any, mass, mass_sd, added_mass, added_mass_sd):
     if added_mass is None:
         if added_mass_sd not in (None, 0, 0.0):
             raise InputError("--added-mass-sd was given without --added-mass")
-        m, sd = physics.check_mass(mass, mass_sd)
-        return recs, m, sd, None, 0.0
+        return recs, physics.Mass(mass, mass_sd), None, 0.0
     if mass is not None or mass_sd not in (None, 0, 0.0):
         raise InputError("--mass cannot be combined with --added-mass: the added-mass method "
                          "estimates the effective mass m0 itself")
@@ -114,7 +114,7 @@ def check_design(recordings: Any, mass, mass_sd, added_mass, added_mass_sd):
     if np.unique(np.round(dm, 12)).size < 2:
         raise InputError("the added-mass method needs at least 2 different added masses "
                          f"(all recordings have {dm[0]:g} kg): m0 cannot be identified")
-    return recs, None, 0.0, dm, dm_sd
+    return recs, physics.Mass(), dm, dm_sd
 
 
 def duplicate_recordings(recordings: Sequence[Any]) -> list[str]:

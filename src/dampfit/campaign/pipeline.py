@@ -83,12 +83,13 @@ def analyze_campaign(recordings: Sequence, mass: float | None = None,
     if single:
         raise InputError(f"{', '.join(single)} apply to a single recording, not to a "
                          f"campaign of {len(recordings)}; analyse one recording for them")
-    recs, m, sd, dm, dm_sd = checks.check_design(recordings, mass, mass_sd, added_mass,
-                                                 added_mass_sd)
+    recs, checked, dm, dm_sd = checks.check_design(recordings, mass, mass_sd, added_mass,
+                                                   added_mass_sd)
+    m, sd = checked.value, checked.sd
     s = opts.sampler
     windows = _per_test_option("window", opts.window, len(recs))
     bands = _per_test_option("band", opts.band, len(recs))
-    fits = [tests.fit_test(i, r, opts.axis, windows[i], bands[i], m,
+    fits = [tests.fit_test(i, r, opts.axis, windows[i], bands[i], checked,
                            None if dm is None else dm[i]) for i, r in enumerate(recs)]
     names = [t.name for t in fits]
     warns = checks.duplicate_recordings(recs)

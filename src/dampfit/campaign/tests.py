@@ -62,8 +62,9 @@ class TestFit:
 
 
 def fit_test(i: int, rec, axis, window, band, mass, dm) -> TestFit:
-    """Stage 1 for recording ``i`` (as :func:`dampfit.pipeline.analyze`), every refusal
-    prefixed with the test it concerns."""
+    """Stage 1 for recording ``i`` (as :func:`dampfit.pipeline.analyze`; ``mass`` the
+    campaign's checked :class:`~dampfit.physics.Mass`), every refusal prefixed with the test
+    it concerns."""
     try:
         return _fit_test_inner(i, rec, axis, window, band, mass, dm)
     except InputError as exc:
@@ -82,7 +83,7 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
     stages.refuse_impossible_time(rec)
     prep = prepare.prepare(rec, axis=axis, window=window, band=band)
     warns.extend(prep.warnings)
-    warns.extend(stages.unit_plausibility(rec, prep, mass))
+    warns.extend(stages.unit_plausibility(rec, prep, mass.value))
     st = stages.fit_stages(prep, mass)
     warns.extend(st.warnings)
     fd, ls, nm = st.fit_data, st.least_squares, st.noise
@@ -104,7 +105,7 @@ def _fit_test_inner(i, rec, axis, window, band, mass, dm) -> TestFit:
 
     skipped = max(fd.t0 - release_time(prep.grid, prep.envelope, prep.window[0], prep.f0), 0.0)
     amp = float(stages.ls_quantities(ls)["u0"] * np.exp(ls.p * skipped))
-    verdict = _damping_verdict(prep, fd, ls, nm, mass, warns)
+    verdict = _damping_verdict(prep, fd, ls, nm, mass.value, warns)
     return TestFit(index=i, recording=rec, prepared=prep, fit_data=fd, least_squares=ls,
                    noise=nm, temper=temper, theta_hat=theta, cov_theta=cov, ll_max=ll_max,
                    psi_hat=psi, sigma_psi=sigma, amplitude_m=amp,

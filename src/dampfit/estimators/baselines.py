@@ -66,7 +66,7 @@ from dampfit.errors import InputError
 from dampfit.estimators import features
 from dampfit.estimators.features import FILTER_ORDER
 from dampfit.signal.filters import bandpass
-from dampfit.physics import check_mass, quantities, zeta_from_log_decrement
+from dampfit.physics import Mass, as_mass, quantities, zeta_from_log_decrement
 
 #: Relative tolerance on the time grid's uniformity and on its agreement with 1/fs.
 UNIFORM_TOLERANCE = 1e-3
@@ -167,7 +167,7 @@ def log_decrement(
     fs: float,
     band: tuple[float, float],
     *,
-    mass: float | None = None,
+    mass: float | Mass | None = None,
     n_cycles: int | None = None,
 ) -> BaselineResult:
     """Logarithmic-decrement estimate from the acceleration peaks (paper eqs. 5–15).
@@ -182,7 +182,7 @@ def log_decrement(
         Sample rate [Hz].
     band : (float, float)
         Pass band (lo, hi) [Hz] around the dominant frequency.
-    mass : float, optional
+    mass : float or dampfit.physics.Mass, optional
         Oscillating mass [kg]; without it ``c`` and ``k`` are ``None``.
     n_cycles : int, optional
         Cycles n between the two peaks of eq. 9 (1 ≤ n ≤ available); default: first to last peak.
@@ -201,7 +201,7 @@ def log_decrement(
         [1/s] (minus the slope of ln(peak) vs time), ``f_d_regression`` [Hz],
         ``zeta_regression`` and ``delta_regression``.
     """
-    t, a, fs, band = _validate(time, accel, fs, band, mass)
+    t, a, fs, band, mass = _validate(time, accel, fs, band, mass)
     y = bandpass(a, fs, band, FILTER_ORDER)
     idx, t_pk, a_pk, guard, settle = _inner_peaks(y, fs, band, t)
     n_avail = len(t_pk) - 1
@@ -288,7 +288,7 @@ def envelope_pipeline(
     fs: float,
     band: tuple[float, float],
     *,
-    mass: float | None = None,
+    mass: float | Mass | None = None,
     weighted: bool = True,
 ) -> BaselineResult:
     """The paper's filter → double integration → envelope → log-linear fit pipeline (eqs. 2–4).
@@ -316,7 +316,7 @@ def envelope_pipeline(
         ``edge_settle`` [s] (settling time of the three band-passes; > ``trim`` means capped),
         ``weighted``, ``p_weighted`` and ``p_unweighted`` [1/s].
     """
-    t, a, fs, band = _validate(time, accel, fs, band, mass)
+    t, a, fs, band, mass = _validate(time, accel, fs, band, mass)
     a_f, v, u, env = _displacement(a, fs, band)
 
     mask, trim, settle = features.envelope_fit_region(t, u, env, fs, band)
@@ -479,9 +479,12 @@ def _result(
 
 
 def _validate(
-    time: np.ndarray, accel: np.ndarray, fs: float, band: tuple[float, float], mass: float | None
-) -> tuple[np.ndarray, np.ndarray, float, tuple[float, float]]:
-    """Coerce and check the window; raise :class:`InputError` with a one-line message."""
+    time: np.ndarray, accel: np.ndarray, fs: float, band: tuple[float, float],
+    mass: float | Mass | None,
+) -> tuple[np.ndarray, np.ndarray, float, tuple[float, float], float | None]:
+    """Coerce and check the window and the mass (a :class:`~dampfit.physics.Mass` was checked
+    when it was made, so only a plain number is checked here); raise :class:`InputError` with
+    a one-line message. Returns the window, ``fs``, the band and the mass [kg] or None."""
     t = np.asarray(time, dtype=float)
     a = np.asarray(accel, dtype=float)
     if t.ndim != 1 or a.ndim != 1:
@@ -514,5 +517,4 @@ def _validate(
         lo, hi = (float(b) for b in band)
     except (TypeError, ValueError):
         raise InputError(f"band must be a pair (low, high) in Hz, got {band!r}") from None
-    check_mass(mass)
-    return t, a, fs, (lo, hi)
+    return t, a, fs, (lo, hi), as_mass(mass).value

@@ -271,10 +271,8 @@ def bound(
     """
     import jax
 
-    if isinstance(mass, physics.Mass):  # checked when it was made (the analysis's mass)
-        mass, mass_sd = mass.value, mass.sd
-    else:
-        mass, mass_sd = physics.check_mass(mass, mass_sd)
+    checked = physics.as_mass(mass, mass_sd)  # a Mass was checked when it was made
+    mass, mass_sd = checked.value, checked.sd
     f = fisher(times, sigma, p, omega_d, a_cos, a_sin, drift_degree)
     cov = _inverse(f)[:4, :4]
     out: dict = {}
@@ -330,7 +328,8 @@ def fisher_modes(times, sigma, modes, drift_degree: int | None = 0) -> np.ndarra
 
 
 def bound_modes(times, sigma, modes, *, drift_degree: int | None = 0,
-                mass: float | None = None, mode_of_mass: int | None = None) -> list[dict]:
+                mass: float | physics.Mass | None = None,
+                mode_of_mass: int | None = None) -> list[dict]:
     """CRLB standard deviations of every mode's p, ω_d, ζ, f_n and u₀ (and, for the mode
     ``mode_of_mass`` (0-based) with ``mass`` [kg], c and k), from :func:`fisher_modes`.
 
@@ -339,7 +338,7 @@ def bound_modes(times, sigma, modes, *, drift_degree: int | None = 0,
     """
     import jax
 
-    mass = physics.check_mass(mass)[0]
+    mass = physics.as_mass(mass).value  # a Mass was checked when it was made
     f = fisher_modes(times, sigma, modes, drift_degree)
     cov = _inverse(f)
     out = []

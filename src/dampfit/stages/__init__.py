@@ -147,10 +147,11 @@ def _phone_mass(fmt: str, mass: float, k: float) -> list[str]:
     return []
 
 
-def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
+def fit_stages(prep: prepare.Prepared, mass: physics.Mass | float | None) -> FitStages:
     """Baselines, least squares and noise calibration of one prepared signal: the stages
     :func:`dampfit.pipeline.analyze`, the ``bayes`` estimator and each test of a campaign
-    (:mod:`dampfit.campaign`) share (``mass`` [kg] or None, for the baselines' c). Refuses
+    (:mod:`dampfit.campaign`) share (``mass`` a checked :class:`dampfit.physics.Mass`, taken as
+    it is, or a number [kg] or None, checked by the baselines, for their c). Refuses
     (one-line :class:`~dampfit.errors.InputError`) a window with no free decay and a
     noise-free record."""
     warns: list[str] = []
@@ -191,11 +192,11 @@ def fit_stages(prep: prepare.Prepared, mass: float | None) -> FitStages:
     return FitStages(baselines=base, fit_data=fd, least_squares=ls, noise=nm, warnings=warns)
 
 
-def viscous_stages(prep: prepare.Prepared, mass: float | None, mass_sd: float, *,
+def viscous_stages(prep: prepare.Prepared, mass: physics.Mass, *,
                    sampler: SamplerSettings | None = None, on_fit=None) -> ViscousStages:
     """:func:`fit_stages` and the viscous posterior of one prepared signal: the stages
-    :func:`dampfit.pipeline.analyze` and the ``bayes`` estimator share (``mass`` [kg] and
-    ``mass_sd`` [kg] as checked by :func:`dampfit.physics.check_mass`; ``sampler`` the
+    :func:`dampfit.pipeline.analyze` and the ``bayes`` estimator share (``mass`` the
+    checked :class:`dampfit.physics.Mass` [kg] with its sd; ``sampler`` the
     :class:`~dampfit._options.SamplerSettings`, default ones if None). ``on_fit(stages)`` is
     called with the :class:`FitStages` before the posterior is sampled."""
     s = SamplerSettings() if sampler is None else sampler
@@ -205,7 +206,7 @@ def viscous_stages(prep: prepare.Prepared, mass: float | None, mass_sd: float, *
     started = time.monotonic()
     post = posterior.sample(
         posterior.Target(st.fit_data, prep.band, 1.0 / st.noise.psd_ratio), st.least_squares,
-        mass=mass, mass_sd=mass_sd, seed=s.seed, progress=s.progress, max_steps=s.max_steps,
+        mass=mass.value, mass_sd=mass.sd, seed=s.seed, progress=s.progress, max_steps=s.max_steps,
         min_ess=s.min_ess,
     )
     return ViscousStages(baselines=st.baselines, fit_data=st.fit_data,

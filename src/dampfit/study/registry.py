@@ -121,13 +121,15 @@ ESTIMATORS: dict[str, Callable[..., Estimate]] = {}
 
 
 def _estimator(name: str):
-    """Register ``fn`` under ``name`` and time it (``runtime_s``)."""
+    """Register ``fn`` under ``name`` and time it (``runtime_s``); ``fn`` receives the mass
+    as a checked :class:`dampfit.physics.Mass` (a plain number is checked by the wrapper)."""
 
     def wrap(fn):
         @functools.wraps(fn)
-        def timed(prep: Prepared, mass: float | None = None, *, seed: int = 0) -> Estimate:
+        def timed(prep: Prepared, mass: float | physics.Mass | None = None, *,
+                  seed: int = 0) -> Estimate:
             t0 = time.perf_counter()
-            est = fn(prep, mass, seed=seed)
+            est = fn(prep, physics.as_mass(mass), seed=seed)  # a Mass is not checked again
             return replace(est, runtime_s=time.perf_counter() - t0)
 
         ESTIMATORS[name] = timed
@@ -138,7 +140,7 @@ def _estimator(name: str):
 
 # --------------------------------------------------------------------------- estimators
 @_estimator("bayes")
-def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def bayes(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """dampfit's viscous posterior (:func:`dampfit.stages.viscous_stages`, the stages of
     :func:`dampfit.pipeline.analyze` after the preparation): medians, 90 % credible intervals.
 
@@ -150,7 +152,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     from dampfit._options import SamplerSettings
     from dampfit.stages import viscous_stages
 
-    st = viscous_stages(prep, mass, 0.0, sampler=SamplerSettings(seed=seed, min_ess=BAYES_MIN_ESS))
+    st = viscous_stages(prep, mass, sampler=SamplerSettings(seed=seed, min_ess=BAYES_MIN_ESS))
     post = st.sampling.idata.posterior
 
     def q(name: str) -> tuple[float, float, float]:
@@ -158,7 +160,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
         return tuple(float(v) for v in np.quantile(x, (0.05, 0.5, 0.95)))
 
     p, f_n, z = q("p"), q("f_n"), q("zeta")
-    c = q("c") if mass is not None else None
+    c = q("c") if mass.value is not None else None
     ok = bool(st.least_squares.converged and st.sampling.converged)
     msg = "" if ok else "; ".join(st.warnings) or "did not converge"
     return Estimate(
@@ -168,7 +170,7 @@ def bayes(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
 
 
 @_estimator("least_squares")
-def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def least_squares(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """The least squares every analysis reports (summary.json's ``least_squares``): the same
     stage (:func:`dampfit.stages.fit_stages`: started from the log decrement, noise
     calibrated with the Whittle factor r floored at its white-noise value) and the same
@@ -184,39 +186,39 @@ def least_squares(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     except InputError as exc:
         return failed_estimate("least_squares", str(exc))
     ls = st.least_squares
-    s = stages.ls_summary(ls, mass, st.noise.psd_ratio)
+    s = stages.ls_summary(ls, mass.value, st.noise.psd_ratio)
     p, zeta = s["p"], s["zeta"]
     nan = float("nan")
     sd_lnp = s["p_sd"] / p if "p_sd" in s and p > 0 else nan
     sd_lnz = s["zeta_sd"] / zeta if "zeta_sd" in s and zeta > 0 else nan
     ok, msg = ls.converged, ("" if ls.converged else ls.message)
     return estimate_from(
-        "least_squares", p, ls.omega_d / (2 * np.pi), mass, ok=ok, message=msg,
+        "least_squares", p, ls.omega_d / (2 * np.pi), mass.value, ok=ok, message=msg,
         p_int=(p * (1 - Z90 * sd_lnp), p * (1 + Z90 * sd_lnp)),
         zeta_int=(zeta * (1 - Z90 * sd_lnz), zeta * (1 + Z90 * sd_lnz)),
     )
 
 
 @_estimator("log_decrement")
-def log_decrement(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def log_decrement(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """Seed paper's logarithmic decrement over all cycles, δ = (1/n)·ln(a₀/aₙ) (eq. 9), ζ (eq. 13).
 
     Wraps :func:`dampfit.estimators.baselines.log_decrement` (first to last usable peak); no interval.
     """
     t, y = _window(prep)
     b = baselines.log_decrement(t, y, prep.fs, prep.band)
-    return estimate_from("log_decrement", b.p, b.f_d, mass)
+    return estimate_from("log_decrement", b.p, b.f_d, mass.value)
 
 
 @_estimator("envelope_pipeline")
-def envelope_pipeline(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def envelope_pipeline(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """Seed paper's pipeline: band-pass, integrate twice, Hilbert envelope, ln fit (eqs. 2–4).
 
     Wraps :func:`dampfit.estimators.baselines.envelope_pipeline` (env²-weighted); no interval.
     """
     t, y = _window(prep)
     b = baselines.envelope_pipeline(t, y, prep.fs, prep.band)
-    return estimate_from("envelope_pipeline", b.p, b.f_d, mass)
+    return estimate_from("envelope_pipeline", b.p, b.f_d, mass.value)
 
 
 def _hilbert_fit(prep: Prepared) -> tuple[float, float]:
@@ -242,7 +244,7 @@ def _hilbert_fit(prep: Prepared) -> tuple[float, float]:
 
 
 @_estimator("hilbert")
-def hilbert(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def hilbert(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """Hilbert-transform envelope and phase of the band-passed acceleration (Feldman 1994).
 
     The window is band-passed (zero-phase Butterworth, ``prep.band``), its analytic signal
@@ -255,7 +257,7 @@ def hilbert(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
     Free vibration analysis method 'FREEVIB'", Mech. Syst. Signal Process. 8(2), 1994.
     """
     p, f_d = _hilbert_fit(prep)
-    return estimate_from("hilbert", p, f_d, mass)
+    return estimate_from("hilbert", p, f_d, mass.value)
 
 
 def _half_power_width(f: np.ndarray, pw: np.ndarray) -> tuple[float, float]:
@@ -273,7 +275,7 @@ def _half_power_width(f: np.ndarray, pw: np.ndarray) -> tuple[float, float]:
 
 
 @_estimator("half_power")
-def half_power(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def half_power(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """Half-power bandwidth of the power spectrum: ζ ≈ Δf/(2·f_n) (e.g. Ewins, *Modal Testing*).
 
     The window's acceleration (linear trend removed, no taper: the decay is its own window)
@@ -296,7 +298,7 @@ def half_power(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate
     spec = signal.zoom_fft(y, [lo, hi], m=m, fs=prep.fs, endpoint=True)
     f = np.linspace(lo, hi, m)
     f_pk, width = _half_power_width(f, np.abs(spec) ** 2)
-    return estimate_from("half_power", np.pi * width, f_pk, mass)
+    return estimate_from("half_power", np.pi * width, f_pk, mass.value)
 
 
 def _pencil_poles(x: np.ndarray, order: int) -> np.ndarray:
@@ -310,7 +312,7 @@ def _pencil_poles(x: np.ndarray, order: int) -> np.ndarray:
 
 
 @_estimator("matrix_pencil")
-def matrix_pencil(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estimate:
+def matrix_pencil(prep: Prepared, mass: physics.Mass, *, seed: int = 0) -> Estimate:
     """Total-least-squares matrix pencil (Hua & Sarkar 1990; Sarkar & Pereira 1995).
 
     The window (linear trend removed) is low-passed at the band's upper edge (zero-phase
@@ -340,7 +342,7 @@ def matrix_pencil(prep: Prepared, mass: float | None, *, seed: int = 0) -> Estim
     if not s.size:
         raise InputError("the matrix pencil found no oscillating pole")
     best = s[np.argmin(np.abs(s.imag - 2 * np.pi * prep.f0))]
-    return estimate_from("matrix_pencil", -best.real, best.imag / (2 * np.pi), mass)
+    return estimate_from("matrix_pencil", -best.real, best.imag / (2 * np.pi), mass.value)
 
 
 # --------------------------------------------------------------------------- runner
@@ -359,7 +361,7 @@ def run(names: Iterable[str] | str, recording: Recording, mass: float | None = N
         raise InputError(
             f"unknown estimator(s) {', '.join(map(repr, unknown))}; valid: {', '.join(ESTIMATORS)}"
         )
-    mass = physics.check_mass(mass)[0]
+    mass = physics.Mass(mass)  # checked once; the estimators take it as it is
     prep = prepare.prepare(recording)
     out = []
     for name in names:
