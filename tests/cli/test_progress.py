@@ -143,6 +143,30 @@ def test_a_kernel_compiled_on_a_cold_store_is_announced_with_an_estimate(tmp_pat
         executables.Kernel(double)(np.ones(3))  # a new process's view: loaded, nothing to say
     lines = log.getvalue().splitlines()
     assert len(lines) == 2, lines
-    assert lines[0].startswith("compiling kernel double for this recording's shapes")
+    assert lines[0].startswith("compiling kernel double for shapes this machine has not compiled")
     assert "first compile here" in lines[0]
-    assert re.search(r"\(once per machine; ~\d+ s, as last time\)$", lines[1]), lines[1]
+    assert re.search(r"\(kept for later runs; ~\d+ s: its last compile here took that\)$",
+                     lines[1]), lines[1]
+
+
+def test_a_kernel_compiled_once_per_variant_says_which_variant(tmp_path, monkeypatch):
+    """A kernel with static arguments (a modal kernel: one executable per number of modes)
+    names the variant it compiles, so the announcements of one run are not the same line
+    repeated (issue 36)."""
+    import numpy as np
+
+    from dampfit.inference import executables
+
+    monkeypatch.setenv(executables.ENV, str(tmp_path / "store"))
+
+    def scaled(n, x):
+        return n * x
+
+    log = io.StringIO()
+    with _progress.reporting(log):
+        kernel = executables.Kernel(scaled, static_argnums=(0,))
+        kernel(1, np.ones(3))
+        kernel(2, np.ones(3))
+    lines = log.getvalue().splitlines()
+    assert [ln.split(" for ")[0] for ln in lines] == [
+        "compiling kernel scaled (n=1)", "compiling kernel scaled (n=2)"], lines

@@ -312,7 +312,7 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
     law = result["report"].get("damper", {}).get("law", "viscous")
     for ax, lim, kind, scale, label in panels:
         sel = slice(None) if lim is None else (t >= lim[0]) & (t <= lim[1])
-        ax.plot(t[sel], scale * a[f"{kind}_meas"][sel], color="0.35", lw=0.9, label="measured (MEMS)")
+        ax.plot(t[sel], scale * a[f"{kind}_meas"][sel], color="0.35", lw=0.9, label="measured")
         ax.plot(t[sel], scale * a[f"{kind}_fem"][sel], color="tab:red", lw=0.9, ls="--",
                 label=f"OpenSees FEM ({law} damper, exported)")
         if kind == "u" and "u_linear" in a:

@@ -304,6 +304,21 @@ class Kernel:
         self._memory[quick] = exe
         return out
 
+    def _variant(self, args) -> str:
+        """`` (n=2, max_steps=40)``: the static arguments that make this executable one of
+        several of the same kernel (a modal kernel compiles once per number of modes), by
+        the kernel's own parameter names; "" without static arguments."""
+        import inspect
+
+        if not self._static:
+            return ""
+        try:
+            names = list(inspect.signature(self._fn).parameters)
+        except (TypeError, ValueError):
+            names = []
+        said = [f"{names[i] if i < len(names) else i}={args[i]!r}"[:40] for i in self._static]
+        return " (" + ", ".join(said) + ")"
+
     def _load_or_compile(self, folder: PrivateStore, signature: str, args):
         import jax
         from jax.experimental import serialize_executable
@@ -327,8 +342,8 @@ class Kernel:
             folder = None
         except Exception:  # noqa: BLE001 - missing or stale entry: compile instead
             pass
-        announce(f"compiling kernel {stem} for this recording's shapes (once per machine; "
-                 f"{_estimate(folder, stem)})")
+        announce(f"compiling kernel {stem}{self._variant(args)} for shapes this machine has "
+                 f"not compiled yet (kept for later runs; {_estimate(folder, stem)})")
         t0 = time.monotonic()
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
@@ -379,7 +394,7 @@ def _estimate(folder: PrivateStore | None, stem: str) -> str:
 
     seconds = _compile_times(folder).get(stem)
     if isinstance(seconds, (int, float)) and seconds >= 0:
-        return f"{eta_text(seconds)}, as last time"
+        return f"{eta_text(seconds)}: its last compile here took that"
     return "its first compile here: seconds to a minute"
 
 
