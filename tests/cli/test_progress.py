@@ -149,6 +149,77 @@ def test_a_kernel_compiled_on_a_cold_store_is_announced_with_an_estimate(tmp_pat
                      lines[1]), lines[1]
 
 
+def test_a_variants_estimate_is_its_own_and_a_kernel_that_is_not_stored_does_not_say_kept(
+        tmp_path, monkeypatch):
+    """The estimate of a variant is that variant's last compile (another variant's only when it
+    has none, and said so); an executable that could not be stored is not announced as 'kept
+    for later runs' the next time (issue 36)."""
+    import numpy as np
+
+    from dampfit.inference import executables
+
+    monkeypatch.setenv(executables.ENV, str(tmp_path / "store"))
+
+    def scaled(n, x):
+        return n * x
+
+    log = io.StringIO()
+    with _progress.reporting(log):
+        kernel = executables.Kernel(scaled, static_argnums=(0,))
+        kernel(1, np.ones(3))
+        kernel(2, np.ones(3))  # no compile of n=2 yet: n=1's time, said to be another's
+        kernel(2, np.ones(4))  # n=2's own time now
+    lines = log.getvalue().splitlines()
+    assert "kept for later runs; its first compile here" in lines[0], lines
+    assert "another variant of it took that here" in lines[1], lines
+    assert "its last compile here took that" in lines[2], lines
+
+    # a store that refuses every write (a full disk): compiled, not kept, and then said so
+    monkeypatch.setattr(executables.PrivateStore, "write",
+                        lambda self, name, body: (_ for _ in ()).throw(OSError("disk full")))
+    store = executables.store()
+    times = executables._compile_times(store)
+    log = io.StringIO()
+    with _progress.reporting(log):
+        kernel = executables.Kernel(scaled, static_argnums=(0,))
+        kernel(3, np.ones(3))  # first of n=3: not stored, and its time cannot be recorded
+    assert "kept for later runs" in log.getvalue()  # nothing said otherwise yet
+    assert executables._compile_times(store) == times
+
+    monkeypatch.undo()
+    monkeypatch.setenv(executables.ENV, str(tmp_path / "store"))
+    monkeypatch.setattr(executables, "_loadable", lambda text: False)  # a host callback, say
+    log = io.StringIO()
+    with _progress.reporting(log):
+        kernel = executables.Kernel(scaled, static_argnums=(0,))
+        kernel(5, np.ones(3))  # compiled, not stored
+        executables.Kernel(scaled, static_argnums=(0,))(5, np.ones(3))  # a new process: again
+    lines = log.getvalue().splitlines()
+    assert len(lines) == 2 and "kept for later runs" in lines[0], lines
+    assert "not kept: its last compile here could not be stored" in lines[1], lines
+
+
+def test_a_compile_with_no_usable_store_is_not_announced_as_kept(tmp_path, monkeypatch):
+    """A store that turns unsafe while a kernel looks in it: the kernel is compiled and the
+    announcement says it is not kept."""
+    import numpy as np
+
+    from dampfit.files.private import UnsafeFolder
+    from dampfit.inference import executables
+
+    monkeypatch.setenv(executables.ENV, str(tmp_path / "store"))
+
+    def unsafe(self, name):
+        raise UnsafeFolder("the folder became writable by others")
+
+    monkeypatch.setattr(executables.PrivateStore, "read", unsafe)
+    log = io.StringIO()
+    with _progress.reporting(log), pytest.warns(RuntimeWarning):
+        out = executables.Kernel(lambda x: 3.0 * x)(np.ones(2))
+    assert np.allclose(out, 3.0)
+    assert "(not kept: no usable store of compiled kernels)" in log.getvalue(), log.getvalue()
+
+
 def test_a_kernel_compiled_once_per_variant_says_which_variant(tmp_path, monkeypatch):
     """A kernel with static arguments (a modal kernel: one executable per number of modes)
     names the variant it compiles, so the announcements of one run are not the same line

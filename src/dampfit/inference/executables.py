@@ -68,6 +68,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import math
 import os
 import platform
 import re
@@ -342,14 +343,16 @@ class Kernel:
             folder = None
         except Exception:  # noqa: BLE001 - missing or stale entry: compile instead
             pass
-        announce(f"compiling kernel {stem}{self._variant(args)} for shapes this machine has "
-                 f"not compiled yet (kept for later runs; {_estimate(folder, stem)})")
+        variant = self._variant(args)
+        announce(f"compiling kernel {stem}{variant} for shapes this machine has not compiled "
+                 f"yet ({_estimate(folder, stem, variant)})")
         t0 = time.monotonic()
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
         self.compiled += 1
         _COMPILED[0] += 1
-        _record_time(folder, stem, time.monotonic() - t0)
+        seconds = time.monotonic() - t0
+        kept = False
         try:
             payload, _, out_tree = serialize_executable.serialize(compiled)
             skeleton = _skeleton(out_tree)
@@ -357,10 +360,13 @@ class Kernel:
                     and _reloads(payload, in_tree, out_tree, compiled, dynamic)):
                 meta = {"signature": signature, "environment": _environment(), "out": skeleton}
                 folder.write(name, _pack(meta, payload))
+                kept = True
         except UnsafeFolder as exc:
             _disable(folder, exc)
+            folder = None
         except Exception:  # noqa: BLE001 - a cache that cannot be written only costs time
             pass
+        _record_time(folder, stem + variant, seconds, kept)
         return compiled, False
 
 
@@ -379,32 +385,57 @@ def compiled_count() -> int:
 _TIMES = "compile-times.json"
 
 
-def _compile_times(folder: PrivateStore | None) -> dict[str, float]:
+def _compile_times(folder: PrivateStore | None) -> dict[str, dict]:
+    """``{kernel and variant: {"seconds": s, "kept": bool}}`` as recorded by
+    :func:`_record_time` (an entry someone edited into another shape is ignored)."""
     try:
         entry = _unpack(folder.read(_TIMES)) if folder is not None else None
     except Exception:  # noqa: BLE001 - an estimate only
         entry = None
-    times = entry[0].get("seconds") if entry is not None else None
-    return times if isinstance(times, dict) else {}
+    times = entry[0].get("kernels") if entry is not None else None
+    if not isinstance(times, dict):
+        return {}
+    return {k: v for k, v in times.items() if isinstance(k, str) and isinstance(v, dict)
+            and isinstance(v.get("seconds"), (int, float)) and math.isfinite(v["seconds"])
+            and v["seconds"] >= 0 and isinstance(v.get("kept"), bool)}
 
 
-def _estimate(folder: PrivateStore | None, stem: str) -> str:
-    """``~N s`` from this kernel's last compile on this machine, or that it is its first."""
+def _estimate(folder: PrivateStore | None, stem: str, variant: str = "") -> str:
+    """What the announcement of a compile says beside it: whether the executable will be kept
+    for later runs, and ``~N s`` from this machine's last compile of this kernel and variant
+    (else of another variant of the same kernel, and said so), or that it is the first.
+
+    Whether it will be kept is known only after the compile (:meth:`Kernel._load_or_compile`
+    stores only executables that reload bit-identically and call nothing unloadable); the
+    announcement says "kept for later runs" only when the store is in use and this kernel's
+    last compile here was kept (or it has none yet, the usual case), and says it is not when the
+    last one was not."""
     from dampfit._progress import eta_text
 
-    seconds = _compile_times(folder).get(stem)
-    if isinstance(seconds, (int, float)) and seconds >= 0:
-        return f"{eta_text(seconds)}: its last compile here took that"
-    return "its first compile here: seconds to a minute"
+    if folder is None:
+        return "not kept: no usable store of compiled kernels"
+    times = _compile_times(folder)
+    own = times.get(stem + variant)
+    siblings = [v for k, v in times.items() if k == stem or k.startswith(stem + " (")]
+    last = own or (max(siblings, key=lambda v: v["seconds"]) if siblings else None)
+    if last is not None and not last["kept"]:
+        keeping = "not kept: its last compile here could not be stored"
+    else:
+        keeping = "kept for later runs"
+    if own is not None:
+        return f"{keeping}; {eta_text(own['seconds'])}: its last compile here took that"
+    if last is not None:
+        return f"{keeping}; {eta_text(last['seconds'])}: another variant of it took that here"
+    return f"{keeping}; its first compile here: seconds to a minute"
 
 
-def _record_time(folder: PrivateStore | None, stem: str, seconds: float) -> None:
+def _record_time(folder: PrivateStore | None, key: str, seconds: float, kept: bool) -> None:
     if folder is None:
         return
     times = _compile_times(folder)
-    times[stem] = round(float(seconds), 3)
+    times[key] = {"seconds": round(float(seconds), 3), "kept": bool(kept)}
     try:
-        folder.write(_TIMES, _pack({"seconds": times}, b""))
+        folder.write(_TIMES, _pack({"kernels": times}, b""))
     except Exception:  # noqa: BLE001 - an estimate only
         pass
 
