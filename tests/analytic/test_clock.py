@@ -61,6 +61,7 @@ def test_steady_clock_counts_dropped_samples():
     np.testing.assert_allclose(clock.steady_clock(t), t, atol=1e-12)
 
 
+@pytest.mark.heavy
 def test_phone_stamps_are_analysed_like_exact_stamps(monkeypatch):
     """End to end: with stamp errors the fit sees the sensor noise, not a noise proportional
     to the signal's slope (read as given, the stamps leave ≈ 1.3× the residual in the fitted,

@@ -32,6 +32,7 @@ def peaks(law, coeffs, span=30.0, noise=0.003, seed=0):
     return t[keep], U0 * env[keep] * np.exp(noise * rng.standard_normal(keep.sum()))
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("basis", ["table", "powers"])
 @pytest.mark.parametrize("law, coeffs", [("quadratic", {"c": 0.2, "c2": 1.6}),
                                          ("power", {"c_alpha": 0.53, "alpha": 0.5}),
@@ -62,6 +63,7 @@ def test_the_curve_follows_a_known_law_over_the_measured_range(law, coeffs, basi
     assert np.all(curve.b >= 0) and np.all(curve.boot >= 0)
 
 
+@pytest.mark.heavy
 def test_the_fit_is_seeded_and_the_mass_widens_its_interval():
     t, p = peaks("quadratic", {"c": 0.2, "c2": 1.6})
     a, b = measured.fit(t, p, W, M, seed=3), measured.fit(t, p, W, M, seed=3)
@@ -84,6 +86,7 @@ def _sigmoid_peaks(noise=0.001, seed=1):
     return t, np.exp(np.array(ln_a) + noise * rng.standard_normal(t.size)), rate
 
 
+@pytest.mark.heavy
 def test_a_sigmoid_damping_is_followed_by_the_table_not_the_power_family():
     """ζ(A) rising steeply then level: the power family (log-convex c_eq) misses it by many
     times the noise, the table follows it to the noise, with c_eq within 5 % of the truth."""
@@ -95,6 +98,7 @@ def test_a_sigmoid_damping_is_followed_by_the_table_not_the_power_family():
     np.testing.assert_allclose(table.c_eq(amps), [2 * M * rate(a) for a in amps], rtol=0.05)
 
 
+@pytest.mark.heavy
 def test_the_table_is_monotone_and_passive_and_its_closed_form_is_the_quadrature():
     """Every slope ≥ 0 (point estimate and refits), F(0) = 0, F odd and non-decreasing far
     beyond the fitted range (its last slope continued); c_eq(V) of the closed form equals

@@ -100,6 +100,7 @@ def test_design_matrix_and_profile_recover_coefficients():
                                + drift[:5] @ beta[2:], rtol=1e-12)
 
 
+@pytest.mark.heavy
 def test_marginal_likelihood_peaks_at_truth_and_vmaps():
     rng = np.random.default_rng(0)
     p, wd, _ = params(1.5, 0.02)

@@ -53,6 +53,7 @@ def test_viscous_law_and_m1_columns_span_the_same_space():
     assert float(a.logdet - b.logdet) == pytest.approx(4 * np.log(1 + rho_w**2), abs=1e-9)
 
 
+@pytest.mark.heavy
 def test_padding_leaves_the_marginal_likelihood_unchanged():
     """Inert rows and zero drift columns (Samples.from_arrays) change nothing."""
     rng = np.random.default_rng(0)
@@ -69,6 +70,7 @@ def test_padding_leaves_the_marginal_likelihood_unchanged():
             assert b == pytest.approx(a, rel=1e-12)
 
 
+@pytest.mark.heavy
 def test_sum_of_two_viscous_laws_recovers_both_modes():
     """A two-mode decay is fitted by Sum(viscous, viscous): both frequencies and rates."""
     rng = np.random.default_rng(1)
@@ -98,6 +100,7 @@ def test_sum_of_two_viscous_laws_recovers_both_modes():
     assert np.hypot(*beta[2:4]) == pytest.approx(np.hypot(0.6, 0.5), rel=0.02)
 
 
+@pytest.mark.heavy
 def test_joint_likelihood_of_two_recordings_peaks_at_the_shared_rate():
     """Two recordings sharing the decay rate p (own frequency, amplitude, drift, noise)."""
     rng = np.random.default_rng(2)

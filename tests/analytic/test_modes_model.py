@@ -84,6 +84,7 @@ def test_ordered_prior_density_support_and_volume():
         mm.model(0)
 
 
+@pytest.mark.heavy
 def test_kaufman_jacobian_gives_the_exact_rss_gradient():
     """Kaufman's variable-projection Jacobian drops a term orthogonal to the residual: Jᵀr,
     the gradient of the RSS, is exact (compared with autodiff through the Cholesky)."""
@@ -103,6 +104,7 @@ def test_kaufman_jacobian_gives_the_exact_rss_gradient():
     np.testing.assert_allclose(g_k, g_x, rtol=1e-9, atol=1e-9 * np.abs(g_x).max())
 
 
+@pytest.mark.heavy
 def test_one_mode_least_squares_equals_the_pipeline_fit(short_paper):
     """fit_modes with K = 1 on the one-mode fit samples lands on the optimum of
     dampfit.inference.least_squares (the same model and profile)."""

@@ -205,6 +205,7 @@ def test_mass_is_checked_once_on_construction_and_kept_as_floats():
             Mass(*args)
 
 
+@pytest.mark.heavy
 def test_a_checked_mass_is_carried_not_checked_again(monkeypatch):
     """Issue 37: the analysis builds its Mass once; the stages it passes it to (the baselines,
     the least squares, both CRLBs) take it as it is, and a plain number is still checked at

@@ -401,6 +401,7 @@ def test_write_experiment_with_and_without_segno(tmp_path, monkeypatch):
     assert path2.read_bytes() == experiment_bytes()
 
 
+@pytest.mark.heavy
 def test_the_experiment_ships_in_the_wheel(tmp_path):
     if shutil.which("git") is None:
         pytest.skip("git is needed to copy the checkout")

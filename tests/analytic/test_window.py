@@ -143,6 +143,7 @@ def _spiked(rec: Recording, size: float, every: float = 1.0, first: float = 0.5)
     return dataclasses.replace(rec, accel=a)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("size,first", [(500.0, 0.5), (500.0, 0.0), (50.0, 0.37)])
 def test_a_train_of_glitches_neither_poses_as_the_oscillation_nor_ends_the_decay(size, first):
     """A one-sample spike once a second, up to 35× the release amplitude (14 m/s²): its comb

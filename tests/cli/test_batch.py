@@ -60,6 +60,7 @@ def _table(out: Path) -> pd.DataFrame:
     return pd.read_csv(out / "results.csv", keep_default_na=False)
 
 
+@pytest.mark.heavy
 def test_a_batch_has_one_row_per_recording_and_refused_ones_are_rows(done):
     table = _table(done)
     assert list(table["name"]) == ["a.csv", "b.csv", "broken.csv", "c.csv"]  # notes.md is no recording
@@ -84,6 +85,7 @@ def test_a_batch_has_one_row_per_recording_and_refused_ones_are_rows(done):
         float(ok.iloc[0]["c_q50"]), rel=1e-12)
 
 
+@pytest.mark.heavy
 def test_a_row_is_the_summary_dampfit_analyze_gives(done, data, tmp_path, capsys):
     """The analysis is the same: the row and run folder of b.csv equal `dampfit analyze`'s
     summary of that file with the same (default) seed, to the last digit."""
@@ -98,6 +100,7 @@ def test_a_row_is_the_summary_dampfit_analyze_gives(done, data, tmp_path, capsys
     assert float(row["zeta_q50"]) == single["parameters"]["zeta"]["q50"]
 
 
+@pytest.mark.heavy
 def test_the_same_command_resumes_without_redoing_finished_rows(done, data, capsys):
     before = (done / "rows.jsonl").read_text()
     code, _, err = run(["batch", data, "--out", done, "--workers", "1", "--no-figures",
@@ -110,6 +113,7 @@ def test_the_same_command_resumes_without_redoing_finished_rows(done, data, caps
                                 "--mass", "0.5", "--seed", "1"], "different configuration")
 
 
+@pytest.mark.heavy
 def test_a_second_batch_on_the_same_folder_stops_at_once(data, tmp_path, capsys):
     from dampfit.files.lock import FileLock
 
@@ -125,6 +129,7 @@ def test_a_second_batch_on_the_same_folder_stops_at_once(data, tmp_path, capsys)
     assert str(out) in line
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("case,match", [
     ("empty", "no recordings given"),
     ("missing", "does-not-exist.csv does not exist"),
@@ -162,6 +167,7 @@ def test_bad_batch_input_is_one_line_and_writes_nothing(data, tmp_path, capsys, 
     assert not (tmp_path / "B").exists()
 
 
+@pytest.mark.heavy
 def test_masses_csv_gives_each_recording_its_mass_and_reading_options(data, tmp_path):
     from dampfit.batch.inputs import jobs
 
@@ -182,6 +188,7 @@ def test_masses_csv_gives_each_recording_its_mass_and_reading_options(data, tmp_
     assert a.key({"seed": 0}) != dataclasses.replace(a, sha256="0" * 64).key({"seed": 0})
 
 
+@pytest.mark.heavy
 def test_a_hostile_file_name_becomes_a_safe_folder_and_an_escaped_row(tmp_path, capsys):
     evil = tmp_path / "in" / "x\n| <script>alert(1)<\\script> $\\frac{1}{0}$ ..csv"
     evil.parent.mkdir()
@@ -198,6 +205,7 @@ def test_a_hostile_file_name_becomes_a_safe_folder_and_an_escaped_row(tmp_path, 
     assert (tmp_path / "B" / "comparison.png").stat().st_size > 1000
 
 
+@pytest.mark.heavy
 def test_summaries_only_writes_summary_json_alone(data, tmp_path, capsys):
     import dampfit
 
@@ -209,6 +217,7 @@ def test_summaries_only_writes_summary_json_alone(data, tmp_path, capsys):
     assert dampfit.load(folder).summary()["parameters"]["zeta"]["q50"] > 0
 
 
+@pytest.mark.heavy
 def test_analyze_many_returns_the_same_table_without_writing(done, data):
     import dampfit
 
@@ -219,6 +228,7 @@ def test_analyze_many_returns_the_same_table_without_writing(done, data):
     assert table.loc[0, "folder"] is None
 
 
+@pytest.mark.heavy
 def test_a_killed_batch_keeps_its_rows_and_resumes(data, tmp_path):
     """SIGTERM while the batch runs: exit 143, every finished row kept (rows.jsonl and
     results.csv), and the same command analyses only what is left."""
@@ -266,6 +276,7 @@ def test_a_dask_batch_gives_the_rows_of_an_in_process_one(done, data, tmp_path, 
         assert float(got.loc[name, "zeta_q95"]) == float(ref.loc[name, "zeta_q95"])
 
 
+@pytest.mark.heavy
 def test_output_refusals_leave_other_folders_alone(data, tmp_path, capsys):
     """--out that holds other files is refused (dampfit never writes into a folder it did not
     make), and so is a file."""
@@ -366,6 +377,7 @@ def test_workers_of_an_external_cluster_mapping_every_array_are_pointed_out(monk
 
 
 # ------------------------------------------------------- outputs (issues 35, 36)
+@pytest.mark.heavy
 def test_per_recording_figures_only_on_request_and_report_draws_them_later(done, tmp_path,
                                                                           capsys):
     """By default a run folder has no figures; the batch's comparison.png is written all

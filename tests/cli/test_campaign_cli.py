@@ -309,6 +309,7 @@ def test_export_of_a_campaign_is_the_population_damper(tmp_path, capsys, fmt, co
 
 
 # ----------------------------------------------------------------------------- end to end
+@pytest.mark.heavy
 def test_end_to_end_campaign_round_trip_report_export(recordings, tmp_path, capsys):
     """The real joint analysis (short chain: not converged, exit 0 with the warning)."""
     from dampfit.campaign.result import CampaignAnalysis
@@ -346,6 +347,7 @@ def test_end_to_end_campaign_round_trip_report_export(recordings, tmp_path, caps
     assert code == 2 and "posterior.nc does not belong to" in one_line(err), err
 
 
+@pytest.mark.heavy
 def test_end_to_end_added_mass(tmp_path, capsys):
     paths = []
     for i, dm in enumerate((0.0, 0.5, 1.0)):
@@ -428,6 +430,7 @@ def test_an_edited_population_is_one_line_in_export_and_report(tmp_path, capsys,
     assert not any(p.name.startswith(("sdof_", "report.")) for p in folder.iterdir())
 
 
+@pytest.mark.heavy
 def test_identical_recordings_are_named_and_campaign_signals_are_per_test(recordings, tmp_path,
                                                                           capsys, monkeypatch):
     """The same file under two names is warned about (both names, same SHA-256) in the table

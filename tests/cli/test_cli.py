@@ -257,6 +257,7 @@ def _strip_volatile(s: dict) -> dict:
     return walk(s)
 
 
+@pytest.mark.heavy
 def test_the_printed_recreate_command_reproduces_the_summary(tmp_path, capsys):
     """Every reading option is in provenance.options and in the report's "re-create this
     folder" command, shell-quoted (a path with a space, column names with spaces, brackets,

@@ -47,6 +47,7 @@ def _zeta_near(s: dict, truth: float = 0.01) -> None:
 
 # -- the three DAQ formats analysed ---------------------------------------------------------------
 
+@pytest.mark.heavy
 def test_lvm_hammer_test_is_analysed(tmp_path, capsys):
     t, a = cantilever()
     path = write_lvm(tmp_path / "hammer.lvm", t, {"Force": 50 * a, "Accel": a},
@@ -75,6 +76,7 @@ def test_uff58_record_chosen_like_row_is_analysed(tmp_path, capsys):
     _zeta_near(s)
 
 
+@pytest.mark.heavy
 def test_logger_csv_with_preamble_and_no_time_is_analysed_with_rate(tmp_path, capsys):
     t, a = cantilever()
     rng = np.random.default_rng(3)
@@ -142,6 +144,7 @@ def _uff(tmp_path, records=None):
     return write_uff(tmp_path / "h.uff", records or [{"t": t, "a": a}])
 
 
+@pytest.mark.heavy
 def test_lvm_hostile(tmp_path, capsys):
     path = _lvm(tmp_path)
     text = path.read_text()
@@ -160,6 +163,7 @@ def test_lvm_hostile(tmp_path, capsys):
     assert s["input"]["n_samples"] == 1653
 
 
+@pytest.mark.heavy
 def test_tdms_hostile(tmp_path, capsys, monkeypatch):
     t, a = cantilever(1.0)
     path = _tdms(tmp_path)

@@ -176,6 +176,7 @@ def two_folders(tmp_path_factory):
     return root / "A", root / "B"
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("name", ["posterior.nc", "signals.npz"])
 def test_report_refuses_a_file_of_another_analysis(two_folders, tmp_path, capsys, name):
     a, b = two_folders

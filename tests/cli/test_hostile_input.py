@@ -531,6 +531,7 @@ def test_lab_exports_and_empty_cells_refused_with_the_reason(tmp_path, capsys, c
         assert "--accel-columns" not in line
 
 
+@pytest.mark.heavy
 def test_empty_cells_outside_the_window_and_a_shorter_run_are_analysed(tmp_path, capsys):
     """The window is applied before the empty-cell check: the gap at 8 s lies outside
     --window 0.5 7.5; and run #2 of a Capstone file, shorter than run #1, reads without a
@@ -603,6 +604,7 @@ def test_xlsx_with_formulas_and_no_cached_values(tmp_path, capsys):
     wb.save(tmp_path / "formula.xlsx")
     _analyze_fails(tmp_path, capsys, tmp_path / "formula.xlsx", "missing or non-finite values")
 
+@pytest.mark.heavy
 def test_xlsx_with_a_thousand_sheets_and_a_bad_sheet_name(tmp_path, capsys):
     openpyxl = pytest.importorskip("openpyxl")
     wb = openpyxl.Workbook()

@@ -45,6 +45,7 @@ def _peak_kib(path: Path) -> int:
     return int(out.stdout.split()[-1])
 
 
+@pytest.mark.heavy
 def test_reading_a_csv_costs_a_bounded_memory_per_byte(tmp_path):
     """Memory beyond the imports grows linearly, at under 6 bytes per byte of file (time and
     three axes: 2.2 measured; the whole process reading 10 M rows of time and one axis peaks

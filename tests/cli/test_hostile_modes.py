@@ -98,6 +98,7 @@ def test_a_summary_without_modes_is_still_read(tmp_path):
     assert "modes" not in read_summary(folder).data
 
 
+@pytest.mark.heavy
 def test_the_cli_runs_in_a_process_that_used_xarray_before(tmp_path):
     """xarray caches "is Dask installed?" on first use; a process that used it before calling
     the CLI in-process (a script, a notebook, a test session) must not see the CLI's

@@ -33,6 +33,7 @@ def _timed(argv, capsys) -> tuple[int, str, float]:
 
 
 # ---------------------------------------------------------------------- the slow drip
+@pytest.mark.heavy
 def test_headers_dripped_a_byte_at_a_time_end_at_the_deadline(tmp_path, capsys):
     out = tmp_path / "r"
     with FakePhone(Quirks(drip="headers", drip_path="/config", drip_s=0.5)) as phone:
@@ -44,6 +45,7 @@ def test_headers_dripped_a_byte_at_a_time_end_at_the_deadline(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.heavy
 def test_a_body_dripped_during_the_recording_keeps_the_samples(tmp_path, capsys):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=10.0, drip="body", drip_at=5.0, drip_s=0.5)) as phone:
@@ -119,6 +121,7 @@ def test_meta_values_out_of_range_are_dropped(key, value):
     assert info[ours] is None
 
 
+@pytest.mark.heavy
 def test_a_resolution_of_1e308_records_and_analyses(tmp_path, capsys):
     out = tmp_path / "r"
     with FakePhone(Quirks(speed=40.0, meta_values={"Resolution": "1e308"})) as phone:

@@ -163,6 +163,7 @@ def test_a_summary_linked_from_outside_is_refused(tmp_path, capsys):
     assert_unchanged(before, snapshot(tmp_path))
 
 
+@pytest.mark.heavy
 def test_two_million_warnings_are_shown_once_each_and_bounded(tmp_path):
     """A 22 MB summary of 2,000,000 short warnings (half of them repeated): the report ends
     well within the timeout (the de-duplication was quadratic: > 300 s) and shows at most
@@ -189,6 +190,7 @@ def _edits():
     return [(s, v) for s in sections for v in values]
 
 
+@pytest.mark.heavy
 def test_every_edited_section_is_exit_0_or_one_line_exit_2(tmp_path, capsys, analysed):
     """Report and export of a real summary with any top-level section replaced by a value of
     another type: never a traceback or an internal error (exit 1)."""
@@ -241,6 +243,7 @@ def test_a_posterior_whose_data_lie_outside_the_file_is_refused(tmp_path, kind):
         dampfit.load(folder).posterior
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("kind", ["fifo", "link-to-dev-zero", "link-outside"])
 def test_a_posterior_that_is_not_a_regular_file_of_the_folder_is_refused(tmp_path, kind):
     folder = write_summary(tmp_path / "r")

@@ -50,6 +50,7 @@ def test_a_phone_mass_that_cannot_be_names_the_mistake(tmp_path, capsys, mass, w
     assert any(words in w for w in s["diagnostics"]["warnings"])
 
 
+@pytest.mark.heavy
 def test_a_plausible_phone_mass_gets_no_note(tmp_path, capsys):
     t, z = _decay()
     path = _phyphox(tmp_path / "Raw Data.csv", t, z)

@@ -51,6 +51,7 @@ def no_staging_left(out: Path) -> None:
 
 
 # ------------------------------------------------------------------------ done when
+@pytest.mark.heavy
 def test_record_then_analyse_recovers_c(tmp_path, capsys):
     out = tmp_path / "decay"
     with FakePhone(Quirks(speed=20.0)) as phone:
@@ -135,6 +136,7 @@ def test_a_changed_session_is_refused_and_the_first_kept(tmp_path, capsys):
     assert controls == ["/control?cmd=clear", "/control?cmd=start"], "the new session is not touched"
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("quirk,match", [
     ({"drop_at": 8.0}, "the connection was closed without an answer"),
     ({"refuse_at": 8.0}, "connection refused"),
@@ -351,6 +353,7 @@ def test_a_failed_analysis_keeps_the_recording(tmp_path, capsys, monkeypatch):
     no_staging_left(out)
 
 
+@pytest.mark.heavy
 def test_the_report_of_a_record_folder_gives_a_command_that_works(tmp_path, capsys):
     """A record folder holds its own recording, so its report cannot say ``dampfit analyze
     DIR/recording.csv … --out DIR`` (analyze refuses an --out that holds its input, and

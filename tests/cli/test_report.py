@@ -363,6 +363,7 @@ def _leaves(obj, path=()):
     yield path
 
 
+@pytest.mark.heavy
 def test_any_missing_none_or_odd_field_renders(summary):
     """Each field of the summary removed, None, a string or an empty dict: never a crash."""
     s0 = copy.deepcopy(summary)
@@ -742,6 +743,7 @@ def test_report_renders_in_chromium(folder, tmp_path):
                         '<img src="data:image/png;base64,AAAA">') == (len(FIGS) + 1, 1)
 
 
+@pytest.mark.heavy
 @needs_chromium
 @pytest.mark.skipif(not PENDULUM.is_file(), reason="../shared/data/real is not present")
 def test_real_recording_report(tmp_path):

@@ -70,6 +70,7 @@ def _render(s: dict, d: Path = Path("/nonexistent-folder")) -> tuple[str, str]:
 
 
 # ----------------------------------------------------------------------------- the table
+@pytest.mark.heavy
 def test_the_modes_table_prints_every_convention_from_the_summary(two):
     an, out = two
     s = an.summary()
@@ -99,6 +100,7 @@ def test_the_modes_table_prints_every_convention_from_the_summary(two):
     assert "<h2>Modes</h2>" in html and _shown(s["modes"][1]["delta"]) in text
 
 
+@pytest.mark.heavy
 def test_evidence_pairs_rayleigh_and_the_mass_mode_are_reported(two):
     an, out = two
     s = an.summary()
@@ -122,6 +124,7 @@ def test_evidence_pairs_rayleigh_and_the_mass_mode_are_reported(two):
 
 
 # ----------------------------------------------------------------------------- the figure
+@pytest.mark.heavy
 def test_modes_png_is_drawn_and_redrawn_byte_for_byte(two, tmp_path):
     _, out = two
     copy_ = tmp_path / "copy"
@@ -135,6 +138,7 @@ def test_modes_png_is_drawn_and_redrawn_byte_for_byte(two, tmp_path):
                      r'the selected signal in dB re its peak with each identified mode', html)
 
 
+@pytest.mark.heavy
 def test_the_modes_figure_needs_only_what_needs_names(two, tmp_path):
     an, _ = two
     full = an.summary()
@@ -160,6 +164,7 @@ def test_one_mode_has_no_modes_figure_and_no_section(analysed, tmp_path):
 
 
 # ----------------------------------------------------------------------------- hostile
+@pytest.mark.heavy
 def test_markup_in_the_modes_sections_is_escaped(two):
     s = copy.deepcopy(two[0].summary())
     ev = s["modes_evidence"]
@@ -182,6 +187,7 @@ def test_markup_in_the_modes_sections_is_escaped(two):
             assert len(re.findall(r"(?<!\\)\|", line)) in (4, 6, 7, 8)
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("edit", [
     lambda s: s.update(n_modes=True),
     lambda s: s.update(n_modes=1),
@@ -197,6 +203,7 @@ def test_an_edited_mode_count_means_no_section_and_no_figure(two, edit):
     assert modes_figure(FigureData(s, an.signals())) is None
 
 
+@pytest.mark.heavy
 def test_odd_mode_entries_render_and_unusable_modes_are_one_line(two, tmp_path):
     an, _ = two
     s = copy.deepcopy(an.summary())
@@ -223,6 +230,7 @@ def test_the_flag_threshold_is_the_analysis_own():
     assert json.dumps(report_modes.CONVENTIONS, ensure_ascii=False).count("[1]") == 4
 
 
+@pytest.mark.heavy
 def test_components_seen_but_not_modes_are_listed_without_a_damping_row(two):
     """A component without the evidence of a mode (modes_seen) is listed in the text table and
     the report with its kind and reason — no ζ row, no Rayleigh — also beside one mode, and a

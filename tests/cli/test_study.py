@@ -365,6 +365,7 @@ def dask_cluster(tmp_path_factory):
         log.close()
 
 
+@pytest.mark.heavy
 def test_external_scheduler(small_study, dask_cluster, tmp_path):
     cfg, ref, _ = small_study
     out = tmp_path / "remote"
@@ -382,6 +383,7 @@ def test_unreachable_scheduler_is_an_input_error(small_study, tmp_path, capsys):
     assert "cannot reach the Dask scheduler at nonsense://" in one_error_line(capsys)
 
 
+@pytest.mark.heavy
 def test_resume_after_sigkill_recomputes_nothing_finished(small_study, dask_cluster, tmp_path):
     """SIGKILL a running ``dampfit study`` process; the same command then runs only the rest,
     and the final table equals the uninterrupted run's. (Both runs use the external cluster

@@ -300,6 +300,7 @@ def tiny_study(tmp_path_factory):
     return cfg, out, rc
 
 
+@pytest.mark.heavy
 def test_campaign_study_through_the_cli_writes_the_coverage_table(tiny_study, capsys):
     cfg, out, rc = tiny_study
     assert rc == 0
@@ -335,6 +336,7 @@ def test_campaign_study_through_the_cli_writes_the_coverage_table(tiny_study, ca
     assert "predictive_c" in printed.out and "zero_spread_ok" in printed.out
 
 
+@pytest.mark.heavy
 def test_same_seed_gives_the_same_record(tiny_study):
     """A task run again here (another process than the study's worker) gives the record the
     study stored, but for timings and provenance."""

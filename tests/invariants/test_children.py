@@ -107,6 +107,7 @@ def test_a_child_ignores_the_working_folder_and_pythonpath_injection(tmp_path, m
 
 
 # ----------------------------------------------------------------------------- the children
+@pytest.mark.heavy
 @pytest.mark.skipif(CORES < 2, reason=f"the figure process needs 2 usable cores; {CORES} here")
 def test_the_figure_process_started_from_a_hostile_folder_draws(tmp_path, monkeypatch):
     from dampfit import simulate as sim
@@ -125,6 +126,7 @@ def test_the_figure_process_started_from_a_hostile_folder_draws(tmp_path, monkey
     assert written and not any(markers.iterdir())
 
 
+@pytest.mark.heavy
 @pytest.mark.skipif(CORES < 2, reason=f"the figure process needs 2 usable cores; {CORES} here")
 def test_analyze_and_verify_from_a_hostile_folder_run_nothing_of_it(hostile, tmp_path,
                                                                    requires_opensees):
@@ -163,6 +165,7 @@ sample_rate = 60
 """
 
 
+@pytest.mark.heavy
 def test_study_workers_started_from_a_hostile_folder_run_nothing_of_it(hostile, tmp_path):
     pytest.importorskip("distributed")
     cwd, markers, cmd = hostile
@@ -179,6 +182,7 @@ def test_study_workers_started_from_a_hostile_folder_run_nothing_of_it(hostile, 
     assert sorted(p.name for p in markers.iterdir()) == []
 
 
+@pytest.mark.heavy
 def test_study_workers_stop_when_the_study_is_killed(tmp_path):
     """``kill -9`` of ``dampfit study`` (its process only): the worker processes it started
     (in their own isolated Pythons) notice and end; nothing is left running."""

@@ -94,6 +94,7 @@ def test_second_process_loads_what_the_first_compiled(tmp_path):
     assert second["y"] == [2.0, 2.0, 2.0]
 
 
+@pytest.mark.heavy
 def test_damaged_or_foreign_entry_is_recompiled(tmp_path):
     cache = tmp_path / "cache"
     good = _run(tmp_path, cache)
@@ -120,6 +121,7 @@ def test_switched_off_nothing_is_written(tmp_path):
     assert not (tmp_path / "xdg").exists()
 
 
+@pytest.mark.heavy
 def test_a_script_gets_the_store_by_default(tmp_path):
     """Issue 23: a script (no CLI, nothing set) stores its kernels in the default private
     folder ``$XDG_CACHE_HOME/dampfit/jax`` and the next script loads them instead of compiling;
@@ -159,6 +161,7 @@ def test_source_edit_changes_the_key(monkeypatch):
         executables._environment.cache_clear()
 
 
+@pytest.mark.heavy
 def test_copy_of_a_jax_cache_hit_is_not_stored(tmp_path):
     """Under a user's own JAX persistent cache, a kernel JAX loaded from it serialises without
     its fused code; the check before storing must refuse it, and the kernel still works."""
@@ -186,6 +189,7 @@ def _warnings(out: dict) -> list[str]:
     return [line for line in out["stderr"].splitlines() if "compiled-kernel cache" in line]
 
 
+@pytest.mark.heavy
 def test_an_ancestor_others_may_write_in_means_no_cache(tmp_path):
     """A group- or world-writable folder above the cache (without the sticky bit) lets
     others swap the cache folder: not used (plain jax.jit), one warning, same result; with the
@@ -238,6 +242,7 @@ def _recompiled(tmp_path: Path, cache: Path, first: dict) -> Path:
     return entry
 
 
+@pytest.mark.heavy
 def test_an_entry_of_another_mode_or_a_link_is_not_loaded(tmp_path):
     cache, entry, first = _stored(tmp_path)
     for mode in (0o666, 0o644):
@@ -251,6 +256,7 @@ def test_an_entry_of_another_mode_or_a_link_is_not_loaded(tmp_path):
     assert elsewhere.read_bytes() == before  # the link was replaced, not its target
 
 
+@pytest.mark.heavy
 def test_an_entry_of_another_user_is_not_loaded(tmp_path):
     if os.geteuid() != 0:
         pytest.skip("only root can give a file to another user")
@@ -259,6 +265,7 @@ def test_an_entry_of_another_user_is_not_loaded(tmp_path):
     _recompiled(tmp_path, cache, first)
 
 
+@pytest.mark.heavy
 def test_bit_flipped_entries_are_recompiled_and_the_process_survives(tmp_path):
     cache, entry, first = _stored(tmp_path)
     for where in ("header", "payload", "tag"):
@@ -269,6 +276,7 @@ def test_bit_flipped_entries_are_recompiled_and_the_process_survives(tmp_path):
         entry = _recompiled(tmp_path, cache, first)
 
 
+@pytest.mark.heavy
 def test_entries_are_not_trusted_without_their_key(tmp_path):
     cache, entry, first = _stored(tmp_path)
     key = cache / "hmac.key"

@@ -57,6 +57,7 @@ def test_save_then_load_round_trips(staged, folder):
     np.testing.assert_array_equal(loaded.draws("c"), live.draws("c"))
 
 
+@pytest.mark.heavy
 def test_live_and_loaded_figures_are_the_same_bytes(staged, folder, tmp_path):
     an, _ = staged
     assert {p.stem for p in folder.glob("*.png")} == ALL
@@ -70,6 +71,7 @@ def test_live_and_loaded_figures_are_the_same_bytes(staged, folder, tmp_path):
     assert _pngs(live) == _pngs(folder)
 
 
+@pytest.mark.heavy
 def test_the_stage_data_draw_the_same_bytes_as_the_finished_analysis(staged, tmp_path):
     """What the figure process does, here: each figure drawn as soon as the data NEEDS names
     have arrived from the stages, the rest once the summary is there."""
@@ -89,6 +91,7 @@ def test_the_stage_data_draw_the_same_bytes_as_the_finished_analysis(staged, tmp
     assert _pngs(early) == _pngs(tmp_path / "final")
 
 
+@pytest.mark.heavy
 def test_each_figure_needs_only_what_needs_names(staged, tmp_path):
     an, _ = staged
     full = an.summary()

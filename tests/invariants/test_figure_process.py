@@ -49,6 +49,7 @@ def test_needs_name_every_figure_and_only_data_keys():
         assert not need & fields, (name, need & fields)
 
 
+@pytest.mark.heavy
 @needs_two_cores
 def test_process_draws_the_same_files_as_here_while_the_analysis_runs(rec, tmp_path,
                                                                       monkeypatch):
@@ -73,6 +74,7 @@ def test_process_draws_the_same_files_as_here_while_the_analysis_runs(rec, tmp_p
     assert sorted(p.name for p in there.iterdir()) == sorted(p.name for p in here.iterdir())
 
 
+@pytest.mark.heavy
 @needs_two_cores
 def test_a_dead_process_means_the_figures_are_drawn_here(rec, tmp_path, monkeypatch):
     monkeypatch.delenv(fp.ENV, raising=False)
@@ -87,6 +89,7 @@ def test_a_dead_process_means_the_figures_are_drawn_here(rec, tmp_path, monkeypa
     assert all((tmp_path / f"{n}.png").stat().st_size > 0 for n in written)
 
 
+@pytest.mark.heavy
 @needs_two_cores
 def test_a_process_answering_nonsense_is_not_believed(rec, tmp_path, monkeypatch):
     """A process that exits 0 with an answer that is not its success line is distrusted."""
@@ -101,6 +104,7 @@ def test_a_process_answering_nonsense_is_not_believed(rec, tmp_path, monkeypatch
     assert set(p.stem for p in tmp_path.glob("*.png")) == ONE_MODE
 
 
+@pytest.mark.heavy
 def test_switched_off_by_the_environment(monkeypatch, tmp_path, rec):
     monkeypatch.setenv(fp.ENV, "0")
     with fp.FigureProcess.start() as figs:
@@ -159,6 +163,7 @@ def test_cli_failure_after_the_process_started_leaves_nothing(tmp_path, capsys, 
     assert len(started) == 1 and started[0]._proc is None  # closed, and so stopped
 
 
+@pytest.mark.heavy
 @needs_two_cores
 def test_cli_figures_by_the_process_equal_those_drawn_here(tmp_path, monkeypatch):
     csv = tmp_path / "rec.csv"

@@ -58,6 +58,7 @@ def _check_png(path: Path) -> None:
     assert float(np.std(img[..., :3])) > 0.02, f"{path.name} looks blank"
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("case", ["with_mass", "without_mass"])
 def test_save_figures_writes_every_png(case, request, tmp_path):
     an = request.getfixturevalue(case)

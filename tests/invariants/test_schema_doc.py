@@ -55,6 +55,7 @@ def test_docstring_documents_both_layouts():
     assert len(set(single)) == len(single) and len(set(campaign)) == len(campaign)
 
 
+@pytest.mark.heavy
 def test_a_real_summary_has_exactly_the_documented_keys(short_paper):
     rec, truth = short_paper
     with warnings.catch_warnings():
@@ -74,6 +75,7 @@ def test_a_summary_without_mass_has_the_same_keys(short_paper):
     assert set(summary["missing"]) >= {"c", "k", "c_crit"}
 
 
+@pytest.mark.heavy
 def test_a_real_campaign_summary_has_exactly_the_documented_keys():
     from dampfit import simulate as sim
 

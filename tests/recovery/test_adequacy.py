@@ -360,6 +360,7 @@ def steady_sine(seed: int = 0, zeta: float = 0.0, f: float = 3.0, duration: floa
     return noisy_recording(t, a, noise, seed=seed, lead=1.0)
 
 
+@pytest.mark.heavy
 def test_a_steady_sine_is_no_decay_and_its_zeta_interval_reaches_zero():
     """Forced or self-sustained vibration: the warning says so, the verdict is not
     "adequate", and ζ, p, c, δ reach 0 instead of stopping at the prior's floor."""
@@ -383,6 +384,7 @@ def test_a_steady_sine_is_no_decay_and_its_zeta_interval_reaches_zero():
     assert "reaches 0: no decay measured" in render.text(s)
 
 
+@pytest.mark.heavy
 def test_a_tiny_real_decay_is_measured():
     """ζ = 1e-5 over 4000 cycles: resolved, not "no decay" (the decay test sees it)."""
     rec = steady_sine(zeta=1e-5, f=20.0, duration=200.0, fs=100.0, noise=0.01)
@@ -503,6 +505,7 @@ def _report(out) -> dict:
     return rates
 
 
+@pytest.mark.heavy
 def test_simulated_verdicts_few_replicates():
     """Four replicates of each class (the 100-replicate rates are in the slow test)."""
     rates = _report(_rates(4, ("phone", "lab", "amp", "dist")))

@@ -143,6 +143,7 @@ def test_non_convergence_is_flagged_not_raised(short_paper):
     assert any("NOT converged" in w for w in s["diagnostics"]["warnings"])
 
 
+@pytest.mark.heavy
 def test_without_mass_reports_identifiable_quantities(short_paper):
     rec, truth = short_paper
     an = analysis.analyze(rec, seed=1)
@@ -154,6 +155,7 @@ def test_without_mass_reports_identifiable_quantities(short_paper):
     assert s["mass"]["value"] is None
 
 
+@pytest.mark.heavy
 def test_same_seed_same_posterior(short_paper):
     """--seed makes a run reproducible across processes: NumPy's global random state (seeded
     by the OS in every fresh process, and copied by emcee unless told otherwise) must not

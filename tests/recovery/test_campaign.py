@@ -54,6 +54,7 @@ def spread_result():
     return dampfit.analyze(recs, mass=1.0, mass_sd=0.01, seed=1, **FAST), truth
 
 
+@pytest.mark.heavy
 def test_population_c_recovered_with_spread(spread_result):
     res, truth = spread_result
     assert isinstance(res, CampaignAnalysis)
@@ -75,6 +76,7 @@ def test_population_c_recovered_with_spread(spread_result):
     assert s["diagnostics"]["importance_ess_fraction"] > 0.5
 
 
+@pytest.mark.heavy
 def test_campaign_outputs_roundtrip(spread_result, tmp_path):
     res, _ = spread_result
     path = res.to_json(tmp_path / "summary.json")
@@ -223,6 +225,7 @@ def test_two_tests_converge_like_three():
     assert _inside(two.summary()["parameters"]["k"], truth["k"])
 
 
+@pytest.mark.heavy
 def test_amplitude_claim_has_the_false_alarm_rate_of_the_other_claims():
     """Tests that merely scatter (τ = 20 %, no amplitude dependence), with amplitudes that
     differ by chance by 10–50 %: "the amplitude explains the scatter" in under 2.5 % of

@@ -32,6 +32,7 @@ def campaign():
     return dampfit.analyze(recs, mass=MASS, mass_sd=0.01, max_modes=3, min_ess=300, seed=4)
 
 
+@pytest.mark.heavy
 def test_each_test_lists_its_modes_with_the_pooled_one_marked(campaign):
     s = campaign.summary()
     assert s["provenance"]["options"]["max_modes"] == 3
@@ -52,6 +53,7 @@ def test_each_test_lists_its_modes_with_the_pooled_one_marked(campaign):
     assert c["q05"] < c_true < c["q95"]
 
 
+@pytest.mark.heavy
 def test_the_table_shows_the_modes_and_load_reads_them_back(campaign, tmp_path):
     text = campaign.report()
     assert "modes of each test" in text and "mode 1 *" in text and "mode 2" in text
@@ -69,6 +71,7 @@ def test_the_table_shows_the_modes_and_load_reads_them_back(campaign, tmp_path):
     assert "--max-modes 3" in md
 
 
+@pytest.mark.heavy
 def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign, tmp_path):
     s = json.loads(json.dumps(campaign.summary()))
     s["tests"][0]["modes"] = {"modes": [], "reason": "too short\nfor 2 modes " + "x" * 400}
@@ -87,6 +90,7 @@ def test_a_test_without_modes_or_with_a_garbled_entry_still_prints(campaign, tmp
     assert "one mode (the pooled one)" in str(blocks) and "not analysed" in str(blocks)
 
 
+@pytest.mark.heavy
 def test_one_mode_tests_share_one_line_of_the_terminal_table(campaign):
     """A campaign of many one-mode tests does not print a row of reasons for each: they share
     one line naming the tests (reasons stay in the report); a test with several modes keeps
@@ -114,6 +118,7 @@ def test_mode_of_mass_is_refused_for_a_campaign():
         dampfit.analyze(recs, mass=MASS, max_modes=0)
 
 
+@pytest.mark.heavy
 def test_each_test_runs_the_same_modes_stage_as_a_single_recording(campaign):
     """The campaign's tests go through the one modes stage of a single recording: every mode
     carries its K-mode least squares (to read when the posterior did not converge), and the
@@ -127,6 +132,7 @@ def test_each_test_runs_the_same_modes_stage_as_a_single_recording(campaign):
             assert row["f_n"]["q50"] == pytest.approx(ls["f_n"]["value"], rel=0.01)
 
 
+@pytest.mark.heavy
 def test_a_one_mode_test_is_screened_and_listed_as_the_pooled_mode(campaign):
     """A test with nothing beside the pooled mode is settled by the screen (no selection, no
     modal posterior) and the table says so instead of "not analysed"."""

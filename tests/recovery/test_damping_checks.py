@@ -229,6 +229,7 @@ def test_the_evidence_grid_stops_in_the_tail_without_changing_z(cases, law, monk
                                   sample_laplace(full, data, seed=3).theta)
 
 
+@pytest.mark.heavy
 def test_emcee_draws_depend_on_the_seed_only(cases):
     """Same seed → same draws, whatever NumPy's global random state (a fresh process's)."""
     prep, fd, res = cases["quadratic"]

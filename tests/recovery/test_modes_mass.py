@@ -19,6 +19,7 @@ class _Stop(Exception):
     pass
 
 
+@pytest.mark.heavy
 def test_the_mass_s_mode_is_the_fundamental_not_the_largest_acceleration(monkeypatch):
     """A 3.3 Hz release with an 8.91 Hz second mode at 3x its acceleration (0.4x its
     displacement; a cantilever's second bending mode): the modal posterior is asked for the

@@ -30,6 +30,7 @@ def two_mode_posterior():
     return prep, truth, stage.selection, stage.posterior, stage
 
 
+@pytest.mark.heavy
 def test_each_mode_has_its_posterior_in_every_damping_convention(two_mode_posterior):
     _, truth, sel, post = two_mode_posterior[:4]
     assert sel.n_modes == 2 and post.converged and post.max_r_hat < 1.05
@@ -52,6 +53,7 @@ def test_each_mode_has_its_posterior_in_every_damping_convention(two_mode_poster
     assert abs(rows[0]["c"]["q50"] - truth["c"]) < 4 * rows[0]["c"]["sd"]
 
 
+@pytest.mark.heavy
 def test_mode_of_mass_can_be_chosen_and_is_checked(two_mode_posterior):
     _, _, sel, _ = two_mode_posterior[:4]
     post = MP.sample(sel, mass=MASS, mode_of_mass=2, seed=3, min_ess=100, max_steps=400)
@@ -63,6 +65,7 @@ def test_mode_of_mass_can_be_chosen_and_is_checked(two_mode_posterior):
         MP.sample(sel, mass=MASS, mode_of_mass=3)
 
 
+@pytest.mark.heavy
 def test_rayleigh_from_the_posterior_draws(two_mode_posterior):
     _, truth, _, post = two_mode_posterior[:4]
     w = 2 * np.pi * post.draws("f_n")
@@ -80,6 +83,7 @@ def test_rayleigh_from_the_posterior_draws(two_mode_posterior):
         assert med[i]["q50"] == pytest.approx(out["zeta_measured"][i]["q50"], rel=0.05)
 
 
+@pytest.mark.heavy
 def test_subspace_baseline_finds_both_modes(two_mode_posterior):
     prep, truth, _, _ = two_mode_posterior[:4]
     est = subspace_modes(prep, max_modes=3)
@@ -90,6 +94,7 @@ def test_subspace_baseline_finds_both_modes(two_mode_posterior):
         assert e.zeta_sd is None
 
 
+@pytest.mark.heavy
 def test_modal_summary_is_plain_data_with_bounds_pairs_and_rayleigh(two_mode_posterior):
     import json
 
@@ -106,6 +111,7 @@ def test_modal_summary_is_plain_data_with_bounds_pairs_and_rayleigh(two_mode_pos
         assert 0.6 < ratio < 1.7, ratio
 
 
+@pytest.mark.heavy
 def test_the_modes_stage_gives_plain_data_for_every_mode(two_mode_posterior):
     """stages.modes_stage: the selection and posterior it ran, and one JSON-safe summary with
     every mode's quantities, bound, P(K) and reason of every K, the pair and Rayleigh α, β."""
@@ -135,6 +141,7 @@ def test_the_modes_stage_gives_plain_data_for_every_mode(two_mode_posterior):
     assert out["sampling"]["n_steps"] <= out["sampling"]["budget"]["max_steps"]
 
 
+@pytest.mark.heavy
 def test_a_step_budget_stops_the_modal_posterior_and_says_so(two_mode_posterior):
     """A budget the run cannot converge in (100 steps, one first block) stops it: not
     converged, the reason and the budget in ``sampling()``, a warning that the intervals are
@@ -159,6 +166,7 @@ def test_a_step_budget_stops_the_modal_posterior_and_says_so(two_mode_posterior)
     assert all(np.isfinite(row["zeta"]["q50"]) for row in post.summary())
 
 
+@pytest.mark.heavy
 def test_a_wall_time_budget_stops_the_modal_posterior_after_a_block(two_mode_posterior):
     from dampfit.inference.law_sampler import Budget
 

@@ -30,6 +30,7 @@ def two_modes():
     return analyze(rec, mass=MASS, mass_sd=0.01, max_modes=2, min_ess=400, seed=3), truth
 
 
+@pytest.mark.heavy
 def test_both_modes_in_the_summary_with_intervals(two_modes):
     an, truth = two_modes
     s = an.summary()
@@ -81,6 +82,7 @@ def test_a_modal_posterior_that_did_not_converge_points_to_the_least_squares():
         assert f"f_n {mode['least_squares']['f_n']['value']:.5g} Hz" in note
 
 
+@pytest.mark.heavy
 def test_the_table_has_one_block_per_mode(two_modes):
     an, _ = two_modes
     table = an.report()
@@ -90,6 +92,7 @@ def test_the_table_has_one_block_per_mode(two_modes):
     assert "this mode's viscous c" in table[:table.index("  mode 2")]
 
 
+@pytest.mark.heavy
 def test_save_and_load_give_back_every_mode(two_modes, tmp_path):
     an, _ = two_modes
     out = an.save(tmp_path / "r", figures=False)
@@ -112,6 +115,7 @@ def test_several_modes_are_looked_for_by_default(analysed):
     assert s["modes"][0]["zeta"] == s["parameters"]["zeta"]
 
 
+@pytest.mark.heavy
 def test_a_harmonic_of_the_one_mode_is_not_a_second_mode():
     """A large swing puts whole-multiple harmonics in the acceleration (a real phone pendulum
     at 25 degrees: a component at 3.000 x f1). A damped component at exactly 3 f_d decaying

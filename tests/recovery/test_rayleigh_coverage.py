@@ -45,6 +45,7 @@ def _covers(truth, summary):
     return fitted, near
 
 
+@pytest.mark.heavy
 def test_rayleigh_intervals_reproduce_the_simulated_zetas():
     """Two replicates (K ≤ 2, ESS 200: the quick version of the slow test below)."""
     covered, total = 0, 0

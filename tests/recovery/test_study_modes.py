@@ -35,6 +35,7 @@ def study(tmp_path_factory):
     return cfg, out, result
 
 
+@pytest.mark.heavy
 def test_rows_per_estimator_and_true_mode(study):
     cfg, out, result = study
     runs = pd.read_csv(out / "runs.csv")
@@ -55,6 +56,7 @@ def test_rows_per_estimator_and_true_mode(study):
     assert (c["err_zeta"].abs() < 5 * c["crlb_zeta"]).all()
 
 
+@pytest.mark.heavy
 def test_a_mode_too_weak_to_find_is_a_failed_row_of_that_mode(study):
     cfg, out, _ = study
     runs = pd.read_csv(out / "runs.csv")
@@ -67,6 +69,7 @@ def test_a_mode_too_weak_to_find_is_a_failed_row_of_that_mode(study):
     assert (second["crlb_zeta"] > 0).all()  # the bound of the mode it missed is still there
 
 
+@pytest.mark.heavy
 def test_aggregate_ranking_summary_and_figures_per_mode(study):
     cfg, out, result = study
     agg = pd.read_csv(out / "aggregate.csv")

@@ -158,6 +158,7 @@ def _interval(q: dict, positive: bool = True) -> None:
         assert vals[0] > 0, q
 
 
+@pytest.mark.heavy
 def test_joint_analysis_runs_and_writes_nothing_outside(joint):
     assert joint["code"] == 0, joint["stderr"]
     assert joint["stderr"].strip() == "" or "error" not in joint["stderr"].lower()
@@ -167,6 +168,7 @@ def test_joint_analysis_runs_and_writes_nothing_outside(joint):
     assert "added_mass.png" not in names  # not an added-mass design
 
 
+@pytest.mark.heavy
 def test_population_damper_has_finite_intervals(joint):
     s = _summary(joint)
     name = joint["name"]
@@ -197,6 +199,7 @@ def test_population_damper_has_finite_intervals(joint):
     assert math.isfinite(s["diagnostics"]["max_r_hat"])
 
 
+@pytest.mark.heavy
 def test_between_test_spread_and_each_test_are_reported(joint):
     s = _summary(joint)
     spread = s["population"]["spread"]
@@ -228,6 +231,7 @@ def test_between_test_spread_and_each_test_are_reported(joint):
         assert spread["omega"]["q05"] > 0.002, spread["omega"]
 
 
+@pytest.mark.heavy
 def test_verdict_is_documented_and_shown_to_the_user(joint):
     s = _summary(joint)
     checks = s["checks"]
@@ -283,6 +287,7 @@ def test_cantilever_amplitude_dependent_damping_is_reported(joint):
     assert any("amplitude" in w.lower() for w in said), said
 
 
+@pytest.mark.heavy
 def test_folder_loads_back_as_a_campaign(joint):
     import dampfit
 

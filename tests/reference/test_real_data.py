@@ -48,7 +48,17 @@ def window_frequency(an) -> float:
     return float(np.sum(energy * f_cycle) / np.sum(energy))
 
 
-@pytest.mark.parametrize("path", FILES, ids=[str(p.relative_to(REAL)) for p in FILES])
+def _by_default(files):
+    """One recording of each source runs by default; the others are marked heavy (CI runs them)."""
+    seen = set()
+    for p in files:
+        source = p.relative_to(REAL).parts[0]
+        yield pytest.param(p, id=str(p.relative_to(REAL)),
+                           marks=[] if source not in seen else [pytest.mark.heavy])
+        seen.add(source)
+
+
+@pytest.mark.parametrize("path", list(_by_default(FILES)))
 def test_real_recording_is_analysed(path):
     rec = dampfit.read(path)
     with warnings.catch_warnings():
