@@ -8,19 +8,20 @@ m_eff ≈ 0.037 kg: 0.236·m_beam + 5 g tip, SOURCES.md) — it
 
 1. analyses the recording with the defaults (``dampfit analyze FILE --mass KG --out DIR``;
    ``--reuse`` keeps a folder that already holds a summary.json);
-2. exports the recommended damper for LS-DYNA and OpenSees (``dampfit export DIR --format
-   lsdyna|opensees``) and records the law the decks carry, and the measured curve
-   (``--law measured``: the force-velocity curve fitted to the measured envelope,
-   :mod:`dampfit.fem.measured`) in both formats;
+2. exports the default deck for LS-DYNA and OpenSees (``dampfit export DIR --format
+   lsdyna|opensees``: the recommended law, or the measured curve where the law misses the
+   measured envelope, :func:`dampfit.fem.measured.default_damper`) and the other one beside
+   it (``--law LAW`` of the recommended law, or ``--law measured``);
 3. verifies (``dampfit verify DIR``): the exported OpenSees deck and, beside it, the linear
-   dashpot at the design amplitude and the measured curve, each run from the measured start
+   dashpot at the design amplitude and the other deck, each run from the measured start
    state (three periods into the window, where the comparison starts), their
    displacement envelopes (|a|/ω_n² at every half period) against the measured one over the
    interior of the window;
 4. writes one markdown table (default ``paper/results/damper_verify.md``): the law, the
-   log-envelope rms error of the nonlinear deck, of the measured curve and of the linear dashpot
-   against the trend of the measured envelope, the measurement's own scatter about that trend, and how many ζ(A)
-   windows of ``amplitude_curve`` each run falls inside of.
+   default deck, the log-envelope rms error of the law's run, of the measured curve's and of
+   the linear dashpot's against the trend of the measured envelope, the measurement's own
+   scatter about that trend, and how many ζ(A) windows of ``amplitude_curve`` each run falls
+   inside of.
 
 The result folders need summary.json's ``damper`` section (dampfit ≥ the version that
 recommends a damper): the script says so and stops for a folder without one. Runs each
@@ -69,23 +70,32 @@ def one(label: str, path: Path, mass: float, folder: Path, reuse: bool) -> dict:
     if "damper" not in summary:
         raise SystemExit(f"{folder}/summary.json has no damper section: re-run with a dampfit "
                          "that recommends a damper (without --reuse)")
+    rec = summary["damper"]["law"]
     for fmt in ("lsdyna", "opensees"):
+        ext = "k" if fmt == "lsdyna" else "py"
         dampfit("export", str(folder), "--format", fmt, "--force")
-        dampfit("export", str(folder), "--format", fmt, "--law", "measured", "--force",
-                "--out", str(folder / f"sdof_{fmt}_measured.{'k' if fmt == 'lsdyna' else 'py'}"))
+        other = "measured" if rec in (None, "viscous") else rec  # the deck the default is not
+        dampfit("export", str(folder), "--format", fmt, "--law", other, "--force",
+                "--out", str(folder / f"sdof_{fmt}_{other}.{ext}"))
     dampfit("verify", str(folder), "--force")
     rep = json.loads((folder / "verification.json").read_text())
     d = rep["damper"]
     row = {"recording": label, "mass_kg": mass, "verdict": summary["damper"]["verdict"],
-           "law": d["law"], "coefficients": d["coefficients"]}
-    if "measured" in d:
-        row["measured_coefficients"] = rep["measured_script"]["coefficients"]
-    for key in ("exported", "linear", "measured"):
+           "law": rec, "default_deck": d["law"],
+           "coefficients": {k: v["q50"] if isinstance(v, dict) else v for k, v in
+                            (summary["damper"].get("coefficients") or {}).items()}}
+    curve = "exported" if d["law"] == "measured" else "measured"
+    row["measured_coefficients"] = (d["coefficients"] if curve == "exported" else
+                                    (rep.get("measured_script") or {}).get("coefficients", {}))
+    runs = {"law_run": "recommended_law" if d["law"] == "measured" else "exported",
+            "measured": curve, "linear": "linear"}
+    for name, key in runs.items():
         if key in d:
             env, z = d[key]["envelope"], d[key]["zeta_amplitude"]
-            row[key] = {"rms_vs_trend": env["rms_vs_trend"], "rms_vs_peaks": env["rms_vs_peaks"],
-                        "zeta_inside": f"{z['n_inside']}/{z['n']}"}
+            row[name] = {"rms_vs_trend": env["rms_vs_trend"], "rms_vs_peaks": env["rms_vs_peaks"],
+                         "zeta_inside": f"{z['n_inside']}/{z['n']}"}
             row["scatter"] = env["scatter"]
+    row["exported"] = row.get("measured" if d["law"] == "measured" else "law_run")
     return row
 
 
@@ -105,30 +115,37 @@ def _shortfall(r: dict) -> str:
 
 def table(rows: list[dict]) -> str:
     """The markdown table of the rows (log-envelope rms errors in percent)."""
-    out = ["# Exported nonlinear damper vs linear dashpot vs the measurement (issue 32)", "",
+    out = ["# The exported damper vs the recommended law vs the linear dashpot vs the "
+           "measurement (issue 32)", "",
            "Log-envelope rms error against the trend of the measured envelope (Savitzky-Golay "
            "over 15 peaks), over the interior of the analysed window (three periods left out "
            "at each end); the measured scatter is the rms of the measured peaks about that "
            "trend. zeta(A): windows of amplitude_curve whose 90 % band holds the run's zeta. "
            "Every run starts from the measured state three periods into the window (where "
-           "the comparison starts; its amplitude the trend's). law deck: the recommended law "
-           "(the headline); measured curve: `dampfit export DIR --law measured`, the "
-           "force-velocity table F(v) fitted to the measured envelope (piecewise linear in "
-           "|v| through 0, slopes >= 0 on knots at the quantiles of the measured velocity "
-           "amplitudes, last slope continued; OpenSees runs it as a Damper material wrapping "
-           "an ElasticMultiLinear of its points).", "", "| recording | verdict | law | law deck | measured curve | linear "
-           "dashpot | measured scatter | zeta(A) law / curve / linear | both below linear | "
-           "law within scatter | curve within scatter |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "the comparison starts; its amplitude the trend's). default deck: what `dampfit "
+           "export DIR` writes (the recommended law, or the measured curve where the law's "
+           "run misses the measured envelope by more than its scatter and the curve's comes "
+           "closer: fem/measured.py default_damper); law: the recommended law (the headline, "
+           "`--law LAW`); measured curve: the force-velocity table F(v) fitted to the measured "
+           "envelope (piecewise linear in |v| through 0, slopes >= 0 on knots at the "
+           "quantiles of the measured velocity amplitudes, last slope continued; OpenSees runs "
+           "it as a Damper material wrapping an ElasticMultiLinear of its points).", "",
+           "| recording | verdict | law | default deck | law run | measured curve | linear "
+           "dashpot | measured scatter | zeta(A) law / curve / linear | default below linear | "
+           "law within scatter | default within scatter |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        ex, lin, cur = r.get("exported", {}), r.get("linear", {}), r.get("measured", {})
+        ex, lin, cur = r.get("law_run", {}), r.get("linear", {}), r.get("measured", {})
         a, b, m = ex.get("rms_vs_trend"), lin.get("rms_vs_trend"), cur.get("rms_vs_trend")
-        better = "n/a" if None in (a, b, m) else ("yes" if max(a, m) < b else "no")
-        within = ["n/a" if x is None else ("yes" if x <= r["scatter"] else "no") for x in (a, m)]
+        de = (r.get("exported") or {}).get("rms_vs_trend")
+        better = "n/a" if None in (de, b) else ("yes" if de < b else "no")
+        within = ["n/a" if x is None else ("yes" if x <= r["scatter"] else "no") for x in (a, de)]
         zs = " / ".join(x.get("zeta_inside", "n/a") for x in (ex, cur, lin))
-        out.append(f"| {r['recording']} | {r['verdict']} | {r['law']} | {_pct(a)} | {_pct(m)} | "
-                   f"{_pct(b)} | {_pct(r.get('scatter'))} | {zs} | {better} | {within[0]} | "
-                   f"{within[1]} |")
+        deck = r.get("default_deck", r.get("law"))
+        deck = "measured curve" if deck == "measured" else f"{deck} law"
+        out.append(f"| {r['recording']} | {r['verdict']} | {r['law']} | {deck} | {_pct(a)} | "
+                   f"{_pct(m)} | {_pct(b)} | {_pct(r.get('scatter'))} | {zs} | {better} | "
+                   f"{within[0]} | {within[1]} |")
     out += [""] + [_shortfall(r) for r in rows if _shortfall(r)] + ["",
             "Coefficients (SI, posterior medians):", ""]
     out += [f"- {r['recording']}: " + ", ".join(f"{k} = {v:.5g}" for k, v in
@@ -164,8 +181,8 @@ def main(argv=None) -> int:
             continue
         print(f"{label} …", file=sys.stderr, flush=True)
         rows.append(one(label, path, mass, args.work / f"r{i}", args.reuse))
-    args.out.write_text(table(rows))
     (args.out.with_suffix(".json")).write_text(json.dumps(rows, indent=2) + "\n")
+    args.out.write_text(table(rows))
     print(f"wrote {args.out}", file=sys.stderr)
     return 0
 

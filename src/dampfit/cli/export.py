@@ -32,8 +32,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="'viscous': a linear dashpot (under a non-viscous verdict the "
                              "equivalent linear c at the design amplitude, with a warning); "
                              "'measured': the force-velocity curve fitted to the measured "
-                             "envelope (a sum of |v|^a terms; LS-DYNA table, OpenSees "
-                             "Viscous terms); default: the recommended damper of summary.json")
+                             "envelope (a table F(v): LS-DYNA *DEFINE_CURVE, OpenSees Damper "
+                             "of an ElasticMultiLinear); the recommended law's name: that law "
+                             "even where its run misses the measured decay; default: the "
+                             "recommended damper of summary.json, or the measured curve where "
+                             "that law misses the decay (said on stderr and in the deck)")
     parser.add_argument("--draws", type=int, metavar="N",
                         help="write N posterior draws of the system and damper: a folder "
                              "(default DIR/sdof_FORMAT_draws) of draws.csv and N decks "

@@ -147,6 +147,40 @@ def force(law: str, coeffs: dict[str, float], v):
     raise ValueError(f"unknown law {law!r}")
 
 
+def scalar_force(law: str, coeffs: dict[str, float]):
+    """:func:`force` as a function of one Python float [m/s] → [N], ~20× faster than the NumPy
+    one on a scalar: the force of a step-by-step run (:func:`dampfit.fem.response.free_run`).
+    The same law term for term (a test compares the two on a grid of velocities)."""
+    if law == MEASURED:
+        import bisect
+
+        v, F = points(coeffs)
+        vv, FF = [0.0] + [float(x) for x in v], [0.0] + [float(x) for x in F]
+        last = (FF[-1] - FF[-2]) / (vv[-1] - vv[-2])
+
+        def table(x: float) -> float:
+            u = abs(x)
+            j = bisect.bisect_right(vv, u)
+            f = (FF[-1] + (u - vv[-1]) * last if j >= len(vv)
+                 else FF[j - 1] + (u - vv[j - 1]) * (FF[j] - FF[j - 1]) / (vv[j] - vv[j - 1]))
+            return math.copysign(f, x) if x else 0.0
+
+        return table
+    if law == "viscous":
+        c = float(coeffs["c"])
+        return lambda x: c * x
+    if law == "coulomb":
+        c, fc = float(coeffs["c"]), float(coeffs["F_c"])
+        return lambda x: c * x + (math.copysign(fc, x) if x else 0.0)
+    if law == "quadratic":
+        c, c2 = float(coeffs["c"]), float(coeffs["c2"])
+        return lambda x: c * x + c2 * x * abs(x)
+    if law == "power":
+        ca, al = float(coeffs["c_alpha"]), float(coeffs["alpha"])
+        return lambda x: math.copysign(ca * abs(x) ** al, x) if x else 0.0
+    raise ValueError(f"unknown law {law!r}")
+
+
 def theta(law: str, coeffs: dict[str, float], mass: float, omega: float, a0: float) -> np.ndarray:
     """θ of :mod:`dampfit.model.laws` (ln p₀, shape, ln ω) for ``law`` with the SI ``coeffs``,
     ``mass`` [kg], ``omega`` [rad/s] and start amplitude ``a0`` [m]: the inverse of the laws'

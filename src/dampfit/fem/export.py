@@ -26,10 +26,16 @@ velocity; the deck says where it is extrapolated), OpenSees ``Viscous c_alpha al
 ElasticPP friction element, its stick stiffness stated), CalculiX (linear *DASHPOT only) the
 linear c at the design amplitude with that limitation stated. Every deck's header gives the
 verdict, the law and its coefficients, the measured amplitude range, the notes and the
-command that writes it (:func:`canonical_command`). ``law="measured"`` (``--law measured``) writes
-instead the force–velocity curve fitted to the measured envelope (:mod:`dampfit.fem.measured`:
-a table F(v) piecewise linear in |v| with slopes ≥ 0; LS-DYNA its *DEFINE_CURVE, OpenSees a
-Damper material wrapping an ElasticMultiLinear of its points, CalculiX its c_eq at the design
+command that writes it (:func:`canonical_command`). Where the recording shows that the law's
+two coefficients miss its decay — the law's run (:func:`dampfit.fem.response.free_run`) lies
+farther from the measured envelope's trend than the measurement scatters about it, and the
+measured curve's run comes closer (:func:`dampfit.fem.measured.default_damper`) — the deck is
+that curve instead, said in the deck and on stderr with the numbers; ``law=LAW`` (``--law
+LAW``, the recommended law's name) writes the law regardless, and so does every posterior draw
+(``--draws``: the law's posterior). ``law="measured"`` (``--law measured``) always writes the
+force–velocity curve fitted to the measured envelope (:mod:`dampfit.fem.measured`: a table
+F(v) piecewise linear in |v| with slopes ≥ 0; LS-DYNA its *DEFINE_CURVE, OpenSees a Damper
+material wrapping an ElasticMultiLinear of its points, CalculiX its c_eq at the design
 amplitude), said in the deck; ``law="viscous"`` (``--law viscous``)
 writes a linear dashpot: under a non-viscous verdict the equivalent linear c at the design
 amplitude (``damper.c_linear``), with a warning (stderr and deck); ``force_law``
@@ -78,7 +84,8 @@ FORMATS: dict[str, tuple[str, str]] = {
 class Deck:
     """What a deck is of, beside its format: ``units`` (:mod:`dampfit.fem.units`), the
     posterior ``quantile``, ``gravity`` (the mass hangs under g), ``duration`` [s] (None: the
-    analysed window), ``law`` (``"viscous"`` or ``"measured"``) and ``force_law`` (any law):
+    analysed window), ``law`` (``"viscous"``, ``"measured"`` or the recommended law's name) and
+    ``force_law`` (any law):
     ``dampfit export``'s options, which travel together from the command line to the deck and
     back into its header (:func:`canonical_command`)."""
 
@@ -173,7 +180,7 @@ def build(folder: str | Path | Any, fmt: str, deck: Deck = Deck(), *, name: str 
     sdof = sdof_mod.load(folder, quantile, gravity)
     folder, summary = sdof_mod.read_summary(folder)
     path = folder / "summary.json"
-    dmp, sdof = _damper(summary, path, sdof, deck)
+    dmp, sdof = _damper(summary, path, sdof, deck, auto=variant is None)
     header = damper_mod.describe(dmp, command or canonical_command(folder, fmt, deck))
     if variant is not None:
         sdof, dmp, extra = variant(sdof, dmp)
@@ -237,10 +244,15 @@ def canonical_command(folder: Path, fmt: str, deck: Deck = Deck(),
     return shlex.join(words + list(extra))
 
 
-def _damper(summary: dict[str, Any], path: Path, sdof, deck: Deck):
+def _damper(summary: dict[str, Any], path: Path, sdof, deck: Deck, auto: bool = True):
     """(damper, system): the damper the deck writes and the system with its linear c — the
     dashpot itself, or for a nonlinear law the equivalent linear c at the design amplitude
     (``damper.c_linear``, else c_eq at u0), which the decks only report.
+
+    With ``auto`` (not for a posterior draw's deck, which is the law's draw), no ``--law`` and
+    no ``--force-law``, a recommended nonlinear law is checked against the measured envelope
+    and replaced by the measured curve when it misses it
+    (:func:`dampfit.fem.measured.default_damper`).
 
     Whenever the deck carries a law other than the viscous posterior's (a nonlinear law, or
     ``--law viscous``'s c_linear of one), its spring is that law's k (``damper.k``: the
@@ -261,6 +273,11 @@ def _damper(summary: dict[str, Any], path: Path, sdof, deck: Deck):
         from dampfit.fem.measured import measured_damper
 
         dmp = measured_damper(path.parent, summary, dmp, sdof)
+    elif (auto and law is None and force_law is None and dmp.nonlinear
+          and dmp.status == "recommended"):  # the law, or the curve where the law misses
+        from dampfit.fem.measured import default_damper
+
+        dmp = default_damper(path.parent, summary, dmp, sdof)
     if dmp.nonlinear:
         if abs(quantile - 0.5) > 1e-12:
             raise InputError(f"--quantile {quantile:g}: the {dmp.law} damper is written at its "

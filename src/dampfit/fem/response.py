@@ -210,3 +210,44 @@ def zeta_in_bands(windows: list[dict[str, Any]], amps: np.ndarray, zetas: np.nda
     inside = sum(r["inside"] for r in rows)
     return {"windows": rows, "n_inside": inside, "n": len(rows),
             "fraction_inside": inside / len(rows) if rows else None}
+
+
+#: Steps a natural period of :func:`free_run` (the decks' own resolution: timestep.choose
+#: gives ≥ 200 steps a period).
+RUN_STEPS_PER_PERIOD = 200
+
+
+def free_run(force, k: float, mass: float, u0: float, duration: float,
+             per_period: int = RUN_STEPS_PER_PERIOD) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] from 0 and accelerations [m/s²] of m·ü + F(u̇) + k·u = 0 released at rest at
+    ``u0`` [m] for ``duration`` [s]: classical fourth-order Runge–Kutta at a fixed step of
+    T_n/``per_period``, T_n = 2π·√(m/k). ``force(v)`` [N] is any damper force law of the
+    velocity [m/s] (a Python float in and out).
+
+    What an FEM deck of the damper would do, without the engine: a fixed step, so that the
+    cost is the duration's (no step-size search at the jump of a Coulomb force, nor in the
+    stick-slip chatter a wrong law may run into), and a = −(k·u + F(u̇))/m as the run's
+    accelerometer would read it. The RK4 error per step is O((ω_n·h)⁵): ≈ 2.5·10⁻¹⁰ at 200
+    steps a period, ≈ 2.6·10⁻⁷ at 50, far below any measured scatter either way."""
+    h = 2 * math.pi * math.sqrt(mass / k) / per_period
+    n = max(int(math.ceil(duration / h)), 1)
+    h = duration / n
+    a = np.empty(n + 1)
+    u, v = float(u0), 0.0
+
+    def acc(u_, v_):
+        return -(k * u_ + force(v_)) / mass
+
+    a[0] = acc(u, v)
+    for i in range(1, n + 1):
+        a1 = a[i - 1]
+        u2, v2 = u + 0.5 * h * v, v + 0.5 * h * a1
+        a2 = acc(u2, v2)
+        u3, v3 = u + 0.5 * h * v2, v + 0.5 * h * a2
+        a3 = acc(u3, v3)
+        u4, v4 = u + h * v3, v + h * a3
+        a4 = acc(u4, v4)
+        u += h * (v + 2 * v2 + 2 * v3 + v4) / 6
+        v += h * (a1 + 2 * a2 + 2 * a3 + a4) / 6
+        a[i] = acc(u, v)
+    return np.arange(n + 1) * h, a

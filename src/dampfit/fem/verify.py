@@ -291,7 +291,8 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
               "export_command": command,
               "output": f"CSV '{CSV_HEADER}' [s, m, m/s, m/s^2], a row per step",
               "damper": {"law": info["damper"].law, "coefficients": info["damper"].coefficients,
-                         "verdict": info["damper"].verdict}}
+                         "verdict": info["damper"].verdict,
+                         "recommended": info["damper"].recommended}}
     return text, record
 
 
@@ -309,15 +310,20 @@ def plot(result: dict[str, Any], path: str | os.PathLike) -> Path:
     for col, (lo, hi) in enumerate(((t[0], t[0] + span), (t[-1] - span, t[-1]))):
         panels.append((fig.add_subplot(grid[1, col]), (lo, hi), "u", 1e3, "displacement [mm]"))
         panels.append((fig.add_subplot(grid[2, col]), (lo, hi), "a", 1.0, "acceleration [m/s²]"))
-    law = result["report"].get("damper", {}).get("law", "viscous")
+    dmp = result["report"].get("damper", {})
+    law, rec = dmp.get("law", "viscous"), dmp.get("recommended")
+    what = "measured curve" if law == "measured" else f"{law} damper"
     for ax, lim, kind, scale, label in panels:
         sel = slice(None) if lim is None else (t >= lim[0]) & (t <= lim[1])
         ax.plot(t[sel], scale * a[f"{kind}_meas"][sel], color="0.35", lw=0.9, label="measured")
         ax.plot(t[sel], scale * a[f"{kind}_fem"][sel], color="tab:red", lw=0.9, ls="--",
-                label=f"OpenSees FEM ({law} damper, exported)")
+                label=f"OpenSees FEM ({what}, exported)")
         if kind == "u" and "u_linear" in a:
             ax.plot(t[sel], scale * a["u_linear"][sel], color="tab:blue", lw=0.8, ls=":",
                     label="OpenSees FEM (linear dashpot at the design amplitude)")
+        if kind == "u" and "u_recommended_law" in a:
+            ax.plot(t[sel], scale * a["u_recommended_law"][sel], color="tab:purple", lw=0.8,
+                    ls="-.", label=f"OpenSees FEM (the recommended {rec} law, --law {rec})")
         if kind == "u" and "u_measured" in a:
             ax.plot(t[sel], scale * a["u_measured"][sel], color="tab:green", lw=0.8, ls="-.",
                     label="OpenSees FEM (measured curve, --law measured)")

@@ -37,14 +37,19 @@ def damper_runs(source, script, run, measured, exported, omega_n, interior,
     report: dict[str, Any] = {}
     arrays: dict[str, Any] = {}
     runs = {"exported": exported}
-    if script["damper"]["law"] != "viscous":  # the linear dashpot and the measured curve
-        for key, law in (("linear", "viscous"), ("measured", "measured")):
+    exported_law, rec = script["damper"]["law"], script["damper"].get("recommended")
+    if exported_law != "viscous":
+        # the linear dashpot, and the measured curve — or, when the export wrote the curve
+        # because the recommended law misses the decay, that law
+        other = (("recommended_law", rec) if exported_law == "measured" and rec
+                 not in (None, "viscous", "measured") else ("measured", "measured"))
+        for key, law in (("linear", "viscous"), other):
             try:
                 side_text, side = linear_script(folder, script, law)
             except InputError as exc:  # too few peaks for a curve: verify the rest
                 if key == "linear":
                     raise
-                report["measured_script"] = {"law": law, "error": str(exc)}
+                report[f"{key}_script"] = {"law": law, "error": str(exc)}
                 continue
             res = opensees.run_steps(side_text, start["u"], start["v"], dt, n_steps,
                                      name=side["name"])
@@ -138,14 +143,18 @@ def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: n
                  interior: tuple[float, float], damper: dict[str, Any]) -> dict[str, Any]:
     """The damper verified (issue 32): for each run (``exported``: the deck export writes,
     ``linear``: its linear dashpot at the design amplitude, when the exported law is not
-    viscous) the displacement envelope against the measured one over the interior
+    viscous; ``measured``: the measured curve beside an exported law, or ``recommended_law``:
+    the recommended law beside an exported measured curve; ``recommended`` names that law)
+    the displacement envelope against the measured one over the interior
     (:func:`dampfit.fem.response.log_envelope_error`: log-envelope rms against the peaks and
     against their trend, and the measured scatter) and ζ(A) of the run at the amplitudes of
     summary.json's ``amplitude_curve`` windows against their 90 % bands
     (:func:`dampfit.fem.response.zeta_in_bands`)."""
     windows = _amplitude_windows(summary, folder / "summary.json")
     out: dict[str, Any] = {"law": damper["law"], "coefficients": damper["coefficients"],
-                           "verdict": damper["verdict"], "unit": "1 (difference of ln |u|)",
+                           "verdict": damper["verdict"],
+                           "recommended": damper.get("recommended"),
+                           "unit": "1 (difference of ln |u|)",
                            "interior_s": [float(interior[0]), float(interior[1])]}
     for name, (ts, us) in runs.items():
         env = response.log_envelope_error(t, u_meas, ts, us, *interior)
@@ -155,9 +164,10 @@ def damper_check(summary: dict[str, Any], folder: Path, t: np.ndarray, u_meas: n
     if "linear" in runs:
         a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("exported", "linear"))
         out["exported_beats_linear"] = None if a is None or b is None else bool(a < b)
-    if "measured" in runs:
-        a, b = (out[k]["envelope"]["rms_vs_trend"] for k in ("measured", "linear"))
-        out["measured_beats_linear"] = None if a is None or b is None else bool(a < b)
+    for key in ("measured", "recommended_law"):
+        if key in runs and "linear" in runs:
+            a, b = (out[k]["envelope"]["rms_vs_trend"] for k in (key, "linear"))
+            out[f"{key}_beats_linear"] = None if a is None or b is None else bool(a < b)
     return out
 
 def _amplitude_windows(summary: dict[str, Any], path: Path) -> list[dict[str, float]]:
@@ -200,12 +210,17 @@ def linear_script(folder: Path, script: dict[str, Any],
                                     f"--format opensees --law {law} --duration "
                                     f"{script['duration_s']!r} --out {name}"}
 
+#: The runs verify compares, in the order of its table: key (in ``damper``) and label.
+RUN_LABELS = (("exported", "exported deck"), ("linear", "linear dashpot"),
+              ("measured", "measured curve"), ("recommended_law", "recommended law"))
+
+
 def envelope_words(rep: dict[str, Any]) -> str:
     """'log-envelope rms …' of the exported (and linear) run, for the title and the table."""
     d = rep.get("damper") or {}
     parts = []
-    for key, label in (("exported", "exported"), ("linear", "linear dashpot"),
-                       ("measured", "measured curve")):
+    for key, label in RUN_LABELS:
+        label = "exported" if key == "exported" else label
         env = (d.get(key) or {}).get("envelope") or {}
         if env.get("rms_vs_trend") is not None:
             parts.append(f"{label} {100 * env['rms_vs_trend']:.2g} %")
@@ -220,10 +235,12 @@ def damper_lines(rep: dict[str, Any]) -> list[str]:
     d = rep.get("damper")
     if not d:
         return []
-    lines = ["", f"  damper: {d['law']} law (verdict {d['verdict'] or 'not recorded'}); "
+    what = (f"the measured curve, not the recommended {d['recommended']} law"
+            if d["law"] == "measured" and d.get("recommended") not in (None, "measured")
+            else f"{d['law']} law")
+    lines = ["", f"  damper: {what} (verdict {d['verdict'] or 'not recorded'}); "
              + envelope_words(rep)]
-    for key, label in (("exported", "exported deck"), ("linear", "linear dashpot"),
-                       ("measured", "measured curve")):
+    for key, label in RUN_LABELS:
         if key not in d:
             continue
         z, env = d[key]["zeta_amplitude"], d[key]["envelope"]
@@ -231,6 +248,9 @@ def damper_lines(rep: dict[str, Any]) -> list[str]:
         lines.append(f"    {label:15s} envelope rms vs peaks {_fmt(env['rms_vs_peaks'])}, vs trend "
                      f"{_fmt(env['rms_vs_trend'])}; zeta(A) inside the measured 90 % bands: "
                      f"{inside}")
+    if "recommended_law" in d:
+        lines.append("    (the exported deck is the measured curve: the recommended law misses "
+                     "the measured decay; dampfit export DIR --law LAW writes the law)")
     if "measured" in d:
         lines.append("    (measured curve: dampfit export DIR --law measured, the force-velocity "
                      "curve fitted to this envelope; the headline stays the "
