@@ -203,20 +203,11 @@ def term_rates(amplitude: np.ndarray, omega: float, mass: float, basis) -> np.nd
 
 def envelope(b, ln_a0: float, t: np.ndarray, omega: float, mass: float, basis,
              ln_floor: float) -> np.ndarray:
-    """ln A(t) [ln m] of the averaged equation d ln A/dt = −ρ(A) from ln A₀ at t = 0 for the
-    coefficients ``b`` of ``basis`` (:func:`averaged_envelope`)."""
-    b = np.asarray(b, float)
-    return averaged_envelope(lambda a: term_rates(a, omega, mass, basis) @ b, ln_a0, t,
-                             ln_floor)
-
-
-def averaged_envelope(rate, ln_a0: float, t: np.ndarray, ln_floor: float) -> np.ndarray:
-    """ln A(t) [ln m] of the averaged equation d ln A/dt = −ρ(A) from ln A₀ at t = 0, for any
-    rate ``rate(A)`` [1/s] (vectorised over amplitudes [m]; a law's c_eq(A)/2m alike), by the
+    """ln A(t) [ln m] of the averaged equation d ln A/dt = −ρ(A) from ln A₀ at t = 0, by the
     quadrature of the module docstring on ``_GRID`` points down to ``ln_floor``; past the grid
     the last rate continues."""
     u = np.linspace(ln_a0, min(ln_floor, ln_a0 - 1e-6), _GRID)
-    rho = np.asarray(rate(np.exp(u)), float)
+    rho = term_rates(np.exp(u), omega, mass, basis) @ np.asarray(b, float)
     inv = 1.0 / np.maximum(rho, 1e-300)
     tg = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * -np.diff(u))])
     t = np.asarray(t, float)

@@ -40,46 +40,46 @@ LAW_TOLERANCE = 0.001
 MAX_RUN_STEPS = 2_000_000
 
 
-def _peaks(folder: Path, summary: dict[str, Any], sdof) -> tuple[Any, Any]:
-    """Times [s] and displacement amplitudes |a|/ω_n² [m] of the measured peaks of result
-    ``folder``'s ``signals.npz`` in the interior verify compares (without the
-    :data:`EDGE_PERIODS` periods at each end where the band-pass filters settle).
-    :class:`InputError` without usable signals."""
-    from dampfit.fem import response
+def _interior(folder: Path, summary: dict[str, Any], sdof):
+    """(t [s], |a|/ω_n² [m], start [s], stop [s]) of result ``folder``'s ``signals.npz``:
+    the displacement amplitude read from the measured acceleration, and the interior verify
+    compares (without the :data:`EDGE_PERIODS` periods at each end where the band-pass
+    filters settle). :class:`InputError` without usable signals."""
     from dampfit.result.folder import load_signals
 
     sig = load_signals(folder, summary=summary)
     w = sdof.omega_n
     edge = EDGE_PERIODS * 2 * math.pi / w
-    return response.envelope(sig["t"], sig["accel"] / w ** 2, sig["t"][0] + edge,
-                             sig["t"][-1] - edge)
+    return sig["t"], sig["accel"] / w ** 2, sig["t"][0] + edge, sig["t"][-1] - edge
 
 
-def _fit(peaks, sdof, seed: int):
-    from dampfit.damping import measured
+def _peaks(folder: Path, summary: dict[str, Any], sdof) -> tuple[Any, Any]:
+    """Times [s] and displacement amplitudes [m] of the measured peaks of the interior
+    (:func:`_interior`)."""
+    from dampfit.fem import response
 
-    tp, ap = peaks
-    return measured.fit(tp, ap, sdof.omega_n, sdof.mass,
-                        float(sdof.source.get("mass_sd") or 0.0), seed=seed)
+    return response.envelope(*_interior(folder, summary, sdof))
 
 
 def measured_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Damper, sdof,
-                    seed: int = 0, *, peaks=None, curve=None,
+                    seed: int = 0, *, peaks=None,
                     why: str = "--law measured") -> damper_mod.Damper:
     """The measured curve of result ``folder`` as a deck's damper, beside the recommended
     ``base`` damper (its verdict, ranges and design amplitude) on the system ``sdof`` (the
-    damper section's k, the weighed mass). ``peaks`` (:func:`_peaks`) and ``curve`` (its fit)
-    when already at hand; ``why`` says in the deck why the curve was written.
+    damper section's k, the weighed mass). ``peaks`` (:func:`_peaks`) when already at hand;
+    ``why`` says in the deck why the curve was written.
     :class:`InputError` without usable signals or peaks."""
     if base.status is None:
         raise InputError(f"{shown(folder / 'summary.json')} has no damper section; re-run "
                          "'dampfit analyze' for --law measured")
+    from dampfit.damping import measured
+
     tp, ap = peaks if peaks is not None else _peaks(folder, summary, sdof)
-    if curve is None:
-        try:
-            curve = _fit((tp, ap), sdof, seed)
-        except ValueError as exc:
-            raise InputError(f"--law measured: {exc}") from None
+    try:
+        curve = measured.fit(tp, ap, sdof.omega_n, sdof.mass,
+                             float(sdof.source.get("mass_sd") or 0.0), seed=seed)
+    except ValueError as exc:
+        raise InputError(f"--law measured: {exc}") from None
     v, F = curve.basis.points(curve.b)
     if not F[-1] > 0:
         raise InputError("--law measured: the fit left no damping (the envelope does not "
@@ -141,7 +141,6 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
     from scipy.signal import savgol_filter
 
     from dampfit.fem import response
-    from dampfit.result.folder import load_signals
 
     law = base.law
 
@@ -150,14 +149,12 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
                                    warnings=dmp.warnings + ((text,) if warn else ()))
 
     try:
-        sig = load_signals(folder, summary=summary)
+        t, y, start, stop = _interior(folder, summary, sdof)
     except InputError as exc:
         return with_note(base, f"The {law} law was not checked against the measured envelope "
                                f"({exc}).")
     w = sdof.omega_n
-    t, y = sig["t"], sig["accel"] / w ** 2
-    stop = t[-1] - EDGE_PERIODS * 2 * math.pi / w
-    tp, ap = response.envelope(t, y, t[0] + EDGE_PERIODS * 2 * math.pi / w, stop)
+    tp, ap = response.envelope(t, y, start, stop)
     if tp.size < 2 * response.TREND_PEAKS:
         return with_note(base, f"The {law} law was not checked against the measured envelope: "
                                f"{tp.size} peaks, fewer than {2 * response.TREND_PEAKS}.")
