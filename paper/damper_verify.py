@@ -13,10 +13,10 @@ m_eff ≈ 0.037 kg: 0.236·m_beam + 5 g tip, SOURCES.md) — it
    measured envelope, :func:`dampfit.fem.measured.default_damper`) and the other one beside
    it (``--law LAW`` of the recommended law, or ``--law measured``);
 3. verifies (``dampfit verify DIR``): the exported OpenSees deck and, beside it, the linear
-   dashpot at the design amplitude and the other deck, each run from the measured start
-   state (three periods into the window, where the comparison starts), their
-   displacement envelopes (|a|/ω_n² at every half period) against the measured one over the
-   interior of the window;
+   dashpot at the design amplitude and the other deck, each released at rest at the first
+   measured peak after the three periods where the filters settle, on the measured
+   envelope's trend (as export's own check runs each law), their displacement envelopes
+   (|a|/ω_n² at every half period) against the measured one over the interior of the window;
 4. writes one markdown table (default ``paper/results/damper_verify.md``): the law, the
    default deck, the log-envelope rms error of the law's run, of the measured curve's and of
    the linear dashpot's against the trend of the measured envelope, the measurement's own
@@ -100,7 +100,7 @@ def one(label: str, path: Path, mass: float, folder: Path, reuse: bool) -> dict:
 
 
 def _pct(x) -> str:
-    return "n/a" if x is None else f"{100 * x:.2f} %"
+    return "n/a" if x is None else f"{100 * x:.3g} %"
 
 
 def _shortfall(r: dict) -> str:
@@ -121,8 +121,10 @@ def table(rows: list[dict]) -> str:
            "over 15 peaks), over the interior of the analysed window (three periods left out "
            "at each end); the measured scatter is the rms of the measured peaks about that "
            "trend. zeta(A): windows of amplitude_curve whose 90 % band holds the run's zeta. "
-           "Every run starts from the measured state three periods into the window (where "
-           "the comparison starts; its amplitude the trend's). default deck: what `dampfit "
+           "Every run is released at rest at the first measured peak after the three periods "
+           "where the filters settle, its displacement scaled so that the run's first peak "
+           "lies on the trend (as export's own check runs each law); the comparison starts a "
+           "quarter period after the release. default deck: what `dampfit "
            "export DIR` writes (the recommended law, or the measured curve where the law's "
            "run misses the measured envelope by more than its scatter and the curve's comes "
            "closer: fem/measured.py default_damper); law: the recommended law (the headline, "

@@ -173,14 +173,11 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
                                         per_period)
             return ts + tp[0], acc / w ** 2
 
-        # released at rest at the trend's amplitude, then once more scaled so that the run's
-        # first peak of |a|/ω_n² is on the trend (where F(u̇) is steep at u̇ = 0 — power α < 1,
-        # Coulomb — that peak lies above the displacement's by the force's share)
-        u0 = float(np.exp(trend[0]))
-        ts, ys = run(u0)
-        tq, aq = response.envelope(ts, ys)
-        if tq.size:
-            ts, ys = run(u0 * float(np.exp(np.interp(tq[0], tp, trend))) / float(aq[0]))
+        # released at rest at the trend's amplitude, scaled so that the run's first peak of
+        # |a|/ω_n² is on the trend (response.released_amplitude; verify starts so too)
+        ts, ys = run(response.released_amplitude(
+            force, sdof.k, sdof.mass, float(np.exp(trend[0])),
+            lambda s: float(np.exp(np.interp(tp[0] + s, tp, trend))), per_period))
         # compared from the next peak on: the run's release point has no sample before it
         return response.log_envelope_error(t, y, ts, ys, tp[0] + 0.5 * math.pi / w, stop)
 

@@ -251,3 +251,21 @@ def free_run(force, k: float, mass: float, u0: float, duration: float,
         v += h * (a1 + 2 * a2 + 2 * a3 + a4) / 6
         a[i] = acc(u, v)
     return np.arange(n + 1) * h, a
+
+
+def released_amplitude(force, k: float, mass: float, amplitude: float, trend_at,
+                       per_period: int = RUN_STEPS_PER_PERIOD) -> float:
+    """The displacement [m] at which a free decay of ``force`` (:func:`free_run`), released at
+    rest, has its first peak of |a|/ω_n² on the measured trend: ``amplitude`` [m] (the trend
+    at the release, a measured peak) scaled by ``trend_at(s)`` / that first peak, ``s`` [s]
+    the peak's time after the release (``trend_at`` [s → m]). Where F(u̇) is steep at u̇ = 0
+    (power α < 1, Coulomb) the release's acceleration k·u/m is followed by a peak of
+    |k·u + F(u̇)|/m above the displacement's by the force's share, so the run would start off
+    the trend by that share; for a viscous or measured curve the scale is 1 to O(ζ²). One
+    and a half periods are run: the cost of a few hundred steps."""
+    w = math.sqrt(k / mass)
+    ts, acc = free_run(force, k, mass, amplitude, 3 * math.pi / w, per_period)
+    tq, aq = envelope(ts, acc / w ** 2)
+    if not tq.size or not aq[0] > 0:
+        return float(amplitude)
+    return float(amplitude) * float(trend_at(float(tq[0]))) / float(aq[0])

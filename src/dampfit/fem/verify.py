@@ -34,9 +34,9 @@ What it does (the seed paper's Figs 21–26 and 24, made quantitative):
    verification.json, a block of the table).
 
 7. The damper (issue 32): the script is the exported one, so a nonlinear recommended damper
-   runs as such (every run of it from the measured state three periods into the window,
-   where the comparison starts, fitted over the next three periods at their local rate, its
-   amplitude the measured trend's, :func:`dampfit.fem.verify_damper.start_state`); beside it
+   runs as such (every run released at rest at the first measured peak after the three
+   periods where the filters settle, on the measured envelope's trend, as export's own check
+   runs each law, :func:`dampfit.fem.verify_damper.start_state`); beside it
    the linear dashpot at the design amplitude (``dampfit export DIR --format opensees --law
    viscous``) and the measured curve (``--law measured``, :mod:`dampfit.fem.measured`; both
    :func:`dampfit.fem.verify_damper.linear_script`). For each: the log-envelope rms against
@@ -84,7 +84,8 @@ from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response
 from dampfit.fem import sdof as sdof_mod
-from dampfit.fem.verify_damper import damper_lines, damper_runs, envelope_words, start_state
+from dampfit.fem.verify_damper import (compare_from, damper_lines, damper_runs, envelope_words,
+                                       run_start, start_state)
 from dampfit.errors import shown
 from dampfit.result.files import REPORT_MARKERS, written_by_dampfit
 from dampfit.result.schema import is_campaign
@@ -120,8 +121,10 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     span = float(t[-1] - t[0])
     dt, n_steps, period_error = _step(ident, span, spacing, dt)
     text, script = exported_script(folder, summary, span)
-    start = start_state(tau, sig, ident.period, script["damper"]["law"],
-                        script["omega_n"])  # the deck's ω_n (the damper section's k)
+    start = run_start(start_state(tau, sig, ident.period, script["damper"]["law"],
+                                  script["omega_n"]),  # the deck's ω_n (the damper's k)
+                      script["damper"]["law"], script["damper"]["coefficients"],
+                      script["k"], script["mass"])
     offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
     n_steps -= round(offset / dt)
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
@@ -138,7 +141,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
         "script_sha256": script["sha256"],
         "script": script,
         "engine": {"name": "OpenSeesPy", "version": opensees.engine_version(),
-                   "model": "zeroLength, uniaxialMaterial Elastic (k) + Viscous (c, alpha=1)",
+                   "model": _model_words(script["damper"]["law"]),
                    "integrator": "Newmark average acceleration", "gamma": 0.5, "beta": 0.25,
                    "dt_s": dt, "n_steps": n_steps, "steps_per_period": ident.period / dt,
                    "period_error": period_error,
@@ -152,8 +155,8 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
         "initial_state": {"t_s": float(t[0] + offset), "u": {"value": start["u"], "unit": "m"},
                           "v": {"value": start["v"], "unit": "m/s"},
                           "accel_model_fit_rms": {"value": start["fit_rms"], "unit": "m/s^2"},
-                          "method": "least-squares (A, B) of accel_model on exp(-p tau)cos/sin; "
-                                    "u = Re[(A-iB)/s^2 e^(s tau)], v = Re[(A-iB)/s e^(s tau)]"},
+                          "method": START_METHOD["viscous" if "trend_m" not in start
+                                                 else "released"]},
         "window": {"t0_s": sig["t0"], "start_s": float(t[0]), "end_s": float(t[-1]),
                    "n_samples": int(t.size), "sample_interval_s": spacing},
         "displacement": {"unit": "m", "vs_measured": response.errors(sig["displacement"], u_fem),
@@ -178,7 +181,8 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
     w2 = ident.omega_n ** 2  # envelopes from the accelerations (verify_damper.damper_runs)
     more_report, more_arrays = damper_runs(
         (folder, summary), script, (start, dt, n_steps), (t, sig["accel"] / w2),
-        (t_fem, fem["a"] / w2), ident.omega_n, (t[0] + edge, t[-1] - edge), (draws, seed))
+        (t_fem, fem["a"] / w2), ident.omega_n,
+        (compare_from(t[0], start, t[0] + edge), t[-1] - edge), (draws, seed))
     report.update(more_report)
     arrays.update(more_arrays)
     return {"report": report, "arrays": arrays}
@@ -188,6 +192,14 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
 
 
 
+
+#: How verify's start state was found (``initial_state.method`` in verification.json).
+START_METHOD = {
+    "viscous": "least-squares (A, B) of accel_model on exp(-p tau)cos/sin; "
+               "u = Re[(A-iB)/s^2 e^(s tau)], v = Re[(A-iB)/s e^(s tau)]",
+    "released": "released at rest at the first peak of the interior of the measured |a|/w_n^2, "
+                "its displacement scaled so that the run's first peak is on the measured "
+                "envelope's trend (verify_damper.start_state, run_start)"}
 
 #: Periods of the lowest mode the ``--modal`` run of verify lasts (at most the window).
 MODAL_PERIODS = 20.0
@@ -287,6 +299,7 @@ def exported_script(folder: Path, summary: dict[str, Any], span: float) -> tuple
     record = {"name": SCRIPT_NAME, "format": "opensees", "units": info["units"],
               "quantile": info["quantile"], "gravity": info["gravity"],
               "duration_s": info["duration"], "omega_n": info["sdof"].omega_n,
+              "k": info["sdof"].k, "mass": info["sdof"].mass,
               "sha256": hashlib.sha256(text.encode("utf-8")).hexdigest(),
               "export_command": command,
               "output": f"CSV '{CSV_HEADER}' [s, m, m/s, m/s^2], a row per step",
@@ -380,8 +393,7 @@ def table(rep: dict[str, Any]) -> str:
         (f"  {e['integrator']} (gamma 1/2, beta 1/4), dt = {e['dt_s']:.4g} s = "
          f"T/{e['steps_per_period']:.0f}, period error {e['period_error']:.2g}, "
          f"phase error {e['phase_error_at_end_rad']:.2g} rad at the end"),
-        (f"  system (posterior median): m = {s['mass']['value']:.6g} kg, "
-         f"k = {s['k']['value']:.6g} N/m, c = {s['c']['value']:.6g} N s/m"),
+        _system_words(rep),
         (f"  ran {rep['script']['name']} ({rep['script']['units']}), sha256 "
          f"{rep['script_sha256'][:16]}…, the file 'dampfit export DIR --format opensees' writes"),
         "",
@@ -397,6 +409,9 @@ def table(rep: dict[str, Any]) -> str:
     diff = "n/a" if rel is None else f"{100 * rel:+.3f} %"
     lines += ["", (f"  decay rate p [1/s]: FEM peaks {_fmt(d['fem_peaks'], '.6g')}, identified "
                    f"{_fmt(d['identified_q50'], '.6g')} (posterior median), difference {diff}")]
+    if rep["script"]["damper"]["law"] != "viscous":
+        lines.append("    (one rate of a nonlinear decay against the viscous fit's: the envelope "
+                     "and zeta(A) below are the damper's check)")
     lines += damper_lines(rep)
     md = rep.get("modal_damping")
     if md:
@@ -412,6 +427,29 @@ def table(rep: dict[str, Any]) -> str:
                          f"{'' if m['zeta_in_measured_interval'] else ' (outside its 90 % interval)'}")
     return "\n".join(lines)
 
+
+
+def _model_words(law: str) -> str:
+    """The FEM model verify ran, in words (``engine.model``)."""
+    if law == "viscous":
+        return "zeroLength, uniaxialMaterial Elastic (k) + Viscous (c, alpha=1)"
+    what = "the measured damper curve" if law == "measured" else f"the {law} damper law"
+    return f"zeroLength, uniaxialMaterial Elastic (k) in parallel with {what} of the deck"
+
+
+def _system_words(rep: dict[str, Any]) -> str:
+    """The table's line of the system run: the viscous posterior medians, or a nonlinear
+    deck's m and k (the damper section's) and its damper."""
+    s, sc = rep["system"], rep["script"]
+    if sc["damper"]["law"] == "viscous":
+        return (f"  system (posterior median): m = {s['mass']['value']:.6g} kg, "
+                f"k = {s['k']['value']:.6g} N/m, c = {s['c']['value']:.6g} N s/m")
+    law = sc["damper"]["law"]
+    what = ("the measured damper curve" if law == "measured" else f"the {law} law "
+            + ", ".join(f"{k} = {v:.4g}" for k, v in sc["damper"]["coefficients"].items()))
+    return (f"  system of the deck: m = {sc.get('mass', s['mass']['value']):.6g} kg, "
+            f"k = {sc.get('k', s['k']['value']):.6g} N/m (the damper section's), damper: "
+            f"{what} (SI)")
 
 
 def _refuse_campaign(folder: Path, summary: dict) -> None:
