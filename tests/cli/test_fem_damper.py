@@ -333,6 +333,34 @@ def test_where_the_best_law_misses_the_decay_export_writes_the_measured_curve(tm
     assert "The power law follows the measured envelope" in " ".join(info["damper"].notes)
 
 
+def test_draws_are_the_laws_even_where_the_plain_export_writes_the_curve(tmp_path, capsys):
+    """The posterior draws are of the recommended law: where the plain export puts the
+    measured curve in that law's place, ``--draws`` still writes the law's draws (each deck
+    saying so and that the plain export is the curve), and says nothing of a 'measured' law
+    posterior.nc has no draws of. The terminal names the curve by its points' range, not by
+    every point."""
+    from tests._support.fem import write_damper_draws
+
+    folder, _ = _saturating_result(tmp_path / "s")
+    write_damper_draws(folder, "quadratic")
+    code, out, err = run(["export", folder, "--format", "opensees", "--draws", "4"], capsys)
+    assert code == 0, err
+    decks = sorted((folder / "sdof_opensees_draws").glob("draw_*.py"))
+    assert len(decks) == 4
+    for deck in decks:
+        text = deck.read_text()
+        assert "Damper: quadratic law" in text
+        assert "A draw of the quadratic law's own posterior" in text
+        assert "writes the measured force-velocity curve instead" in text
+    code, out, err = run(["export", folder, "--format", "opensees", "--quiet"], capsys)
+    assert code == 0, err
+    line = next(x for x in out.splitlines() if x.strip().startswith("damper:"))
+    assert "the measured force-velocity curve (" in line and "points" in line
+    assert "v_1" not in line and "F_2" not in line
+    assert "bootstrap" not in err  # --quiet: no progress lines
+    assert "the quadratic law's (the analysis's headline)" in err
+
+
 def test_a_law_without_signals_to_check_it_by_is_written_and_says_so(tmp_path, capsys):
     folder = write_damper_summary(tmp_path / "c", "coulomb")
     code, out, err = run(["export", folder, "--format", "opensees"], capsys)
@@ -347,9 +375,13 @@ def test_a_law_without_signals_to_check_it_by_is_written_and_says_so(tmp_path, c
 def test_verify_runs_the_default_measured_curve_and_the_law_beside_it(tmp_path, capsys):
     """Where export writes the measured curve, verify runs that deck, the linear dashpot and
     the recommended law beside it: the curve within the measured scatter, the law not, the
-    law still below the linear dashpot; the table and verification.json name them."""
+    law still below the linear dashpot; the table and verification.json name them. Its
+    ``--draws`` band is of the law's posterior draws (the only draws there are)."""
+    from tests._support.fem import write_damper_draws
+
     folder, _ = _saturating_result(tmp_path / "s")
-    code, out, err = run(["verify", folder], capsys)
+    write_damper_draws(folder, "quadratic")
+    code, out, err = run(["verify", folder, "--draws", "3"], capsys)
     assert code == 0, err
     rep = json.loads((folder / "verification.json").read_text())
     d = rep["damper"]
@@ -362,6 +394,7 @@ def test_verify_runs_the_default_measured_curve_and_the_law_beside_it(tmp_path, 
     assert d["recommended_law_beats_linear"] is True
     assert "the measured curve, not the recommended quadratic law" in out
     assert "recommended law" in out
+    assert rep["draws"]["law"] == "quadratic" and rep["draws"]["n"] == 3
 
 
 @pytest.mark.heavy

@@ -32,7 +32,7 @@ import os
 import sys
 from pathlib import Path
 
-from dampfit.cli.options import real_arg, seed_arg
+from dampfit.cli.options import progress_reporting, real_arg, seed_arg
 from dampfit.physics import MAX_MASS
 from dampfit.cli.options import add_analysis_options, add_reading_options, analysis_options
 from dampfit.cli.staging import old_demo_folder, result_folder
@@ -185,13 +185,6 @@ def analyse_into(args, folder, figs, path, *, options, shown_path: Path | None =
         save_with_progress(an, folder, figures=not args.no_figures, figure_process=figs)
     return an
 
-
-def progress_reporting(args):
-    """The long stages' progress on stderr (:mod:`dampfit._progress`): a tqdm bar with its ETA
-    on a terminal, a few lines a stage with their ETAs anywhere else; none with ``--quiet``."""
-    from dampfit._progress import reporting
-
-    return contextlib.nullcontext() if args.quiet else reporting(sys.stderr)
 
 
 def save_with_progress(an, folder, **kw) -> None:

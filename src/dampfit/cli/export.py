@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from dampfit.cli.options import float_arg
+from dampfit.cli.options import float_arg, progress_reporting
 from dampfit.fem import units as units_mod
 from dampfit.fem.export import FORMATS
 
@@ -43,6 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "(1 <= N <= 1000)")
     parser.add_argument("--seed", type=int, default=0,
                         help="seed of the choice of draws (default 0)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress lines (the measured curve's bootstrap, ~10-50 s)")
     parser.add_argument("--force-law", metavar="LAW",
                         help="write LAW (viscous, coulomb, quadratic, power) whatever the "
                              "verdict; needed when no damper is recommended (a misfit)")
@@ -58,8 +60,9 @@ def command(args: argparse.Namespace) -> int:
     deck = Deck(units=args.units, quantile=args.quantile, gravity=args.gravity,
                 duration=args.duration, law=getattr(args, "law", None),
                 force_law=getattr(args, "force_law", None))
-    out, info = export(args.folder, args.format, args.out, deck=deck, force=args.force,
-                       draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
+    with progress_reporting(args):
+        out, info = export(args.folder, args.format, args.out, deck=deck, force=args.force,
+                           draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     dmp = info["damper"]
     for warning in dmp.warnings:  # also in the deck; printed once the command has succeeded
         messages.defer(f"dampfit: warning: {warning}")
@@ -73,8 +76,7 @@ def command(args: argparse.Namespace) -> int:
     s, u = info["sdof"], units_mod.get(info["units"])
     print(f"wrote {out} ({FORMATS[args.format][0]}, units {u.name}, posterior quantile "
           f"{info['quantile']:g}{', gravity' if info['gravity'] else ''})")
-    coeffs = ", ".join(f"{k} = {v:.6g}" for k, v in dmp.coefficients.items())
-    print(f"  damper: {dmp.law} law ({coeffs}; SI), verdict {dmp.verdict or 'not recorded'}")
+    print(f"  damper: {damper_words(dmp)}, verdict {dmp.verdict or 'not recorded'}")
     cname = "c_eq at the design amplitude" if dmp.nonlinear else "c"
     print(f"  m = {s.mass:.6g} kg, k = {s.k:.6g} N/m, {cname} = {s.c:.6g} N s/m, u0 = "
           f"{s.u0:.6g} m (zeta = {s.zeta:.4g}, f_n = {s.omega_n / (2 * math.pi):.6g} Hz)")
@@ -88,3 +90,16 @@ def command(args: argparse.Namespace) -> int:
                           for r in md["modes"]) + ")")
     return 0
 
+
+
+def damper_words(dmp) -> str:
+    """The damper of the deck in one phrase: a law with its coefficients (SI), or the
+    measured curve summarised (its points are in the deck, not on the terminal)."""
+    from dampfit.fem import damper as damper_mod
+
+    if dmp.law != damper_mod.MEASURED:
+        coeffs = ", ".join(f"{k} = {v:.6g}" for k, v in dmp.coefficients.items())
+        return f"{dmp.law} law ({coeffs}; SI)"
+    v, F = damper_mod.points(dmp.coefficients)
+    return (f"the measured force-velocity curve ({v.size} points, v {v[0]:.3g} to "
+            f"{v[-1]:.3g} m/s, F up to {F[-1]:.3g} N; listed in the deck)")

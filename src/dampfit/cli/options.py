@@ -200,3 +200,14 @@ def add_cluster_options(parser, *, workers_note: str, force_help: str) -> None:
                              "Dask's TLS settings; the workers must see the output folder at "
                              "the same path; ignores --workers)")
     parser.add_argument("--force", action="store_true", help=force_help)
+
+
+def progress_reporting(args):
+    """The long stages' progress on stderr (:mod:`dampfit._progress`): a tqdm bar with its ETA
+    on a terminal, a few lines a stage with their ETAs anywhere else; none with ``--quiet``."""
+    import contextlib
+    import sys
+
+    from dampfit._progress import reporting
+
+    return contextlib.nullcontext() if getattr(args, "quiet", False) else reporting(sys.stderr)

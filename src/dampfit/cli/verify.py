@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from dampfit.cli.options import float_arg
+from dampfit.cli.options import float_arg, progress_reporting
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,14 +22,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seed of the choice of draws (default 0; as export --draws)")
     parser.add_argument("--force", action="store_true",
                         help="replace an existing --out file (a link is replaced, not its target)")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress lines (the runs of --draws, a measured curve's fit)")
 
 
 def command(args: argparse.Namespace) -> int:
     """Verify, print the table and what was written; exit code 0."""
     from dampfit.fem.verify import table, verify
 
-    res = verify(args.folder, args.dt, args.out, getattr(args, "force", False),
-                 draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
+    with progress_reporting(args):
+        res = verify(args.folder, args.dt, args.out, getattr(args, "force", False),
+                     draws=getattr(args, "draws", None), seed=getattr(args, "seed", 0))
     print(table(res["report"]))
     print(f"\n  written {res['json']}, {res['figure']}")
     refresh = res["report_refresh"]

@@ -195,7 +195,8 @@ def warning_text(preferred: str, p_viscous: float, high: tuple[float, float],
         f"{_fmt(zeta_lo)} at {_fmt(a_lo)} m ({source}; P(one viscous c) = {p_viscous:.2g}); "
         f"the {preferred} law fits best, so a single viscous {'c' if c_ref is not None else 'zeta'}"
         f" is not adequate — {at}; "
-        f"for FEM use {fem_hint(preferred)}"
+        f"for FEM use {fem_hint(preferred)}; `dampfit export` writes that law, or the "
+        f"measured force-velocity curve where the law's free decay misses the measured one"
     )
 
 

@@ -257,6 +257,8 @@ def fit(t: np.ndarray, peaks: np.ndarray, omega: float, mass: float, mass_sd: fl
     ValueError with fewer than 2·:data:`BLOCK` peaks."""
     from scipy.signal import savgol_filter
 
+    from dampfit._progress import stage_bar
+
     peaks = np.asarray(peaks, float)
     if not np.all(np.isfinite(peaks) & (peaks > 0)):
         raise ValueError("the peaks must be positive and finite")
@@ -276,14 +278,16 @@ def fit(t: np.ndarray, peaks: np.ndarray, omega: float, mass: float, mass_sd: fl
     resid = ln_p - fitted
     rng = np.random.default_rng(seed)
     n, boot = t.size, np.empty((N_BOOT, b0.size))
-    for i in range(N_BOOT):
-        starts = rng.integers(0, n, size=-(-n // BLOCK))
-        idx = (starts[:, None] + np.arange(BLOCK)[None, :]).ravel()[:n] % n
-        yb = fitted + resid[idx]
-        xb = _refine(tau, yb, x[:-1], float(savgol_filter(yb, BLOCK, 2)[0]), system, floor,
-                     evals=_BOOT_EVALS)
-        m_star = mass + mass_sd * rng.standard_normal() if mass_sd > 0 else mass
-        boot[i] = xb[:-1] * m_star / mass
+    with stage_bar(N_BOOT, "measured curve: bootstrap", unit="refit") as bar:
+        for i in range(N_BOOT):
+            starts = rng.integers(0, n, size=-(-n // BLOCK))
+            idx = (starts[:, None] + np.arange(BLOCK)[None, :]).ravel()[:n] % n
+            yb = fitted + resid[idx]
+            xb = _refine(tau, yb, x[:-1], float(savgol_filter(yb, BLOCK, 2)[0]), system, floor,
+                         evals=_BOOT_EVALS)
+            m_star = mass + mass_sd * rng.standard_normal() if mass_sd > 0 else mass
+            boot[i] = xb[:-1] * m_star / mass
+            bar.update(1)
     lo, hi = float(np.exp(trend.min())), float(np.exp(trend.max()))
     return MeasuredCurve(basis, x[:-1], boot, float(omega), float(mass), float(t[0]),
                          float(x[-1]), float(np.sqrt(np.mean(resid ** 2))), (lo, hi),

@@ -109,11 +109,23 @@ def _variant(draws: dict[str, Any], i: int, n: int, seed: int, design_m: float |
         w = math.sqrt(k / mass)
         c = (float(draws["c_linear"][i]) if dmp.nonlinear and "c_linear" in draws else
              damper_mod.c_equivalent(dmp.law, coeffs, w, design_m or abs(sdof.u0)))
-        line = (f"Posterior draw {i + 1} of {n} (seed {seed}, draw {int(draws['index'][i])} of "
-                f"posterior.nc's damper group): m = {mass:.6g} kg, k = {k:.6g} N/m.")
-        return (replace(sdof, mass=mass, k=k, c=c), replace(dmp, coefficients=coeffs),
-                (line,))
+        lines = (f"Posterior draw {i + 1} of {n} (seed {seed}, draw {int(draws['index'][i])} of "
+                 f"posterior.nc's damper group): m = {mass:.6g} kg, k = {k:.6g} N/m.",)
+        if dmp.nonlinear:
+            lines += (f"A draw of the {dmp.law} law's own posterior. Where that law's free "
+                      "decay misses the measured one, the plain 'dampfit export' writes the "
+                      "measured force-velocity curve instead, its uncertainty a bootstrap "
+                      "interval stated in that deck.",)
+        return (replace(sdof, mass=mass, k=k, c=c), replace(dmp, coefficients=coeffs), lines)
     return apply
+
+
+def law_itself(sdof, dmp):
+    """The ``variant`` of :func:`dampfit.fem.export.build` that keeps the system and the
+    summary's damper as they are: the draws are of the recommended law's posterior, so their
+    base deck is that law, not the measured curve a plain export may put in its place
+    (:func:`dampfit.fem.measured.default_damper`, run only without a variant)."""
+    return sdof, dmp, ()
 
 
 def write(one_deck, folder: Path, fmt: str, ext: str, n_seed: tuple[int, int],
@@ -127,7 +139,7 @@ def write(one_deck, folder: Path, fmt: str, ext: str, n_seed: tuple[int, int],
     n, seed = check_count(n_seed[0]), check_seed(n_seed[1])
     target = Path(out) if out else folder / f"sdof_{fmt}_draws"
     _check_target(target, force)
-    text, info = one_deck(f"draw_0001.{ext}")
+    text, info = one_deck(f"draw_0001.{ext}", law_itself)
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
@@ -221,22 +233,25 @@ def verify_band(one_deck, folder: Path, n_seed: tuple[int, int], run, measured,
     OpenSees script (SI, the medians, no gravity, ``n_steps × dt`` long)."""
     from scipy.signal import savgol_filter
 
+    from dampfit._progress import stage_bar
     from dampfit.fem import opensees, response
 
     (n, seed), (start, dt, n_steps), (t, u_meas) = n_seed, run, measured
-    _, info = one_deck()
+    _, info = one_deck(None, law_itself)
     dmp = info["damper"]
     draws = sample(folder, dmp.law, n, seed)
     design = (dmp.design or {}).get("displacement_m")
     tm, am = response.envelope(t, u_meas, *interior)
     curves = []
-    for i in range(n):
-        text, _ = one_deck(opensees.SCRIPT_NAME, _variant(draws, i, n, seed, design))
-        res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)
-        ts, as_ = response.envelope(t[0] + start.get("offset_s", 0.0) + res["t"],
-                                    res["a"] / omega_n ** 2)
-        curves.append(np.exp(np.interp(tm, ts, np.log(as_))) if ts.size >= 2 else
-                      np.full(tm.size, np.nan))
+    with stage_bar(n, "verify: draws", unit="run") as bar:
+        for i in range(n):
+            text, _ = one_deck(opensees.SCRIPT_NAME, _variant(draws, i, n, seed, design))
+            res = opensees.run_steps(text, start["u"], start["v"], dt, n_steps)
+            ts, as_ = response.envelope(t[0] + start.get("offset_s", 0.0) + res["t"],
+                                        res["a"] / omega_n ** 2)
+            curves.append(np.exp(np.interp(tm, ts, np.log(as_))) if ts.size >= 2 else
+                          np.full(tm.size, np.nan))
+            bar.update(1)
     c = np.array(curves)
     lo, hi = np.nanquantile(c, 0.05, axis=0), np.nanquantile(c, 0.95, axis=0)
     frac = None

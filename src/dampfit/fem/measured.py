@@ -201,6 +201,17 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
                                f"measured curve comes no closer ({100 * curve_rms:.2g} %).",
                          warn=True)
     text = (f"This deck is the measured damper curve, not the recommended {law} law: {facts}; "
-            f"the curve's run lies {100 * curve_rms:.2g} % from it. --law {law} writes the "
-            f"{law} law instead.")
+            f"the curve's run lies {100 * curve_rms:.2g} % from it.{_c_eq_words(dmp, base)} "
+            f"--law {law} writes the {law} law instead.")
     return with_note(dmp, text, warn=True)
+
+
+def _c_eq_words(curve: damper_mod.Damper, law: damper_mod.Damper) -> str:
+    """The two equivalent linear c at the design amplitude, the curve's and the law's (the
+    analysis's headline), so that a reader of the deck sees how far the curve moved it."""
+    a_c, a_l = ((d.design or {}).get("displacement_m") for d in (curve, law))
+    if not (curve.c_linear and law.c_linear and a_c and a_l and math.isclose(a_c, a_l)):
+        return ""
+    return (f" At the design amplitude {a_c:.4g} m its equivalent linear c is "
+            f"{curve.c_linear['q50']:.4g} N*s/m, the {law.law} law's (the analysis's "
+            f"headline) {law.c_linear['q50']:.4g} N*s/m.")

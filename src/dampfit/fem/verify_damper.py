@@ -270,9 +270,13 @@ def damper_lines(rep: dict[str, Any]) -> list[str]:
                      f"{d['law']} law)")
     band = rep.get("draws")
     if band:
-        lines.append(f"    {band['n']} posterior draws: measured envelope trend inside their "
-                     f"5-95 % band at {100 * band['fraction_trend_inside']:.0f} % of the peaks")
+        inside = band.get("fraction_trend_inside")
+        where = ("n/a (too few peaks)" if inside is None
+                 else f"{100 * inside:.0f} % of the peaks")
+        lines.append(f"    {band['n']} posterior draws of the {band.get('law', '?')} law: "
+                     f"measured envelope trend inside their 5-95 % band at {where}")
     return lines
+
 
 def _fmt(x: float | None, spec: str = ".3g") -> str:
     return "n/a" if x is None else format(x, spec)
