@@ -254,9 +254,12 @@ class Analysis(ResultViews):
         if self._damper_cache is None:
             from dampfit.damping import damper
 
-            self._damper_cache = damper.from_assessment(
+            dm = damper.from_assessment(
                 self.damping, self._viscous_draws(), amplitude=self.options.get("amplitude"),
                 seed=self.seed)
+            sig = self.signals()  # the recommended law's own decay against the recording's
+            dm.section["decay_check"] = damper.decay_check(dm.section, sig["t"], sig["accel"])
+            self._damper_cache = dm
         return self._damper_cache
 
     def _viscous_draws(self):

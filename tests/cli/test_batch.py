@@ -433,8 +433,13 @@ def test_damper_columns_from_the_contract_and_empty_without_it():
                                "F_c": {"q05": 0.01, "q50": 0.02, "q95": 0.03, "unit": "N"}},
               "design_amplitude": {"displacement_m": 0.004, "velocity_m_s": 0.1,
                                    "source": "--amplitude"},
-              "c_linear": {"unit": "N s/m", "q05": 0.5, "q50": 0.6, "q95": 0.7}}
+              "c_linear": {"unit": "N s/m", "q05": 0.5, "q50": 0.6, "q95": 0.7},
+              "decay_check": {"checked": True, "follows": False, "rms": 0.04, "scatter": 0.001}}
     row = row_of(_summary("amplitude-dependent", damper))
+    assert row["law_follows_decay"] is False
+    edited = row_of(_summary("amplitude-dependent", {**damper, "decay_check": {
+        "checked": True, "follows": "no"}}))
+    assert edited["law_follows_decay"] is None
     assert row["damper_law"] == "coulomb" and row["damper_F_c_q50"] == 0.02
     assert row["damper_c_q95"] == 0.3 and row["damper_c2_q50"] is None
     assert row["design_amplitude_m"] == 0.004 and row["c_linear_q05"] == 0.5

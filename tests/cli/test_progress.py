@@ -145,8 +145,9 @@ def test_a_kernel_compiled_on_a_cold_store_is_announced_with_an_estimate(tmp_pat
     assert len(lines) == 2, lines
     assert lines[0].startswith("compiling kernel double for shapes this machine has not compiled")
     assert "first compile here" in lines[0]
-    assert re.search(r"\(kept for later runs; ~\d+ s: its last compile here took that\)$",
-                     lines[1]), lines[1]
+    assert "(input 3; " in lines[0], lines[0]  # the shape tells the two compiles apart
+    assert re.search(r"\(input 5; kept for later runs; ~\d+ s: its last compile here took "
+                     r"that\)$", lines[1]), lines[1]
 
 
 def test_a_variants_estimate_is_its_own_and_a_kernel_that_is_not_stored_does_not_say_kept(
@@ -217,7 +218,7 @@ def test_a_compile_with_no_usable_store_is_not_announced_as_kept(tmp_path, monke
     with _progress.reporting(log), pytest.warns(RuntimeWarning):
         out = executables.Kernel(lambda x: 3.0 * x)(np.ones(2))
     assert np.allclose(out, 3.0)
-    assert "(not kept: no usable store of compiled kernels)" in log.getvalue(), log.getvalue()
+    assert "(input 2; not kept: no usable store of compiled kernels)" in log.getvalue(), log.getvalue()
 
 
 def test_a_kernel_compiled_once_per_variant_says_which_variant(tmp_path, monkeypatch):

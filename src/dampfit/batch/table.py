@@ -12,8 +12,10 @@ and ``message`` (the verdict's own reason, the refusal, or the analysis's first 
 (summary.json ``damper``; empty for a summary without it): ``damper_status``,
 ``damper_law``, each coefficient's ``damper_NAME_q05/q50/q95`` (NAME c [N s/m], F_c [N], c2
 [N s²/m²], c_alpha [N (s/m)^α], alpha [1]; only the law's own filled),
-``design_amplitude_m`` [m] and ``c_linear_q05/q50/q95`` [N s/m] (the equivalent linear c at
-that amplitude), ``seconds`` (wall time of that recording's analysis and outputs) and
+``design_amplitude_m`` [m], ``c_linear_q05/q50/q95`` [N s/m] (the equivalent linear c at
+that amplitude) and ``law_follows_decay`` (whether a nonlinear law's own free decay follows
+the recording, ``damper.decay_check``; false: ``dampfit export`` writes the measured curve
+where it comes closer; empty when not checked), ``seconds`` (wall time of that recording's analysis and outputs) and
 ``folder``.
 
 Every text cell of results.csv is quoted, and one starting with ``=``, ``+``, ``-``, ``@``,
@@ -45,6 +47,7 @@ def frame(rows: Sequence[dict[str, Any]]):
 
     df = pd.DataFrame([{c: r.get(c) for c in COLUMNS} for r in rows], columns=list(COLUMNS))
     df["converged"] = df["converged"].astype("boolean")
+    df["law_follows_decay"] = df["law_follows_decay"].astype("boolean")
     df["n_modes"] = pd.to_numeric(df["n_modes"], errors="coerce").astype("Int64")
     return df
 

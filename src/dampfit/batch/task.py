@@ -37,7 +37,8 @@ DAMPER_COEFFICIENTS = ("c", "F_c", "c2", "c_alpha", "alpha")
 #: amplitude [m] and the equivalent linear c [N s/m] there.
 DAMPER_COLUMNS = ("damper_status", "damper_law",
                   *(f"damper_{n}_{lv}" for n in DAMPER_COEFFICIENTS for lv in ("q05", "q50", "q95")),
-                  "design_amplitude_m", *(f"c_linear_{lv}" for lv in ("q05", "q50", "q95")))
+                  "design_amplitude_m", *(f"c_linear_{lv}" for lv in ("q05", "q50", "q95")),
+                  "law_follows_decay")
 #: Verdicts (model_checks.verdict) that recommend a damper when a summary has no ``damper``
 #: section (written before it existed).
 _RECOMMENDING = ("adequate", "amplitude-dependent")
@@ -65,6 +66,9 @@ def damper_of(summary: dict[str, Any]) -> dict[str, Any]:
     design = d.get("design_amplitude") if isinstance(d.get("design_amplitude"), dict) else {}
     out["design_amplitude_m"] = _number(design.get("displacement_m"))
     out.update(_levels(d.get("c_linear"), "c_linear"))
+    chk = d.get("decay_check") if isinstance(d.get("decay_check"), dict) else {}
+    follows = chk.get("follows") if chk.get("checked") is True else None
+    out["law_follows_decay"] = follows if isinstance(follows, bool) else None
     return out
 
 

@@ -312,6 +312,45 @@ def recommend(*, verdict: str | None, reasons: list[str], law: str | None,
     return Damper(section, arrays, attrs)
 
 
+#: What ``decay_check`` compares (summary.json's ``damper.decay_check.what``).
+DECAY_CHECK_WHAT = ("the law's free decay at its coefficients' medians (RK4, the section's k "
+                    "and mass, released at rest at the first peak after the filters settle, "
+                    "on the measured trend) against the measured envelope: rms of ln|u| "
+                    "about the measured trend, and the measurement's own scatter about it")
+
+
+def decay_check(section: dict[str, Any], t: np.ndarray, accel: np.ndarray
+                ) -> dict[str, Any] | None:
+    """Whether a recommended nonlinear law's own free decay follows the recording: the
+    check ``dampfit export`` makes before it writes the law
+    (:func:`dampfit.damping.decay_run.check`, the section's k, mass and coefficients' medians,
+    the measured ``accel`` [m/s²] at ``t`` [s] read as |a|/ω_n²), made when the recording is
+    analysed so that the headline says what the deck will be. ``None`` for a viscous law, no
+    recommendation or no mass (no deck). ``{"checked": False, "reason"}`` where it cannot
+    run; else ``checked``, ``follows``, ``rms`` and ``scatter`` [1], ``n_peaks`` and
+    ``what``. Where the law does not follow, export fits the measured force–velocity curve
+    and writes it if it comes closer (:func:`dampfit.fem.measured.default_damper`)."""
+    from dampfit.damping import decay_run
+
+    name = section.get("law")
+    mass = (section.get("mass") or {}).get("value")
+    k = (section.get("k") or {}).get("q50")
+    if section.get("status") != "recommended" or name in (None, "viscous") or not (
+            mass and k):
+        return None
+    coeffs = {n: q["q50"] for n, q in (section.get("coefficients") or {}).items()}
+    try:
+        force = laws.get(name).scalar_force(coeffs)
+        w2 = float(k) / float(mass)
+        out = decay_run.check(t, np.asarray(accel, float) / w2, force, float(k), float(mass))
+    except (ValueError, KeyError, ZeroDivisionError) as exc:
+        return {"checked": False, "reason": str(exc) or type(exc).__name__}
+    if out.get("rms_vs_trend") is None:
+        return {"checked": False, "reason": f"{out.get('n_peaks')} peaks to compare"}
+    return {"checked": True, "follows": out["follows"], "rms": out["rms_vs_trend"],
+            "scatter": out["scatter"], "n_peaks": out["n_peaks"], "what": DECAY_CHECK_WHAT}
+
+
 def _reason(verdict: str, name: str, first: str, ctx: dict[str, Any], d: LawDraws) -> str:
     approx = f" ({d.note})" if d.note else ""
     if verdict == "adequate":

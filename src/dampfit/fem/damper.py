@@ -149,7 +149,8 @@ def force(law: str, coeffs: dict[str, float], v):
 
 def scalar_force(law: str, coeffs: dict[str, float]):
     """:func:`force` as a function of one Python float [m/s] → [N], ~20× faster than the NumPy
-    one on a scalar: the force of a step-by-step run (:func:`dampfit.fem.response.free_run`).
+    one on a scalar: the force of a step-by-step run (:func:`dampfit.damping.decay_run.free_run`):
+    the measured curve's table here, a law's own :meth:`dampfit.model.laws.Law.scalar_force`.
     The same law term for term (a test compares the two on a grid of velocities)."""
     if law == MEASURED:
         import bisect
@@ -166,19 +167,11 @@ def scalar_force(law: str, coeffs: dict[str, float]):
             return math.copysign(f, x) if x else 0.0
 
         return table
-    if law == "viscous":
-        c = float(coeffs["c"])
-        return lambda x: c * x
-    if law == "coulomb":
-        c, fc = float(coeffs["c"]), float(coeffs["F_c"])
-        return lambda x: c * x + (math.copysign(fc, x) if x else 0.0)
-    if law == "quadratic":
-        c, c2 = float(coeffs["c"]), float(coeffs["c2"])
-        return lambda x: c * x + c2 * x * abs(x)
-    if law == "power":
-        ca, al = float(coeffs["c_alpha"]), float(coeffs["alpha"])
-        return lambda x: math.copysign(ca * abs(x) ** al, x) if x else 0.0
-    raise ValueError(f"unknown law {law!r}")
+    from dampfit.model import laws
+
+    if law not in laws.names():
+        raise ValueError(f"unknown law {law!r}")
+    return laws.get(law).scalar_force(coeffs)
 
 
 def theta(law: str, coeffs: dict[str, float], mass: float, omega: float, a0: float) -> np.ndarray:

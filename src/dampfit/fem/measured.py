@@ -31,13 +31,6 @@ from dampfit.errors import InputError, shown
 from dampfit.fem import damper as damper_mod
 from dampfit.fem.response import EDGE_PERIODS
 
-#: A law whose run lies within this log-envelope rms [1] of the measured trend is written even
-#: where the measurement scatters less (a clean simulated decay scatters 0.003 %): a tenth of
-#: a percent of amplitude over the decay is finer than a damper in an FEM model is judged by.
-LAW_TOLERANCE = 0.001
-#: Steps of one run of the check (4 force evaluations each, ~10 s): at most 200 a period,
-#: fewer for very long decays, no check below 50 a period (40 000 cycles).
-MAX_RUN_STEPS = 2_000_000
 
 
 def _interior(folder: Path, summary: dict[str, Any], sdof):
@@ -118,14 +111,16 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
     measured decay — then the measured curve (:func:`measured_damper`), said in the deck and
     on stderr, with ``--law LAW`` to write the law instead.
 
-    The test is verify's, run without an FEM engine: the law's free decay
+    The test is verify's, run without an FEM engine (:func:`dampfit.damping.decay_run.check`):
+    the law's free decay
     (:func:`dampfit.fem.response.free_run`, the deck's system: the damper section's k and the
     weighed mass) released at the first measured peak of the interior (:func:`_peaks`) at
     the measured trend's amplitude there, its |a|/ω_n² against the measured one by
     :func:`dampfit.fem.response.log_envelope_error` — rms of ln A_run − T about the trend T
     of the measured peaks (quadratic Savitzky–Golay over
     :data:`~dampfit.fem.response.TREND_PEAKS` peaks) against the measurement's own scatter
-    rms(ln P − T). Within the scatter, or within :data:`LAW_TOLERANCE`, the law is written (no
+    rms(ln P − T). Within the scatter, or within
+    :data:`~dampfit.damping.decay_run.LAW_TOLERANCE`, the law is written (no
     envelope can come closer than a peak's noise, response.py). Beyond it the measured curve
     is fitted to the same peaks and run likewise, and it is written only if it comes closer
     than the law. Every outcome leaves its numbers in the deck; without signals, or with too
@@ -137,10 +132,7 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
     by F/k that the curve, fitted to those peaks, absorbs)."""
     import dataclasses
 
-    import numpy as np
-    from scipy.signal import savgol_filter
-
-    from dampfit.fem import response
+    from dampfit.damping import decay_run
 
     law = base.law
 
@@ -153,43 +145,25 @@ def default_damper(folder: Path, summary: dict[str, Any], base: damper_mod.Dampe
     except InputError as exc:
         return with_note(base, f"The {law} law was not checked against the measured envelope "
                                f"({exc}).")
-    w = sdof.omega_n
-    tp, ap = response.envelope(t, y, start, stop)
-    if tp.size < 2 * response.TREND_PEAKS:
-        return with_note(base, f"The {law} law was not checked against the measured envelope: "
-                               f"{tp.size} peaks, fewer than {2 * response.TREND_PEAKS}.")
-    trend = savgol_filter(np.log(ap), response.TREND_PEAKS, 2)
-    cycles = (stop - tp[0]) * w / (2 * math.pi)
-    per_period = min(response.RUN_STEPS_PER_PERIOD, int(MAX_RUN_STEPS / max(cycles, 1.0)))
-    if per_period < 50:  # a run of each law is bounded: the check is skipped, said so
-        return with_note(base, f"The {law} law was not checked against the measured envelope: "
-                               f"{cycles:.0f} cycles are too many to run.")
 
     def judged(dmp):
-        force = damper_mod.scalar_force(dmp.law, dmp.coefficients)
+        return decay_run.check(t, y, damper_mod.scalar_force(dmp.law, dmp.coefficients),
+                               sdof.k, sdof.mass)
 
-        def run(u0):
-            ts, acc = response.free_run(force, sdof.k, sdof.mass, u0, stop - tp[0],
-                                        per_period)
-            return ts + tp[0], acc / w ** 2
-
-        # released at rest at the trend's amplitude, scaled so that the run's first peak of
-        # |a|/ω_n² is on the trend (response.released_amplitude; verify starts so too)
-        ts, ys = run(response.released_amplitude(
-            force, sdof.k, sdof.mass, float(np.exp(trend[0])),
-            lambda s: float(np.exp(np.interp(tp[0] + s, tp, trend))), per_period))
-        # compared from the next peak on: the run's release point has no sample before it
-        return response.log_envelope_error(t, y, ts, ys, tp[0] + 0.5 * math.pi / w, stop)
-
-    law_env = judged(base)
+    try:
+        law_env = judged(base)
+    except ValueError as exc:
+        return with_note(base, f"The {law} law was not checked against the measured envelope: "
+                               f"{exc}.")
     scatter, law_rms = law_env["scatter"], law_env["rms_vs_trend"]
     facts = (f"{law_env['n_peaks']} peaks: the {law} law's run lies {100 * law_rms:.2g} % "
              f"(rms of ln|u|) from the measured trend, the measurement scatters "
              f"{100 * scatter:.2g} % about it")
-    if law_rms <= max(scatter, LAW_TOLERANCE):
+    if law_env["follows"]:
         return with_note(base, f"The {law} law follows the measured envelope ({facts}).")
     try:
-        dmp = measured_damper(folder, summary, base, sdof, seed, peaks=(tp, ap),
+        dmp = measured_damper(folder, summary, base, sdof, seed,
+                              peaks=decay_run.envelope(t, y, start, stop),
                               why="written by default: the recommended law misses the "
                                   "measured decay")
     except InputError as exc:

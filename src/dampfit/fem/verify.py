@@ -80,6 +80,7 @@ from typing import Any
 import numpy as np
 
 from dampfit.files.atomic import atomic_write, atomic_write_text, check_output_file
+from dampfit._progress import announce
 from dampfit.errors import InputError
 from dampfit.fem import timestep
 from dampfit.fem import response
@@ -127,6 +128,7 @@ def run(folder: str | Path | Any, dt: float | None = None, draws: int | None = N
                       script["k"], script["mass"])
     offset = start.get("offset_s", 0.0)  # a nonlinear damper's runs start at the interior
     n_steps -= round(offset / dt)
+    announce(f"verify: running {script['name']} in OpenSeesPy ({n_steps} steps of {dt:.3g} s)")
     fem = opensees.run_steps(text, start["u"], start["v"], dt, n_steps, name=script["name"])
     script["run_options"], t_fem = fem["options"], t[0] + offset + fem["t"]
     u_fem, a_fem = (np.interp(t, t_fem, fem[k], left=np.nan) for k in "ua")  # none before it

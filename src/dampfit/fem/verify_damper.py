@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from dampfit._progress import announce
 from dampfit.errors import InputError
 from dampfit.fem import response
 
@@ -54,6 +55,8 @@ def damper_runs(source, script, run, measured, exported, omega_n, interior,
                 continue
             side_start = run_start(start, law, side["coefficients"], script["k"],
                                    script["mass"])
+            announce(f"verify: running the {'linear dashpot' if key == 'linear' else law} "
+                     f"beside it ({n_steps} steps)")
             res = opensees.run_steps(side_text, side_start["u"], side_start["v"], dt, n_steps,
                                      name=side["name"])
             side["start_u"] = side_start["u"]

@@ -345,7 +345,7 @@ class Kernel:
             pass
         variant = self._variant(args)
         announce(f"compiling kernel {stem}{variant} for shapes this machine has not compiled "
-                 f"yet ({_estimate(folder, stem, variant)})")
+                 f"yet ({_input_words(dynamic)}{_estimate(folder, stem, variant)})")
         t0 = time.monotonic()
         lowered = self._jit.lower(*args)
         compiled = lowered.compile()
@@ -368,6 +368,19 @@ class Kernel:
             pass
         _record_time(folder, stem + variant, seconds, kept)
         return compiled, False
+
+
+def _input_words(dynamic) -> str:
+    """``input 64×3; ``: the shape of a kernel's first array argument, so that the
+    compiles of one kernel for several shapes in one run (a sampler's whole ensemble and its
+    halves) are told apart; "" for a scalar or no array."""
+    import jax
+
+    for leaf in jax.tree_util.tree_leaves(dynamic):
+        shape = getattr(leaf, "shape", None)
+        if shape:
+            return "input " + "×".join(str(int(d)) for d in shape) + "; "
+    return ""
 
 
 #: Kernels compiled in this process because the store lacked them (:func:`compiled_count`).

@@ -10,6 +10,7 @@ try). Only the summary dict is read; an edited summary may hold anything.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 from dampfit.output.format import interval, lookup, quantiles
@@ -91,6 +92,29 @@ def _linear_row(d: dict[str, Any]) -> tuple[str, str] | None:
     return ("linear equivalent", text)
 
 
+def _deck_row(d: dict[str, Any]) -> tuple[str, str] | None:
+    """What ``dampfit export`` will write, from ``decay_check`` (the law's own free decay
+    against the measured envelope): the law, or the measured force–velocity curve where the
+    law misses the decay."""
+    chk = d.get("decay_check")
+    law = d["law"][:40] if isinstance(d.get("law"), str) else "recommended"
+    if not isinstance(chk, dict):
+        return None
+    if chk.get("checked") is not True:
+        why = chk.get("reason") if isinstance(chk.get("reason"), str) else "no reason recorded"
+        return ("FEM deck", f"this law (not checked against the measured decay: {why[:200]})")
+    rms, scatter = chk.get("rms"), chk.get("scatter")
+    if not (_num(rms) and _num(scatter) and math.isfinite(rms) and math.isfinite(scatter)):
+        return None
+    nums = (f"{100 * rms:.2g} % rms of ln|u| about the measured trend, the measurement "
+            f"scatters {100 * scatter:.2g} %")
+    if chk.get("follows") is True:
+        return ("FEM deck", f"this law: its own free decay follows the measured envelope ({nums})")
+    return ("FEM deck", f"the measured force-velocity curve, not this law: the law's own free "
+            f"decay misses the measured envelope ({nums}); 'dampfit export' fits the curve "
+            f"and writes it where it comes closer ('--law {law}' writes the law)")
+
+
 def rows(d: Any) -> list[tuple[str, str]]:
     """(label, text) rows of the damper section ``d`` (nothing when it is not a dict)."""
     if not isinstance(d, dict):
@@ -112,6 +136,9 @@ def rows(d: Any) -> list[tuple[str, str]]:
         lin = _linear_row(d)
         if lin:
             out.append(lin)
+        deck = _deck_row(d)
+        if deck:
+            out.append(deck)
     for key, label in (("reason", "why"), ("not_ruled_out", "not ruled out"), ("try", "try"),
                        ("missing", "missing")):
         if isinstance(d.get(key), str) and d[key]:

@@ -80,6 +80,13 @@ Top-level keys of one recording's summary (:meth:`dampfit.analysis.Analysis.summ
              "linear_within_10pct_m": [lo, hi] | null,  # where the law's median c_eq(A)
                    # stays within ±10 % of c_linear's median, searched over
                    # [lo/10, 10·hi] of the measured range
+             "decay_check": {"checked": true, "follows": bool, "rms", "scatter",
+                   "n_peaks", "what"} | {"checked": false, "reason"} | null,
+                   # a recommended nonlinear law's own free decay against the measured
+                   # envelope (rms of ln|u| about its trend [1], against the measurement's
+                   # scatter): where it does not follow, export writes the measured
+                   # force-velocity curve if closer; null: viscous, no recommendation or
+                   # no mass
              "reason": str, "not_ruled_out": str | null, "try": str | null,
              "missing": str | null,              # without mass: what needs it
              "posterior": {"method", "converged", "note"},  # how the draws were made
