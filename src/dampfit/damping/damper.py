@@ -340,7 +340,7 @@ def decay_check(section: dict[str, Any], t: np.ndarray, accel: np.ndarray
         return None
     coeffs = {n: q["q50"] for n, q in (section.get("coefficients") or {}).items()}
     try:
-        force = laws.get(name).scalar_force(coeffs)
+        force = decay_run.scalar_force(name, coeffs)
         w2 = float(k) / float(mass)
         out = decay_run.check(t, np.asarray(accel, float) / w2, force, float(k), float(mass))
     except (ValueError, KeyError, ZeroDivisionError) as exc:

@@ -157,6 +157,30 @@ def released_amplitude(force, k: float, mass: float, amplitude: float, trend_at,
     return float(amplitude) * float(trend_at(float(tq[0]))) / float(aq[0])
 
 
+def scalar_force(law: str, coeffs: dict[str, float]):
+    """The force [N] of damping law ``law`` (:mod:`dampfit.model.laws`) with the SI ``coeffs``
+    as a function of one Python float velocity [m/s]: the force of :func:`free_run`, ~20×
+    faster than the law's NumPy :meth:`~dampfit.model.laws.Law.force` on a scalar and the
+    same law term for term (a test compares the two on a grid of velocities). A law without
+    a fast form here (one added later) runs its own ``force``, only slower."""
+    if law == "viscous":
+        c = float(coeffs["c"])
+        return lambda x: c * x
+    if law == "coulomb":
+        c, fc = float(coeffs["c"]), float(coeffs["F_c"])
+        return lambda x: c * x + (math.copysign(fc, x) if x else 0.0)
+    if law == "quadratic":
+        c, c2 = float(coeffs["c"]), float(coeffs["c2"])
+        return lambda x: c * x + c2 * x * abs(x)
+    if law == "power":
+        ca, al = float(coeffs["c_alpha"]), float(coeffs["alpha"])
+        return lambda x: math.copysign(ca * abs(x) ** al, x) if x else 0.0
+    from dampfit.model import laws
+
+    model = laws.get(law)  # ValueError for an unknown law
+    return lambda x: float(model.force(x, coeffs))
+
+
 #: Largest number of RK4 steps of one :func:`check` run (the step per period is lowered to
 #: stay within it; below :data:`MIN_STEPS_PER_PERIOD` the check is not run).
 MAX_RUN_STEPS = 2_000_000

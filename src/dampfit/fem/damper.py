@@ -150,7 +150,7 @@ def force(law: str, coeffs: dict[str, float], v):
 def scalar_force(law: str, coeffs: dict[str, float]):
     """:func:`force` as a function of one Python float [m/s] → [N], ~20× faster than the NumPy
     one on a scalar: the force of a step-by-step run (:func:`dampfit.damping.decay_run.free_run`):
-    the measured curve's table here, a law's own :meth:`dampfit.model.laws.Law.scalar_force`.
+    the measured curve's table here, a law's :func:`dampfit.damping.decay_run.scalar_force`.
     The same law term for term (a test compares the two on a grid of velocities)."""
     if law == MEASURED:
         import bisect
@@ -167,11 +167,9 @@ def scalar_force(law: str, coeffs: dict[str, float]):
             return math.copysign(f, x) if x else 0.0
 
         return table
-    from dampfit.model import laws
+    from dampfit.damping.decay_run import scalar_force as law_force
 
-    if law not in laws.names():
-        raise ValueError(f"unknown law {law!r}")
-    return laws.get(law).scalar_force(coeffs)
+    return law_force(law, coeffs)
 
 
 def theta(law: str, coeffs: dict[str, float], mass: float, omega: float, a0: float) -> np.ndarray:

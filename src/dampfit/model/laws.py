@@ -311,13 +311,6 @@ class Law:
         force–velocity curve an FEM deck tabulates."""
         raise NotImplementedError
 
-    def scalar_force(self, coefficients: dict[str, float]):
-        """:meth:`force` as a function of one Python float [m/s] → [N]: the force of a
-        step-by-step run (:func:`dampfit.damping.decay_run.free_run`). This default wraps
-        :meth:`force`; the laws here give a ~20× faster one, the same law term for term (a
-        test compares the two on a grid of velocities)."""
-        return lambda x: float(self.force(x, coefficients))
-
     def physical(self, theta, a0, mass=None) -> dict[str, np.ndarray]:
         """The law's coefficients from θ and the start amplitude ``a0`` [m]; NumPy, broadcasts.
 
@@ -362,10 +355,6 @@ class Viscous(Law):
 
     def force(self, velocity, coefficients):
         return coefficients["c"] * np.asarray(velocity, dtype=float)
-
-    def scalar_force(self, coefficients):
-        c = float(coefficients["c"])
-        return lambda x: c * x
 
     def envelope(self, theta, tau, xp=jnp):
         p0, _, _ = self.rates(theta, xp)
@@ -413,10 +402,6 @@ class Coulomb(Law):
         v = np.asarray(velocity, dtype=float)
         return coefficients["c"] * v + coefficients["F_c"] * np.sign(v)
 
-    def scalar_force(self, coefficients):
-        c, fc = float(coefficients["c"]), float(coefficients["F_c"])
-        return lambda x: c * x + (math.copysign(fc, x) if x else 0.0)
-
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
         pv, pc = (1 - s) * p0, s * p0
@@ -454,10 +439,6 @@ class Quadratic(Law):
     def force(self, velocity, coefficients):
         v = np.asarray(velocity, dtype=float)
         return coefficients["c"] * v + coefficients["c2"] * v * np.abs(v)
-
-    def scalar_force(self, coefficients):
-        c, c2 = float(coefficients["c"]), float(coefficients["c2"])
-        return lambda x: c * x + c2 * x * abs(x)
 
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
@@ -499,10 +480,6 @@ class Power(Law):
     def force(self, velocity, coefficients):
         v = np.asarray(velocity, dtype=float)
         return coefficients["c_alpha"] * np.abs(v) ** coefficients["alpha"] * np.sign(v)
-
-    def scalar_force(self, coefficients):
-        ca, al = float(coefficients["c_alpha"]), float(coefficients["alpha"])
-        return lambda x: math.copysign(ca * abs(x) ** al, x) if x else 0.0
 
     def envelope(self, theta, tau, xp=jnp):
         p0, s, _ = self.rates(theta, xp)
